@@ -1,0 +1,344 @@
+"""Simulation with measured cost and accuracy.
+
+:func:`simulate` integrates a model (optionally in closed loop with a controller given as
+a casadi.Function of the state) with one of casadi's integrators, and returns a
+:class:`Trajectory` that carries what it cost (wall time, build time, steps, right-hand
+side evaluations) and how accurate it is by the measures that need no reference
+solution: the drift of every invariant and the constraint residual of every manifold
+factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``degree``)
+are explicit keywords.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench._types import ArrayLike
+from workbench.errors import ModelError, SolverError
+from workbench.manifolds import DEFAULT_TOL, SO3
+from workbench.model import Model
+
+__all__ = ["Method", "Trajectory", "simulate", "closed_loop_function"]
+
+
+class Method(str, Enum):
+    """Integration methods of :func:`simulate`.
+
+    Attributes
+    ----------
+    CVODES
+        SUNDIALS CVODES (variable order BDF, adaptive step); knobs ``rtol``, ``atol``.
+    RK
+        Classical fixed-step Runge-Kutta of order 4 (casadi ``rk``); knob ``step``.
+    COLLOCATION
+        Fixed-step Legendre collocation of ``degree`` d (order 2d; casadi
+        ``collocation``); knobs ``step``, ``degree``.
+    """
+
+    CVODES = "cvodes"
+    RK = "rk"
+    COLLOCATION = "collocation"
+
+
+@dataclass
+class Trajectory:
+    """A simulated trajectory with its cost and accuracy diagnostics.
+
+    Attributes
+    ----------
+    t : ndarray, shape=(n_times,)
+        Output times.
+    x : ndarray, shape=(n_times, ambient_dim)
+        States (stored ambient coordinates).
+    u : ndarray, shape=(n_times, n_inputs)
+        Inputs applied at the output times.
+    model : Model
+        The simulated model.
+    method : Method
+        Integration method.
+    options : dict
+        The method's knobs as used.
+    cost : dict
+        ``wall_seconds`` (integration), ``build_seconds`` (integrator construction),
+        ``steps`` and ``rhs_evaluations`` where the method reports them.
+    diagnostics : dict
+        ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
+        deviation from its initial value; ``constraint_residual``: max-norm residual of
+        every factor over the trajectory; ``closed_loop``: whether a controller acted
+        (invariants are then not expected to be conserved).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    model: Model
+    method: Method
+    options: dict[str, Any]
+    cost: dict[str, Any] = field(default_factory=dict)
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    def part(self, name: str) -> np.ndarray:
+        """States of one factor over time; SO3 parts come as ``(n_times, 3, 3)`` matrices."""
+        man = self.model.manifold
+        sl = man.slices[name] if name in man.slices else None
+        if sl is None:
+            raise ModelError(f"unknown factor {name!r}; this model has {man.names}")
+        block = self.x[:, sl]
+        if isinstance(man.factor(name), SO3):
+            return np.array([SO3.matrix(row) for row in block])
+        return block
+
+    @property
+    def final(self) -> np.ndarray:
+        """The last state."""
+        return self.x[-1]
+
+    def invariant_series(self, name: str) -> np.ndarray:
+        """Values of one invariant at every output time."""
+        fn = self.model.function(name)
+        return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
+
+    def summary(self) -> dict[str, Any]:
+        """Plain JSON-serialisable account: method, knobs, cost, diagnostics."""
+        return {
+            "model": self.model.name,
+            "method": self.method.value,
+            "options": self.options,
+            "t0": float(self.t[0]),
+            "tf": float(self.t[-1]),
+            "n_times": int(len(self.t)),
+            "cost": self.cost,
+            "diagnostics": self.diagnostics,
+        }
+
+
+def _times(t: ArrayLike) -> np.ndarray:
+    try:
+        tv = np.asarray(t, dtype=float).ravel()
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"t must be a 1-D array of output times; got {t!r}") from exc
+    if tv.size < 2:
+        raise ModelError(f"t must hold at least two times (start and end); got {tv.size}")
+    if not np.all(np.isfinite(tv)):
+        raise ModelError("t must be finite")
+    d = np.diff(tv)
+    if not (np.all(d > 0) or np.all(d < 0)):
+        raise ModelError(
+            "t must be strictly increasing (forward) or strictly decreasing (backward); "
+            f"got steps between {d.min():.3g} and {d.max():.3g}"
+        )
+    return tv
+
+
+def closed_loop_function(model: Model, controller: ca.Function | None) -> ca.Function:
+    """``(x, p) -> (xdot, u)`` of the model with the controller in the loop (or u = 0).
+
+    Parameters
+    ----------
+    model : Model
+        The plant.
+    controller : casadi.Function or None
+        ``u = k(x)`` or ``u = k(x, p)`` (``p`` the model's parameters), output of size
+        ``model.n_inputs``.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    f = model.function("f")
+    S = model.sym
+    x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
+    if controller is None:
+        u = S.zeros(model.n_inputs)
+    else:
+        if not isinstance(controller, ca.Function):
+            raise ModelError(
+                f"controller must be a casadi.Function u = k(x) or k(x, p); got "
+                f"{type(controller).__name__}"
+            )
+        if controller.size1_in(0) != model.manifold.ambient_dim or controller.n_in() > 2:
+            raise ModelError(
+                f"controller must take the state ({model.manifold.ambient_dim} entries) and "
+                f"optionally the parameters; got inputs of sizes "
+                f"{[controller.size1_in(i) for i in range(controller.n_in())]}"
+            )
+        if controller.nnz_out(0) != model.n_inputs:
+            raise ModelError(
+                f"controller must return {model.n_inputs} inputs; got "
+                f"{controller.nnz_out(0)}"
+            )
+        args = [x] if controller.n_in() == 1 else [x, p]
+        u = controller(*args)
+    return ca.Function("closed_loop", [x, p], [f(x, u, p), u], ["x", "p"], ["xdot", "u"])
+
+
+def simulate(
+    model: Model,
+    x0: ArrayLike,
+    t: ArrayLike,
+    *,
+    controller: ca.Function | None = None,
+    method: Method | str = Method.CVODES,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    step: float | None = None,
+    degree: int = 4,
+    max_steps: int = 1_000_000,
+    tol: float = DEFAULT_TOL,
+) -> Trajectory:
+    """Integrate a model from ``x0`` and report the cost and the accuracy.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x0 : array-like, shape=(ambient_dim,)
+        Initial state; must lie on the model's manifold to ``tol`` (it is never
+        projected here: call the factor's ``project`` explicitly if needed).
+    t : array-like, shape=(n_times,)
+        Output times, strictly increasing, or strictly decreasing for backward
+        integration (the field is negated and integrated forward in ``-t``).
+    controller : casadi.Function, optional
+        Feedback ``u = k(x)`` or ``k(x, p)``; ``u = 0`` when omitted.
+    method : Method or str
+        ``"cvodes"``, ``"rk"`` or ``"collocation"``.
+    rtol, atol : float
+        Relative and absolute tolerances (CVODES only).
+    step : float, optional
+        Largest step for the fixed-step methods (required for them); each output
+        interval is split into ``ceil(interval / step)`` equal steps.
+    degree : int
+        Collocation degree (Legendre points), for ``"collocation"``.
+    max_steps : int
+        CVODES' limit on internal steps per output interval.
+    tol : float
+        Largest accepted constraint residual of ``x0``.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    ManifoldError
+        If ``x0`` is off the manifold.
+    SolverError
+        If the integrator fails (with its status).
+    """
+    try:
+        method = Method(method)
+    except ValueError as exc:
+        raise ModelError(
+            f"method must be one of {[m.value for m in Method]}; got {method!r}"
+        ) from exc
+    x0v = model.check_state(x0, name="x0", tol=tol)
+    tv = _times(t)
+    for name, val in (("rtol", rtol), ("atol", atol)):
+        if not (np.isfinite(val) and val > 0):
+            raise ModelError(f"{name} must be positive and finite; got {val!r}")
+    horizon = abs(tv[-1] - tv[0])
+    opts: dict[str, Any] = {}
+    options_used: dict[str, Any] = {}
+    if method is Method.CVODES:
+        opts.update(abstol=atol, reltol=rtol, max_num_steps=int(max_steps))
+        options_used.update(rtol=rtol, atol=atol)
+    else:
+        if step is None or not np.isfinite(step) or step <= 0:
+            raise ModelError(f"step must be a positive number for method {method.value!r}; "
+                             f"got {step!r}")
+        if step > horizon:
+            raise ModelError(
+                f"step must not exceed the horizon |t[-1] - t[0]| = {horizon:.6g}; got {step}"
+            )
+        dt_out = float(np.max(np.abs(np.diff(tv))))
+        if not np.allclose(np.abs(np.diff(tv)), dt_out, rtol=1e-9, atol=0):
+            raise ModelError(
+                f"method {method.value!r} needs equally spaced output times t; got spacings "
+                f"between {np.abs(np.diff(tv)).min():.6g} and {dt_out:.6g}"
+            )
+        n_fe = max(1, math.ceil(dt_out / step - 1e-12))
+        opts["number_of_finite_elements"] = n_fe
+        options_used.update(step=dt_out / n_fe, requested_step=step)
+        if method is Method.COLLOCATION:
+            if not isinstance(degree, (int, np.integer)) or degree < 1:
+                raise ModelError(f"degree must be an integer >= 1; got {degree!r}")
+            opts.update(interpolation_order=int(degree), collocation_scheme="legendre")
+            options_used["degree"] = int(degree)
+
+    t_build = time.perf_counter()
+    loop = closed_loop_function(model, controller)
+    S = model.sym
+    xs, ps = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
+    sign = 1.0 if tv[-1] > tv[0] else -1.0
+    ode = sign * loop(xs, ps)[0]
+    s_grid = sign * (tv - tv[0])
+    integrator = ca.integrator(
+        f"sim_{model.name}", method.value, {"x": xs, "p": ps, "ode": ode}, 0.0, s_grid[1:],
+        opts,
+    )
+    build_seconds = time.perf_counter() - t_build
+
+    t_run = time.perf_counter()
+    try:
+        res = integrator(x0=x0v, p=model.p)
+    except RuntimeError as exc:
+        stats = integrator.stats()
+        raise SolverError(
+            f"{method.value} failed integrating {model.name} from t={tv[0]:g} "
+            f"(reached t={tv[0] + sign * float(stats.get('tcur', float('nan'))):g}): "
+            f"{str(exc).splitlines()[-1] if str(exc) else exc!r}",
+            status=str(stats.get("return_status", "integrator error")),
+        ) from exc
+    wall = time.perf_counter() - t_run
+    stats = integrator.stats()
+    xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
+    if not np.all(np.isfinite(xs_out)):
+        raise SolverError(
+            f"{method.value} produced non-finite states for {model.name}", status="non-finite"
+        )
+
+    n_out = len(tv) - 1
+    cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
+    if method is Method.CVODES:
+        cost.update(steps=int(stats.get("nsteps", -1)), rhs_evaluations=int(stats["nfevals"]),
+                    jacobian_evaluations=int(stats.get("n_call_jacF", 0)))
+    elif method is Method.RK:
+        steps = n_out * opts["number_of_finite_elements"]
+        cost.update(steps=steps, rhs_evaluations=4 * steps)
+    else:
+        cost.update(steps=n_out * opts["number_of_finite_elements"], rhs_evaluations=None)
+
+    u_out = np.asarray(loop.map(len(tv))(xs_out.T, model.p)[1]).T.reshape(len(tv), -1)
+    traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
+    traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
+    return traj
+
+
+def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
+    model = traj.model
+    drift = {}
+    for name in model.invariant_names:
+        series = traj.invariant_series(name)
+        dev = np.abs(series - series[0])
+        scale = max(abs(series[0]), np.finfo(float).tiny)
+        drift[name] = {
+            "initial": float(series[0]),
+            "max_abs": float(dev.max()),
+            "max_rel": float(dev.max() / scale),
+        }
+    residual = {
+        name: float(max(model.manifold.factor(name).residual_norm(row[sl]) for row in traj.x))
+        for name, sl in model.manifold.slices.items()
+    }
+    return {
+        "invariant_drift": drift,
+        "constraint_residual": residual,
+        "closed_loop": closed_loop,
+    }
