@@ -169,18 +169,18 @@ def so3_log(R: ArrayLike) -> Vector:
     sign fixed by ``vee(R - R^T)``.
     """
     R = np.asarray(R, dtype=float).reshape(3, 3)
-    w = vee(R - R.T)  # = sin(t) k
+    w = 0.5 * vee(R - R.T)  # = sin(t) k  (vee(R - R^T) = 2 sin(t) k)
     s = float(np.linalg.norm(w))
     c = (np.trace(R) - 1.0) / 2.0
     t = float(np.arctan2(s, c))
     if t < 1e-4:
         # t/sin t = 1 + t^2/6 + 7 t^4/360
         return w * (1.0 + t * t / 6.0 + 7.0 * t**4 / 360.0)
-    if t < np.pi - 1e-3:
+    if c >= 0.0:  # t <= pi/2: the axis from the skew part is well conditioned
         return w * (t / s)
     S = 0.5 * (R + R.T) - c * np.eye(3)  # (1 - c) k k^T
     j = int(np.argmax(np.diag(S)))
-    k = S[:, j] / np.sqrt(S[j, j])
+    k = S[:, j] / np.linalg.norm(S[:, j])  # = +-k
     if k @ w < 0:
         k = -k
     # refine the angle with the sign-consistent axis: sin t = k.w, cos t = c
@@ -668,9 +668,9 @@ class SO3(Factor):
         if _is_casadi(x):
             R = self.matrix(ca.vec(x))
             Red = ca.DM(Re)
-            return vee(Red.T @ R - R.T @ Red)
+            return vee(Red.T @ R - R.T @ Red) / 2
         R = self.matrix(self._numeric(x))
-        return vee(Re.T @ R - R.T @ Re)
+        return vee(Re.T @ R - R.T @ Re) / 2
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
         U, _, Vt = np.linalg.svd(self.matrix(self._numeric(x)))
