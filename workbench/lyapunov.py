@@ -1,0 +1,238 @@
+"""Lyapunov functions as expressions of a model's state, differentiated along a closed loop.
+
+A :class:`Lyapunov` is a scalar ``V(x, p)`` written once as a casadi expression of the
+model's stored ambient state (by a builder ``ctx -> V``, like a model's invariants). Its
+time derivative along the closed loop ``x-dot = f(x, k(x, p), p)`` is *not* written by
+hand: :meth:`Lyapunov.derivative` differentiates the graph, ``V-dot = dV/dx . f``, with a
+forward directional derivative (``casadi.jtimes``). Since ``f`` is tangent to the state
+manifold, ``V-dot`` does not depend on how ``V`` is extended off the manifold.
+
+Numeric helpers evaluate ``V`` and ``V-dot`` on batches of states and measure how far a
+sampled trajectory departs from being non-increasing (:meth:`Lyapunov.monotonicity`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench._types import ArrayLike
+from workbench.errors import ModelError
+from workbench.model import BuildRecord, Context, Model
+from workbench.simulate import Trajectory, closed_loop_function
+
+__all__ = ["Lyapunov", "Monotonicity"]
+
+
+@dataclass(frozen=True)
+class Monotonicity:
+    """How far a sampled series ``V(t_k)`` is from non-increasing.
+
+    Attributes
+    ----------
+    V0, Vf : float
+        First and last values.
+    max_increase : float
+        ``max_k (V(t_{k+1}) - max_{j <= k} V(t_j))``, clipped below at 0: the largest rise
+        above the running maximum (0 for a non-increasing series).
+    relative_increase : float
+        ``max_increase / max(|V0|, tiny)``.
+    tolerance : float
+        Allowed relative rise (integration error), as given.
+    n_samples : int
+        Number of samples.
+    """
+
+    V0: float
+    Vf: float
+    max_increase: float
+    relative_increase: float
+    tolerance: float
+    n_samples: int
+
+    @property
+    def ok(self) -> bool:
+        """Whether the relative rise is within the tolerance."""
+        return self.relative_increase <= self.tolerance
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain form."""
+        return {"V0": self.V0, "Vf": self.Vf, "max_increase": self.max_increase,
+                "relative_increase": self.relative_increase, "tolerance": self.tolerance,
+                "n_samples": self.n_samples, "ok": self.ok}
+
+
+class Lyapunov:
+    """A (candidate) Lyapunov function ``V(x, p)`` of a model.
+
+    Parameters
+    ----------
+    model : Model
+        The model on whose state ``V`` is defined.
+    expression : callable
+        ``expression(ctx) -> scalar casadi expression``; ``ctx`` is a
+        :class:`~workbench.model.Context` (``ctx["omega"]``, ``ctx["J"]``, ...) on the
+        model's symbol class.
+    name : str
+        Identifier, e.g. ``"V30"``.
+    description : str
+        What it is, with the paper and equation number.
+    equation : str
+        LaTeX of ``V`` (for reports).
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        expression: Callable[[Context], Any],
+        *,
+        name: str,
+        description: str = "",
+        equation: str = "",
+    ) -> None:
+        if not isinstance(model, Model):
+            raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+        self.model = model
+        self.expression = expression
+        self.name = name
+        self.description = description
+        self.equation = equation
+        self._cache: dict[Any, Any] = {}
+
+    # graphs ----------------------------------------------------------------------------------
+
+    def _record(self, key: str, fn: ca.Function, seconds: float) -> None:
+        self.model.build_log.add(
+            BuildRecord(f"{self.model.name}.{key}", int(fn.n_nodes()), seconds,
+                        self.model.symbolic)
+        )
+
+    def _symbols(self) -> tuple[Any, Any, Any]:
+        ctx = self.model.context()
+        V = self.expression(ctx)
+        if not hasattr(V, "shape") or V.shape != (1, 1):
+            raise ModelError(
+                f"Lyapunov expression {self.name!r} must be a scalar casadi expression; got "
+                f"shape {getattr(V, 'shape', type(V).__name__)}"
+            )
+        return ctx.x, ctx.p, V
+
+    def function(self) -> ca.Function:
+        """``(x, p) -> V``, built once.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        if "V" not in self._cache:
+            t0 = time.perf_counter()
+            x, p, V = self._symbols()
+            fn = ca.Function(self.name, [x, p], [V], ["x", "p"], ["V"])
+            self._cache["V"] = fn
+            self._record(self.name, fn, time.perf_counter() - t0)
+        return self._cache["V"]
+
+    def derivative(self, controller: ca.Function | None = None) -> ca.Function:
+        """``(x, p) -> V-dot`` along the closed loop, by automatic differentiation.
+
+        ``V-dot = dV/dx(x) . f(x, k(x, p), p)``, a forward directional derivative of the
+        graph of ``V`` in the direction of the closed-loop field (``u = 0`` without a
+        controller). Built once per controller.
+
+        Parameters
+        ----------
+        controller : casadi.Function, optional
+            ``u = k(x)`` or ``k(x, p)``.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        key = ("Vdot", id(controller))
+        if key not in self._cache:
+            t0 = time.perf_counter()
+            loop = closed_loop_function(self.model, controller)
+            x, p, V = self._symbols()
+            xdot = loop(x, p)[0]
+            Vdot = ca.jtimes(V, x, xdot)
+            cname = "open_loop" if controller is None else controller.name()
+            fn = ca.Function(f"{self.name}_dot_{cname}", [x, p], [Vdot], ["x", "p"], ["Vdot"])
+            self._cache[key] = (fn, controller)  # keep the controller alive with its id
+            self._record(fn.name(), fn, time.perf_counter() - t0)
+        return self._cache[key][0]
+
+    # numbers ---------------------------------------------------------------------------------
+
+    def _batch(self, fn: ca.Function, states: ArrayLike) -> np.ndarray:
+        X = np.atleast_2d(np.asarray(states, dtype=float))
+        n_dim = self.model.manifold.ambient_dim
+        if X.shape[1] != n_dim:
+            raise ModelError(
+                f"states must have {n_dim} columns (the stored state of {self.model.name!r}); "
+                f"got shape {X.shape}"
+            )
+        return np.asarray(fn.map(X.shape[0])(X.T, self.model.p)).ravel()
+
+    def values(self, states: ArrayLike) -> np.ndarray:
+        """``V`` at a batch of states.
+
+        Parameters
+        ----------
+        states : array-like, shape=(n, ambient_dim) or (ambient_dim,)
+
+        Returns
+        -------
+        ndarray, shape=(n,)
+        """
+        return self._batch(self.function(), states)
+
+    def derivative_values(
+        self, states: ArrayLike, controller: ca.Function | None = None
+    ) -> np.ndarray:
+        """``V-dot`` along the closed loop at a batch of states.
+
+        Parameters
+        ----------
+        states : array-like, shape=(n, ambient_dim) or (ambient_dim,)
+        controller : casadi.Function, optional
+
+        Returns
+        -------
+        ndarray, shape=(n,)
+        """
+        return self._batch(self.derivative(controller), states)
+
+    def monotonicity(self, trajectory: Trajectory, *, tolerance: float = 1e-8) -> Monotonicity:
+        """Measure how far ``V`` along a simulated trajectory is from non-increasing.
+
+        Parameters
+        ----------
+        trajectory : Trajectory
+            A trajectory of this Lyapunov function's model.
+        tolerance : float
+            Allowed rise relative to ``|V(0)|`` (integration error); only used for
+            :attr:`Monotonicity.ok`.
+
+        Returns
+        -------
+        Monotonicity
+        """
+        if trajectory.model.manifold.ambient_dim != self.model.manifold.ambient_dim:
+            raise ModelError(
+                f"trajectory of {trajectory.model.name!r} does not match the state of "
+                f"{self.model.name!r}"
+            )
+        V = self.values(trajectory.x)
+        running = np.maximum.accumulate(V)
+        rise = float(max(0.0, np.max(V[1:] - running[:-1]))) if V.size > 1 else 0.0
+        scale = max(abs(float(V[0])), np.finfo(float).tiny)
+        return Monotonicity(float(V[0]), float(V[-1]), rise, rise / scale, float(tolerance),
+                            int(V.size))
+
+    def __repr__(self) -> str:
+        return f"Lyapunov({self.name!r} on {self.model.name!r})"
