@@ -1,0 +1,84 @@
+"""simulate: methods and their orders, backward time, closed loops, bad input."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+from conftest import assert_close
+
+from models import pendulum3d as p3
+from models.spherical import spherical_pendulum
+from workbench.errors import ModelError
+from workbench.simulate import Method, simulate
+
+
+@pytest.fixture
+def planar():
+    return p3.planar(Jt=0.2, rho_s=0.3)
+
+
+def test_backward_integration_returns_to_the_start():
+    model = p3.full(J=np.diag([0.13, 0.28, 0.17]), rho=[0, 0, 0.3])
+    x0 = model.state(R=p3.so3_exp([0.1, 0.2, 0.3]), omega=[0.5, -0.2, 0.4])
+    fwd = simulate(model, x0, np.linspace(0, 3, 31), rtol=1e-12, atol=1e-12)
+    back = simulate(model, fwd.final, np.linspace(3, 0, 31), rtol=1e-12, atol=1e-12)
+    assert_close(back.t, fwd.t[::-1], atol=1e-15, what="times")
+    assert_close(back.final, x0, atol=1e-9, what="backward flow inverts forward flow")
+
+
+@pytest.mark.parametrize(("method", "order", "extra"),
+                         [(Method.RK, 4, {}), (Method.COLLOCATION, 4, {"degree": 2}),
+                          (Method.COLLOCATION, 6, {"degree": 3})])
+def test_fixed_step_methods_reach_their_order(planar, method, order, extra):
+    x0 = planar.state(p=[-np.sin(2.0), np.cos(2.0)], omega_y=[0.0])
+    T = 2.0
+    ref = simulate(planar, x0, [0, T], rtol=1e-13, atol=1e-13).final
+    steps = np.array([0.1, 0.05, 0.025])
+    errs = [np.linalg.norm(simulate(planar, x0, [0, T], method=method, step=h, **extra).final - ref)
+            for h in steps]
+    fitted = np.polyfit(np.log(steps), np.log(errs), 1)[0]
+    assert abs(fitted - order) < 0.35, f"fitted order {fitted:.2f}, expected {order}"
+
+
+def test_trajectory_reports_cost_and_diagnostics(planar):
+    x0 = planar.state(p=[0, 1.0], omega_y=[1.0])
+    tr = simulate(planar, x0, np.linspace(0, 1, 11), method="rk", step=0.01)
+    assert tr.cost["steps"] == 100 and tr.cost["rhs_evaluations"] == 400
+    assert tr.options["step"] == pytest.approx(0.01)
+    assert set(tr.diagnostics["constraint_residual"]) == {"p", "omega_y"}
+    assert tr.summary()["method"] == "rk"
+
+
+def test_closed_loop_input_is_recorded_and_acts():
+    model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
+    x = ca.SX.sym("x", 6)
+    damping = ca.Function("k", [x], [-0.5 * x[3:6]])
+    x0 = model.state(q=[0, np.sin(0.5), np.cos(0.5), 0.3, 0, 0])
+    tr = simulate(model, x0, np.linspace(0, 5, 51), controller=damping)
+    assert_close(tr.u, -0.5 * tr.x[:, 3:6], atol=1e-15, what="recorded input")
+    E = tr.invariant_series("energy")
+    assert np.all(np.diff(E) < 1e-9), "damping does not add energy"
+    assert tr.diagnostics["closed_loop"]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "pattern"),
+    [
+        ({"t": [0.0]}, "at least two times"),
+        ({"t": [0.0, 1.0, 0.5]}, "strictly increasing .* or strictly decreasing"),
+        ({"method": "euler"}, "method must be one of"),
+        ({"method": "rk"}, "step must be a positive number"),
+        ({"method": "rk", "step": -0.1}, "step must be a positive number"),
+        ({"method": "rk", "step": 5.0}, "must not exceed the horizon"),
+        ({"rtol": 0.0}, "rtol must be positive"),
+        ({"multistep": "gear"}, "multistep must be one of"),
+        ({"controller": "pd"}, "controller must be a casadi.Function"),
+    ],
+)
+def test_bad_input(planar, kwargs, pattern):
+    x0 = planar.state(p=[0, 1.0], omega_y=[1.0])
+    args = {"t": np.linspace(0, 1, 3), **kwargs}
+    t = args.pop("t")
+    with pytest.raises(ModelError, match=pattern):
+        simulate(planar, x0, t, **args)
