@@ -24,7 +24,8 @@ def _random_state(model, rng, n, speed=1.0):
 
 @pytest.mark.parametrize("n", [1, 2, 5])
 def test_invariants_are_conserved_by_the_graph_and_the_flow(n, rng):
-    model = chain_cart(n, m=0.5, masses=rng.uniform(0.05, 0.3, n), lengths=rng.uniform(0.05, 0.3, n))
+    model = chain_cart(n, m=0.5, masses=rng.uniform(0.05, 0.3, n),
+                       lengths=rng.uniform(0.05, 0.3, n))
     # exact first integrals: d/dt I = dI/dx . f = 0 at random states (from the graph)
     xs = ca.MX.sym("x", model.manifold.ambient_dim)
     f = model.function("f")(xs, np.zeros(2), model.p)
@@ -88,7 +89,8 @@ def test_hanging_equilibrium_is_an_equilibrium_and_gravity_pulls_back():
         ({"n": 0}, "n \\(number of links\\) must be an integer >= 1; got 0"),
         ({"n": 2.5}, "integer >= 1; got 2.5"),
         ({"n": 2, "masses": [0.1, -0.1]}, "'masses'.*must be positive"),
-        ({"n": 2, "lengths": [0.1, 0.2, 0.3]}, "'lengths' must be a scalar or have one entry per link \\(2\\)"),
+        ({"n": 2, "lengths": [0.1, 0.2, 0.3]},
+         "'lengths' must be a scalar or have one entry per link \\(2\\)"),
         ({"n": 1, "m": 0.0}, "'m'.*must be positive"),
     ],
 )

@@ -16,7 +16,8 @@ BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": [0.0, 0.0, 0.3]}
 @pytest.mark.parametrize(
     ("kwargs", "pattern"),
     [
-        ({"J": np.array([[1, 0.5, 0], [0, 1, 0], [0, 0, 1.0]])}, "symmetric positive definite.*non-symmetric"),
+        ({"J": np.array([[1, 0.5, 0], [0, 1, 0], [0, 0, 1.0]])},
+         "symmetric positive definite.*non-symmetric"),
         ({"J": np.diag([3.0, 2.0, -1.0])}, r"symmetric positive definite; got eigenvalues \[-1\."),
         ({"J": [1.0, 2.0, 3.0]}, "3x3 matrix; got a 3-vector"),
         ({"rho": [0.0, 0.3]}, r"'rho'.*shape \(3,\); got shape \(2,\)"),

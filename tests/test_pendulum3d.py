@@ -26,8 +26,8 @@ def _invariant_rates(model, x):
     f = model.function("f")(xs, np.zeros(model.n_inputs), model.p)
     rates = {}
     for name in model.invariant_names:
-        I = model.function(name)(xs, model.p)
-        rate = ca.Function("r", [xs], [ca.jtimes(I, xs, f)])
+        inv = model.function(name)(xs, model.p)
+        rate = ca.Function("r", [xs], [ca.jtimes(inv, xs, f)])
         rates[name] = float(rate(x))
     return rates
 

@@ -1,5 +1,7 @@
-"""The geometric pendulum workbench: coordinate-free models as casadi graphs, and the
-analyses derived from them."""
+"""The geometric pendulum workbench.
+
+Coordinate-free models as casadi graphs, and the analyses derived from them.
+"""
 
 from workbench.errors import (
     ManifoldError,

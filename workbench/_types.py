@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Union
-
 import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-Symbolic = Union[ca.SX, ca.MX]
+Symbolic = ca.SX | ca.MX
 """A casadi symbolic expression."""
 
-Expr = Union[ca.SX, ca.MX, ca.DM, NDArray[np.float64]]
+Expr = ca.SX | ca.MX | ca.DM | NDArray[np.float64]
 """Anything the manifold helpers accept: casadi symbolic or numeric, or a numpy array."""
 
 Vector = NDArray[np.float64]

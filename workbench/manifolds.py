@@ -426,14 +426,17 @@ class Rn(Factor):
 
     @property
     def ambient_dim(self) -> int:  # type: ignore[override]
+        """``n``."""
         return int(self.n)
 
     @property
     def dim(self) -> int:  # type: ignore[override]
+        """``n``."""
         return int(self.n)
 
     @property
     def kind(self) -> str:  # type: ignore[override]
+        """``"R^n"``."""
         return f"R^{self.n}"
 
     def residual(self, x: Expr) -> Expr:  # noqa: D102

@@ -253,12 +253,14 @@ def format_result(result: Result, *, max_values: int = 40) -> str:
     if result.build_log:
         lines.append("  built:")
         for r in result.build_log:
-            lines.append(
-                f"    {r['function']:<44} {r['n_nodes']:>7} nodes  {r['build_seconds'] * 1e3:8.1f} ms"
-            )
+            ms = r["build_seconds"] * 1e3
+            lines.append(f"    {r['function']:<44} {r['n_nodes']:>7} nodes  {ms:8.1f} ms")
     for note in result.notes:
         lines.append(f"  note: {note}")
-    lines.append(f"  status: {'all comparisons within tolerance' if result.ok else 'SOME COMPARISONS OUT OF TOLERANCE'}")
+    status = (
+        "all comparisons within tolerance" if result.ok else "SOME COMPARISONS OUT OF TOLERANCE"
+    )
+    lines.append(f"  status: {status}")
     return "\n".join(lines)
 
 
