@@ -1,27 +1,45 @@
 """The ``workbench`` command line.
 
 ``workbench list`` names the problems; ``workbench run NAME [--quick] [--json PATH]`` runs
-one (or ``all``) and prints its results. Errors are one clear line on stderr with a
-non-zero exit status.
+one (or ``all``) and prints its results; ``workbench report [NAMES...] [--quick] [--html]
+[--pdf] [--out DIR]`` writes the HTML and/or PDF report; ``workbench bench [NAMES...]
+[--list]`` runs the scripts in ``benchmarks/``. Errors are one clear line on stderr with a
+non-zero exit status (2 for bad input; 1 when a problem failed or a comparison is out of
+tolerance).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import importlib.util
 import json
 import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from workbench.errors import WorkbenchError
 from workbench.result import Result, format_result, to_jsonable
 
-__all__ = ["main", "run_script"]
+__all__ = ["main", "run_script", "build_parser", "benchmark_scripts"]
+
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+"""Directory of the benchmark scripts (``bench_*.py``, each with a ``main()``)."""
 
 
 class CLIError(Exception):
     """A user error on the command line: printed as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message (see --help)`` and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
 def _problems():  # imported lazily: the engine does not depend on the problem catalogue
@@ -86,13 +104,96 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report(args: argparse.Namespace) -> int:
+    from workbench.report import DEFAULT_OUT, Format, build_report
+
+    formats = [f for f, on in ((Format.HTML, args.html), (Format.PDF, args.pdf)) if on]
+    if not formats:
+        formats = [Format.HTML, Format.PDF]
+    t0 = time.perf_counter()
+    rep = build_report(args.names or None, quick=args.quick, formats=formats,
+                       out_dir=args.out or DEFAULT_OUT, progress=not args.no_progress)
+    total = time.perf_counter() - t0
+    for fmt_, path in rep.paths.items():
+        print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
+    stages = ", ".join(f"{k} {v:.1f} s" for k, v in rep.seconds.items())
+    print(f"{len(rep.runs)} problems in {total:.1f} s ({stages})")
+    if rep.failed:
+        print(f"error: problems failed (shown in the report): {', '.join(rep.failed)}",
+              file=sys.stderr)
+    if rep.out_of_tolerance:
+        print("error: comparisons out of tolerance in: " + ", ".join(rep.out_of_tolerance),
+              file=sys.stderr)
+    return 0 if rep.ok else 1
+
+
+def benchmark_scripts(directory: Path = BENCHMARKS) -> dict[str, Path]:
+    """The benchmark scripts by name (``bench_models.py`` is ``models``)."""
+    if not directory.is_dir():
+        return {}
+    return {p.stem.removeprefix("bench_"): p for p in sorted(directory.glob("bench_*.py"))}
+
+
+def _bench(args: argparse.Namespace) -> int:
+    scripts = benchmark_scripts()
+    if args.list:
+        for name, path in scripts.items():
+            print(f"{name:<24} {path.relative_to(BENCHMARKS.parent)}")
+        return 0
+    if not scripts:
+        raise CLIError(f"no benchmark scripts (bench_*.py) in {BENCHMARKS}")
+    names = [n.removeprefix("bench_") for n in args.names] or list(scripts)
+    unknown = [n for n in names if n not in scripts]
+    if unknown:
+        raise CLIError(f"unknown benchmark(s) {', '.join(map(repr, unknown))}; known: "
+                       f"{', '.join(scripts)}")
+    failed = []
+    for i, name in enumerate(names):
+        print(f"[{i + 1}/{len(names)}] benchmark {name} ...", file=sys.stderr, flush=True)
+        print(f"=== {name}", flush=True)
+        if _run_benchmark(scripts[name]) != 0:
+            failed.append(name)
+        print(flush=True)
+    if failed:
+        print(f"error: benchmarks failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _run_benchmark(path: Path) -> int:
+    """Import a benchmark script and call its ``main()``; return its exit status."""
+    saved_argv, saved_path = sys.argv, list(sys.path)
+    sys.argv = [str(path)]
+    sys.path.insert(0, str(path.parent))
+    try:
+        spec = importlib.util.spec_from_file_location(f"_bench_{path.stem}", path)
+        mod = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+        spec.loader.exec_module(mod)  # type: ignore[union-attr]
+        if not callable(getattr(mod, "main", None)):
+            print(f"error: {path.name} has no main()", file=sys.stderr)
+            return 1
+        status = mod.main()
+        return int(status) if isinstance(status, int) else 0
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except Exception as exc:  # noqa: BLE001 - one failing benchmark does not stop the rest
+        print(f"error: benchmark {path.stem} raised {type(exc).__name__}: {exc}",
+              file=sys.stderr)
+        return 1
+    finally:
+        sys.argv = saved_argv
+        with contextlib.suppress(ValueError):
+            sys.path[:] = saved_path
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also used by the tests)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="workbench",
         description="Geometric pendulum workbench: run the papers' problems.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_Parser)
     p_list = sub.add_parser("list", help="list the problems with one-line descriptions")
     p_list.set_defaults(func=_list)
     p_run = sub.add_parser("run", help="run one problem (or 'all') and print its results")
@@ -100,6 +201,31 @@ def build_parser() -> argparse.ArgumentParser:
     p_run.add_argument("--quick", action="store_true", help="smaller sizes, for a fast check")
     p_run.add_argument("--json", metavar="PATH", help="also write the values as JSON")
     p_run.set_defaults(func=_run)
+    p_rep = sub.add_parser(
+        "report", help="run problems and write their HTML and/or PDF report",
+        description="Run the problems (all, or NAMES) and write one report: a self-contained "
+        "HTML file and/or a PDF, in DIR. A problem that fails appears in the report with "
+        "its error. Exit status 1 if a problem failed or a comparison is out of tolerance.",
+    )
+    p_rep.add_argument("names", nargs="*", metavar="NAME",
+                       help="problems to include (default: all; see 'workbench list')")
+    p_rep.add_argument("--quick", action="store_true", help="run the problems in quick mode")
+    p_rep.add_argument("--html", action="store_true", help="write HTML (default: HTML and PDF)")
+    p_rep.add_argument("--pdf", action="store_true", help="write PDF (default: HTML and PDF)")
+    p_rep.add_argument("--out", metavar="DIR", default=None,
+                       help="output directory (default: reports/out/ of the repository)")
+    p_rep.add_argument("--no-progress", action="store_true",
+                       help="do not show per-problem progress on stderr")
+    p_rep.set_defaults(func=_report)
+    p_bench = sub.add_parser(
+        "bench", help="run the benchmark scripts and print their output",
+        description="Run the scripts benchmarks/bench_*.py (all, or NAMES), each through its "
+        "main(), and print what they print.",
+    )
+    p_bench.add_argument("names", nargs="*", metavar="NAME",
+                         help="benchmarks to run (default: all; see --list)")
+    p_bench.add_argument("--list", action="store_true", help="name the benchmarks and stop")
+    p_bench.set_defaults(func=_bench)
     return parser
 
 
