@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup run test test-all lint bench clean
+.PHONY: setup run report report-quick test test-deps test-all lint bench clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (the workbench needs Python 3.11)"; exit 1; }
@@ -20,11 +20,31 @@ setup: $(STAMP)
 run: $(STAMP)
 	$(BIN)/workbench run all --quick
 
+## The report of every problem, HTML and PDF, in reports/out/ (report.html, report.pdf).
+report: $(STAMP)
+	$(BIN)/workbench report
+
+## The same in quick mode (reports/out/report-quick.html, report-quick.pdf).
+report-quick: $(STAMP)
+	$(BIN)/workbench report --quick
+
+## Test set-up: headless Chromium (report screenshot test) and poppler-utils (PDF checks),
+## from the distribution's packages, installed only when missing.
+test-deps:
+	@if command -v chromium >/dev/null 2>&1 && command -v pdftoppm >/dev/null 2>&1 \
+	    && command -v pdftotext >/dev/null 2>&1; then :; else \
+	  command -v apt-get >/dev/null 2>&1 || { echo "error: the report tests need chromium and poppler-utils, and apt-get is not available to install them"; exit 1; }; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
+	  echo "installing chromium, poppler-utils and fonts-dejavu-core with apt-get"; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq \
+	    chromium poppler-utils fonts-dejavu-core >/dev/null || { echo "error: apt-get could not install chromium and poppler-utils"; exit 1; }; \
+	fi
+
 ## The tests (slow ones excluded; `make test-all` runs them too).
-test: $(STAMP)
+test: $(STAMP) test-deps
 	$(BIN)/python -m pytest -q
 
-test-all: $(STAMP)
+test-all: $(STAMP) test-deps
 	$(BIN)/python -m pytest -q -m ''
 
 lint: $(STAMP)
