@@ -24,6 +24,7 @@ reported because it grows quickly with ``n`` and makes the rank decision fragile
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -35,7 +36,7 @@ import scipy.linalg as sla
 from workbench._types import ArrayLike, Matrix, Vector
 from workbench.errors import ModelError
 from workbench.linearize import LinearModel, linearize, mechanical_order
-from workbench.model import Model
+from workbench.model import BuildRecord, Model
 
 __all__ = [
     "ModeTest",
@@ -348,6 +349,7 @@ def _energy_derivatives(model: Model, energy: str) -> ca.Function:
     key = (id(graphs), energy)
     hit = _HESS_CACHE.get(key)
     if hit is None:
+        t0 = time.perf_counter()
         E = model.function(energy)
         S = model.sym
         x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
@@ -363,6 +365,8 @@ def _energy_derivatives(model: Model, energy: str) -> ca.Function:
             [grad, ca.hessian(e, x)[0], ca.hessian(ca.dot(lam, h), x)[0], ca.jacobian(h, x)],
             ["x", "p", "lam"], ["grad", "hess", "hess_lh", "dh"],
         )
+        model.build_log.add(BuildRecord(f"{model.name}.{energy}_hessian", int(fn.n_nodes()),
+                                        time.perf_counter() - t0, model.symbolic))
         hit = (graphs, fn)
         _HESS_CACHE[key] = hit
     return hit[1]

@@ -39,7 +39,7 @@ import numpy as np
 from workbench._types import ArrayLike, Matrix, Vector
 from workbench.errors import ManifoldError, ModelError
 from workbench.manifolds import S1, S2, SO3, TS2, Rn
-from workbench.model import Model
+from workbench.model import BuildRecord, Model
 
 __all__ = [
     "LinearModel",
@@ -453,7 +453,13 @@ def _jacobians(model: Model, controller: ca.Function | None) -> ca.Function:
     key = (id(graphs), id(controller))
     hit = _JAC_CACHE.get(key)
     if hit is None:
-        hit = (graphs, controller, closed_loop_jacobians(model, controller))
+        t0 = time.perf_counter()
+        fn = closed_loop_jacobians(model, controller)
+        if controller is not None:  # open loop reuses the model's own (logged) f_x, f_u
+            model.build_log.add(BuildRecord(
+                f"{model.name}.jacobians[{controller.name()}]", int(fn.n_nodes()),
+                time.perf_counter() - t0, model.symbolic))
+        hit = (graphs, controller, fn)
         _JAC_CACHE[key] = hit
     return hit[2]
 
