@@ -127,8 +127,9 @@ def _report(args: argparse.Namespace) -> int:
     return 0 if rep.ok else 1
 
 
-def benchmark_scripts(directory: Path = BENCHMARKS) -> dict[str, Path]:
+def benchmark_scripts(directory: Path | None = None) -> dict[str, Path]:
     """The benchmark scripts by name (``bench_models.py`` is ``models``)."""
+    directory = BENCHMARKS if directory is None else directory
     if not directory.is_dir():
         return {}
     return {p.stem.removeprefix("bench_"): p for p in sorted(directory.glob("bench_*.py"))}
@@ -138,7 +139,7 @@ def _bench(args: argparse.Namespace) -> int:
     scripts = benchmark_scripts()
     if args.list:
         for name, path in scripts.items():
-            print(f"{name:<24} {path.relative_to(BENCHMARKS.parent)}")
+            print(f"{name:<24} {path}")
         return 0
     if not scripts:
         raise CLIError(f"no benchmark scripts (bench_*.py) in {BENCHMARKS}")
@@ -151,7 +152,7 @@ def _bench(args: argparse.Namespace) -> int:
     for i, name in enumerate(names):
         print(f"[{i + 1}/{len(names)}] benchmark {name} ...", file=sys.stderr, flush=True)
         print(f"=== {name}", flush=True)
-        if _run_benchmark(scripts[name]) != 0:
+        if _run_benchmark(name, scripts[name]) != 0:
             failed.append(name)
         print(flush=True)
     if failed:
@@ -160,7 +161,7 @@ def _bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_benchmark(path: Path) -> int:
+def _run_benchmark(name: str, path: Path) -> int:
     """Import a benchmark script and call its ``main()``; return its exit status."""
     saved_argv, saved_path = sys.argv, list(sys.path)
     sys.argv = [str(path)]
@@ -170,14 +171,14 @@ def _run_benchmark(path: Path) -> int:
         mod = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
         spec.loader.exec_module(mod)  # type: ignore[union-attr]
         if not callable(getattr(mod, "main", None)):
-            print(f"error: {path.name} has no main()", file=sys.stderr)
+            print(f"error: benchmark {name} ({path.name}) has no main()", file=sys.stderr)
             return 1
         status = mod.main()
         return int(status) if isinstance(status, int) else 0
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except Exception as exc:  # noqa: BLE001 - one failing benchmark does not stop the rest
-        print(f"error: benchmark {path.stem} raised {type(exc).__name__}: {exc}",
+        print(f"error: benchmark {name} raised {type(exc).__name__}: {exc}",
               file=sys.stderr)
         return 1
     finally:

@@ -1,0 +1,110 @@
+"""The command line: list, run, report, bench; bad input is one line and a non-zero exit."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+import problems
+from workbench import cli
+
+
+def call(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = cli.main(list(argv))
+    except SystemExit as exc:  # argparse: --help and usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code: int, err: str, *, status: int = 2, match: str = "") -> None:
+    assert code == status
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, f"expected one line on stderr, got {lines}"
+    assert "error" in lines[0] and match in lines[0]
+
+
+def test_list_names_every_problem_with_its_title(capsys):
+    code, out, _ = call(capsys, "list")
+    assert code == 0
+    lines = out.strip().splitlines()
+    assert [ln.split()[0] for ln in lines] == problems.names()
+    for ln, name in zip(lines, problems.names()):
+        assert problems.title(name) in ln
+
+
+@pytest.mark.parametrize("sub", [[], ["list"], ["run"], ["report"], ["bench"]])
+def test_help_everywhere(capsys, sub):
+    code, out, _ = call(capsys, *sub, "--help")
+    assert code == 0 and "usage: workbench" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["run", "no_such_problem"], "unknown problem 'no_such_problem'"),
+        (["report", "no_such_problem"], "unknown problem(s) 'no_such_problem'"),
+        (["report", "--bogus"], "unrecognized arguments: --bogus"),
+        (["run"], "the following arguments are required: name"),
+        ([], "the following arguments are required: COMMAND"),
+        (["frobnicate"], "invalid choice: 'frobnicate'"),
+        (["bench", "no_such_bench"], "unknown benchmark(s) 'no_such_bench'"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(capsys, argv, match):
+    code, out, err = call(capsys, *argv)
+    assert_one_line_error(code, err, match=match)
+    assert out == ""
+
+
+def test_unwritable_output_is_one_line_and_writes_nothing(capsys, tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    code, out, err = call(capsys, "report", "pendulum3d_invariants", "--quick",
+                          "--out", str(blocker / "out"))
+    assert_one_line_error(code, err, match="--out: cannot create directory")
+    code, _, err = call(capsys, "report", "--out", str(blocker))
+    assert_one_line_error(code, err, match="exists and is not a directory")
+    code, _, err = call(capsys, "run", "pendulum3d_invariants", "--json",
+                        str(tmp_path / "missing" / "x.json"))
+    assert_one_line_error(code, err, match="does not exist")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_entry_point_exit_status_and_one_line():
+    proc = subprocess.run([sys.executable, "-m", "workbench.cli", "report", "nope"],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0 and "unknown problem(s) 'nope'" in proc.stderr
+
+
+def test_report_writes_html_with_progress(capsys, tmp_path):
+    code, out, err = call(capsys, "report", "pendulum3d_invariants", "--quick", "--html",
+                          "--out", str(tmp_path))
+    assert code == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report-quick.html"]
+    assert f"wrote {tmp_path / 'report-quick.html'}" in out
+    assert "[1/1] pendulum3d_invariants" in err  # per-problem progress on stderr
+
+
+def test_bench_lists_and_runs_scripts(capsys, tmp_path, monkeypatch):
+    (tmp_path / "bench_fast.py").write_text("def main():\n    print('fast ratio 1.0')\n")
+    (tmp_path / "bench_broken.py").write_text("def main():\n    raise ValueError('boom')\n")
+    (tmp_path / "_helper.py").write_text("X = 1\n")
+    monkeypatch.setattr(cli, "BENCHMARKS", tmp_path)
+    code, out, _ = call(capsys, "bench", "--list")
+    assert code == 0 and out.split()[::2] == ["broken", "fast"]
+    code, out, err = call(capsys, "bench", "fast")
+    assert code == 0 and "fast ratio 1.0" in out
+    code, out, err = call(capsys, "bench")
+    assert code == 1 and "fast ratio 1.0" in out
+    assert "benchmark broken raised ValueError: boom" in err
+
+
+def test_real_benchmarks_are_listed(capsys):
+    code, out, _ = call(capsys, "bench", "--list")
+    assert code == 0
+    assert set(out.split()[::2]) == set(cli.benchmark_scripts())
