@@ -22,10 +22,25 @@ import numpy as np
 
 from workbench._types import ArrayLike
 from workbench.errors import ModelError, SolverError
+from workbench.integrators import (
+    NEWTON_MAX_ITER,
+    NEWTON_TOL,
+    integrate,
+    lgvi,
+    rkmk4,
+    s2_variational,
+)
 from workbench.manifolds import DEFAULT_TOL, SO3
 from workbench.model import Model
 
-__all__ = ["Method", "Multistep", "Trajectory", "simulate", "closed_loop_function"]
+__all__ = [
+    "GEOMETRIC_METHODS",
+    "Method",
+    "Multistep",
+    "Trajectory",
+    "simulate",
+    "closed_loop_function",
+]
 
 
 class Method(str, Enum):
@@ -40,11 +55,31 @@ class Method(str, Enum):
     COLLOCATION
         Fixed-step Legendre collocation of ``degree`` d (order 2d; casadi
         ``collocation``); knobs ``step``, ``degree``.
+    LGVI
+        Lie group variational integrator on TSO(3) (order 2, symplectic, implicit; Newton
+        on the graph's derivatives) for rigid-body models such as the full 3D pendulum;
+        knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
+    S2_VARIATIONAL
+        Variational integrator on S^2 (order 2, symplectic) for models on TS^2 such as the
+        spherical pendulum; knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
+    RKMK4
+        Explicit Runge-Kutta-Munthe-Kaas Lie-group method of order 4 for any model on
+        R^n, S1, S2, SO3 and TS2 factors; knobs ``step``, ``jit``.
+
+    The last three are :mod:`workbench.integrators`; they keep the state on the manifold
+    to round-off and report it in the trajectory's diagnostics.
     """
 
     CVODES = "cvodes"
     RK = "rk"
     COLLOCATION = "collocation"
+    LGVI = "lgvi"
+    S2_VARIATIONAL = "s2_variational"
+    RKMK4 = "rkmk4"
+
+
+GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4)
+"""Methods implemented in :mod:`workbench.integrators` (fixed step, manifold kept)."""
 
 
 class Multistep(str, Enum):
@@ -210,6 +245,9 @@ def simulate(
     multistep: Multistep | str = Multistep.ADAMS,
     max_steps: int = 1_000_000,
     tol: float = DEFAULT_TOL,
+    newton_tol: float = NEWTON_TOL,
+    newton_max_iter: int = NEWTON_MAX_ITER,
+    jit: bool = False,
 ) -> Trajectory:
     """Integrate a model from ``x0`` and report the cost and the accuracy.
 
@@ -226,7 +264,8 @@ def simulate(
     controller : casadi.Function, optional
         Feedback ``u = k(x)`` or ``k(x, p)``; ``u = 0`` when omitted.
     method : Method or str
-        ``"cvodes"``, ``"rk"`` or ``"collocation"``.
+        ``"cvodes"``, ``"rk"``, ``"collocation"``, or a geometric method ``"lgvi"``,
+        ``"s2_variational"``, ``"rkmk4"`` (see :class:`Method`).
     rtol, atol : float
         Relative and absolute tolerances (CVODES only).
     step : float, optional
@@ -240,6 +279,13 @@ def simulate(
         CVODES' limit on internal steps per output interval.
     tol : float
         Largest accepted constraint residual of ``x0``.
+    newton_tol : float
+        Largest relative residual of the implicit update of ``"lgvi"`` and
+        ``"s2_variational"`` (a step that does not reach it raises SolverError).
+    newton_max_iter : int
+        Newton iterations per implicit update of those methods.
+    jit : bool
+        Compile the step of a geometric method to C (SX models; ~1 s once per process).
 
     Returns
     -------
@@ -250,7 +296,8 @@ def simulate(
     ManifoldError
         If ``x0`` is off the manifold.
     SolverError
-        If the integrator fails (with its status).
+        If the integrator fails (with its status), or an implicit update of a geometric
+        method does not converge (with the step and its residual).
     """
     try:
         method = Method(method)
@@ -299,6 +346,13 @@ def simulate(
             opts.update(interpolation_order=int(degree), collocation_scheme="legendre")
             options_used["degree"] = int(degree)
 
+    if method in GEOMETRIC_METHODS:
+        return _simulate_geometric(
+            model, x0v, tv, controller=controller, method=method, step=float(step),
+            options_used=options_used, newton_tol=newton_tol,
+            newton_max_iter=newton_max_iter, jit=jit,
+        )
+
     t_build = time.perf_counter()
     loop = closed_loop_function(model, controller)
     S = model.sym
@@ -306,15 +360,24 @@ def simulate(
     sign = 1.0 if tv[-1] > tv[0] else -1.0
     ode = sign * loop(xs, ps)[0]
     s_grid = sign * (tv - tv[0])
-    integrator = ca.integrator(
-        f"sim_{model.name}", method.value, {"x": xs, "p": ps, "ode": ode}, 0.0, s_grid[1:],
-        opts,
-    )
+    dae = {"x": xs, "p": ps, "ode": ode}
+    p_in: np.ndarray = model.p
+    if method is Method.CVODES:
+        integrator = ca.integrator(f"sim_{model.name}", method.value, dae, 0.0, s_grid[1:],
+                                   opts)
+    else:
+        # casadi spreads number_of_finite_elements over the whole output grid and rounds
+        # per interval (one step per interval when it is below the number of outputs);
+        # one interval repeated with mapaccum takes exactly n_fe steps in every interval.
+        one = ca.integrator(f"sim_{model.name}_interval", method.value, dae, 0.0,
+                            float(abs(s_grid[1])), opts)
+        integrator = one.mapaccum(f"sim_{model.name}", len(tv) - 1)
+        p_in = np.tile(model.p.reshape(-1, 1), (1, len(tv) - 1))
     build_seconds = time.perf_counter() - t_build
 
     t_run = time.perf_counter()
     try:
-        res = integrator(x0=x0v, p=model.p)
+        res = integrator(x0=x0v, p=p_in)
     except RuntimeError as exc:
         stats = integrator.stats()
         raise SolverError(
@@ -345,6 +408,42 @@ def simulate(
     u_out = np.asarray(loop.map(len(tv))(xs_out.T, model.p)[1]).T.reshape(len(tv), -1)
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
+    return traj
+
+
+def _simulate_geometric(
+    model: Model,
+    x0v: np.ndarray,
+    tv: np.ndarray,
+    *,
+    controller: ca.Function | None,
+    method: Method,
+    step: float,
+    options_used: dict[str, Any],
+    newton_tol: float,
+    newton_max_iter: int,
+    jit: bool,
+) -> Trajectory:
+    """The branch of :func:`simulate` for :data:`GEOMETRIC_METHODS`."""
+    t_build = time.perf_counter()
+    if method is Method.RKMK4:
+        scheme = rkmk4(model, controller, jit=jit)
+    else:
+        build = lgvi if method is Method.LGVI else s2_variational
+        scheme = build(model, controller, newton_tol=newton_tol,
+                       newton_max_iter=newton_max_iter, jit=jit)
+        options_used.update(newton_tol=scheme.newton_tol,
+                            newton_max_iter=scheme.newton_max_iter)
+    options_used["jit"] = bool(jit)
+    build_seconds = time.perf_counter() - t_build
+    run = integrate(model, scheme, x0v, tv, step=step)
+    options_used["step"] = abs(run.step)
+    loop = closed_loop_function(model, controller)
+    u_out = np.asarray(loop.map(len(tv))(run.x.T, model.p)[1]).T.reshape(len(tv), -1)
+    cost = {"build_seconds": build_seconds, **run.cost}
+    traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
+    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
+                        **run.diagnostics}
     return traj
 
 
