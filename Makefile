@@ -28,16 +28,18 @@ report: $(STAMP)
 report-quick: $(STAMP)
 	$(BIN)/workbench report --quick
 
-## Test set-up: headless Chromium (report screenshot test) and poppler-utils (PDF checks),
-## from the distribution's packages, installed only when missing.
+## Test set-up: headless Chromium (report screenshot test), poppler-utils (PDF checks) and
+## the DejaVu fonts (the report's text and MathML font), from the distribution's packages,
+## installed only when missing.
 test-deps:
 	@if command -v chromium >/dev/null 2>&1 && command -v pdftoppm >/dev/null 2>&1 \
-	    && command -v pdftotext >/dev/null 2>&1; then :; else \
+	    && command -v pdftotext >/dev/null 2>&1 \
+	    && [ -f /usr/share/fonts/truetype/dejavu/DejaVuMathTeXGyre.ttf ]; then :; else \
 	  command -v apt-get >/dev/null 2>&1 || { echo "error: the report tests need chromium and poppler-utils, and apt-get is not available to install them"; exit 1; }; \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
-	  echo "installing chromium, poppler-utils and fonts-dejavu-core with apt-get"; \
+	  echo "installing chromium, poppler-utils and the DejaVu fonts (text and math) with apt-get"; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq \
-	    chromium poppler-utils fonts-dejavu-core >/dev/null || { echo "error: apt-get could not install chromium and poppler-utils"; exit 1; }; \
+	    chromium poppler-utils fonts-dejavu-core fonts-dejavu-extra >/dev/null || { echo "error: apt-get could not install chromium and poppler-utils"; exit 1; }; \
 	fi
 
 ## The tests (slow ones excluded; `make test-all` runs them too).

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -108,3 +110,24 @@ def test_real_benchmarks_are_listed(capsys):
     code, out, _ = call(capsys, "bench", "--list")
     assert code == 0
     assert set(out.split()[::2]) == set(cli.benchmark_scripts())
+
+
+def readme_problems(readme: Path) -> list[str]:
+    """Problem names in the first column of the README's '## Problems' table."""
+    text = readme.read_text(encoding="utf-8")
+    m = re.search(r"^## Problems\s*$(.*?)(?=^## |\Z)", text, flags=re.M | re.S)
+    assert m, "README.md has no '## Problems' section"
+    return re.findall(r"^\|\s*`([A-Za-z0-9_]+)`\s*\|", m.group(1), flags=re.M)
+
+
+def test_readme_lists_the_same_problems_as_workbench_list(capsys):
+    code, out, _ = call(capsys, "list", "--markdown")
+    assert code == 0
+    listed = re.findall(r"^\| `([A-Za-z0-9_]+)` \|", out, flags=re.M)
+    assert listed == problems.names()
+    in_readme = readme_problems(Path(__file__).resolve().parents[1] / "README.md")
+    missing = sorted(set(listed) - set(in_readme))
+    extra = sorted(set(in_readme) - set(listed))
+    assert not missing and not extra, (
+        f"README.md's Problems table is out of date: missing {missing}, not a problem "
+        f"{extra} (`workbench list --markdown` prints the table)")

@@ -99,6 +99,11 @@ def _run(args: argparse.Namespace) -> int:
 
 def _list(args: argparse.Namespace) -> int:
     problems = _problems()
+    if getattr(args, "markdown", False):
+        print("| name | reproduces |\n|---|---|")
+        for name in problems.names():
+            print(f"| `{name}` | {problems.title(name)} |")
+        return 0
     for name in problems.names():
         print(f"{name:<34} {problems.title(name)}")
     return 0
@@ -196,6 +201,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_Parser)
     p_list = sub.add_parser("list", help="list the problems with one-line descriptions")
+    p_list.add_argument("--markdown", action="store_true",
+                        help="print the list as the README's Markdown table")
     p_list.set_defaults(func=_list)
     p_run = sub.add_parser("run", help="run one problem (or 'all') and print its results")
     p_run.add_argument("name", help="problem name (see 'workbench list'), or 'all'")

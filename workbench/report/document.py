@@ -34,6 +34,10 @@ __all__ = ["Math", "ModelSheet", "ProblemSection", "Document", "math", "model_sh
            "problem_section", "document"]
 
 
+WIDE = 100
+"""Vector-field components with longer LaTeX get a whole line of the report."""
+
+
 @dataclass
 class Math:
     """A formula in every form the writers need.
@@ -122,7 +126,7 @@ def model_sheet(model: Model) -> ModelSheet:
         lhs = to_mathml(r.lhs, display=True)
         inner = r.mathml[r.mathml.index(">") + 1 : r.mathml.rindex("</math>")]
         ml = lhs.replace("</math>", f"<mo>=</mo>{inner}</math>")
-        field_rows.append({"form": r.form, "size": r.size,
+        field_rows.append({"form": r.form, "size": r.size, "wide": len(r.latex) > WIDE,
                            "math": math(f"{r.lhs} = {r.latex}", mathml=ml)})
     note = fs.note
     if omitted:

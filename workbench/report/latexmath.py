@@ -484,7 +484,8 @@ def _ml(node: Node) -> str:  # noqa: C901 - one branch per node kind
         return f"<msqrt>{_ml(node.body)}</msqrt>"
     if isinstance(node, Accent):
         mark = ACCENTS[node.kind][0]
-        return f'<mover accent="true">{_ml(node.base)}<mo>{e(mark)}</mo></mover>'
+        # no accent="true": with it, Chromium draws U+02D9 nearly invisibly in text fonts
+        return f"<mover>{_ml(node.base)}<mo>{e(mark)}</mo></mover>"
     if isinstance(node, Style):
         weight = "font-weight:bold" if node.kind == "bold" else "font-style:normal"
         return f'<mrow style="{weight}">{_ml(node.body)}</mrow>'
