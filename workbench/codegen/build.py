@@ -1,0 +1,403 @@
+"""Compile generated controllers into a hash-addressed cache, load them back, time them.
+
+:func:`compile_sources` compiles a :class:`~workbench.codegen.csource.CSources` with the
+warning flags of :data:`~workbench.codegen.csource.CFLAGS_WARN` (warnings are errors) and
+an explicit :class:`Optimization` into ``<cache>/<name>-<hash>/``: the shared library
+(for :func:`casadi.external`), the example and the benchmark. The hash covers the sources,
+the compiler command and the compiler's version, so a cached build is reused only for the
+same function, flags and compiler. Every compiler exit status is checked; a failure raises
+:class:`CompileError` with the compiler's own message. Builds happen in a temporary
+directory that is renamed into place when complete, so the cache never holds a partial
+build.
+
+:func:`export` writes the sources to a user directory the same way (all files are written
+to a temporary directory first, then moved), after checking that they compile.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from enum import Enum
+from functools import lru_cache
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from workbench.codegen.csource import CFLAGS_WARN, CSources
+from workbench.errors import ModelError, WorkbenchError
+
+__all__ = [
+    "CACHE_ENV",
+    "BenchResult",
+    "CompileError",
+    "CompiledController",
+    "ExportError",
+    "Optimization",
+    "bench_c",
+    "cache_root",
+    "compile_sources",
+    "export",
+]
+
+CACHE_ENV = "WORKBENCH_CODEGEN_CACHE"
+"""Environment variable naming the cache directory (default
+``$XDG_CACHE_HOME/workbench/codegen`` or ``~/.cache/workbench/codegen``)."""
+
+
+class CompileError(WorkbenchError, RuntimeError):
+    """The C compiler (or a compiled program) failed; the message carries its output.
+
+    Attributes
+    ----------
+    command : list of str
+        The command that failed.
+    returncode : int or None
+        Its exit status (``None`` if it could not be started).
+    stderr : str
+        What it printed on stderr.
+    """
+
+    def __init__(self, message: str, *, command: list[str], returncode: int | None,
+                 stderr: str) -> None:
+        super().__init__(message)
+        self.command, self.returncode, self.stderr = command, returncode, stderr
+
+
+class ExportError(WorkbenchError, ValueError):
+    """The output directory of an export cannot be used (missing, not writable, a file)."""
+
+
+class Optimization(str, Enum):
+    """Optimisation flags of the compilation (always with the warning flags).
+
+    Attributes
+    ----------
+    O2
+        ``-O2``: the default; portable code, results bit-identical to casadi's virtual
+        machine in the measured cases.
+    O3
+        ``-O3``.
+    NATIVE
+        ``-O3 -march=native``: for the machine it is built on only; may contract
+        ``a*b + c`` into fused multiply-adds (last-bit differences).
+    """
+
+    O2 = "O2"
+    O3 = "O3"
+    NATIVE = "O3-native"
+
+    @property
+    def flags(self) -> tuple[str, ...]:
+        """The compiler flags."""
+        return {"O2": ("-O2",), "O3": ("-O3",), "O3-native": ("-O3", "-march=native")}[
+            self.value]
+
+
+def cache_root(cache_dir: str | os.PathLike | None = None) -> Path:
+    """The cache directory of compiled controllers.
+
+    ``cache_dir`` if given, else ``$WORKBENCH_CODEGEN_CACHE``, else the user cache
+    (``$XDG_CACHE_HOME/workbench/codegen`` or ``~/.cache/workbench/codegen``).
+    """
+    if cache_dir is not None:
+        return Path(cache_dir)
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "workbench" / "codegen"
+
+
+def _run(command: list[str], *, cwd: Path, what: str) -> subprocess.CompletedProcess:
+    try:
+        proc = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False)
+    except OSError as exc:
+        raise CompileError(f"{what}: cannot run {command[0]!r} ({exc.strerror}); is it "
+                           f"installed and on PATH?", command=command, returncode=None,
+                           stderr=str(exc)) from exc
+    if proc.returncode != 0:
+        raise CompileError(
+            f"{what} failed (exit status {proc.returncode}) running "
+            f"{' '.join(command)}:\n{proc.stderr.strip() or proc.stdout.strip()}",
+            command=command, returncode=proc.returncode, stderr=proc.stderr)
+    return proc
+
+
+@lru_cache(maxsize=8)
+def _compiler_version(compiler: str) -> str:
+    proc = _run([compiler, "--version"], cwd=Path.cwd(), what="compiler version query")
+    return proc.stdout.splitlines()[0] if proc.stdout else compiler
+
+
+@dataclass(frozen=True)
+class CompiledController:
+    """A compiled controller in the cache.
+
+    Attributes
+    ----------
+    sources : CSources
+        What was compiled.
+    optimization : Optimization
+        The optimisation flags.
+    directory : Path
+        ``<cache>/<name>-<hash>``: sources, ``lib<name>.so``, ``example``, ``bench``.
+    hash : str
+        SHA-256 of the sources, the compiler command and the compiler version.
+    cached : bool
+        Whether the build was found in the cache (nothing compiled).
+    """
+
+    sources: CSources
+    optimization: Optimization
+    directory: Path
+    hash: str
+    cached: bool
+
+    @property
+    def library(self) -> Path:
+        """The shared library."""
+        return self.directory / f"lib{self.sources.name}.so"
+
+    def function(self) -> ca.Function:
+        """The compiled function loaded back through :func:`casadi.external`."""
+        return ca.external(self.sources.name, str(self.library))
+
+    def step(self, states: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Call the C function ``NAME_step`` (through ctypes) on every row of ``states``.
+
+        Parameters
+        ----------
+        states : ndarray, shape=(n, nx)
+            States.
+        p : ndarray, shape=(n_p,)
+            The run-time vector of the binding (empty for ``FROZEN``).
+
+        Returns
+        -------
+        ndarray, shape=(n, nu)
+
+        Raises
+        ------
+        CompileError
+            ``NAME_step`` returned a non-zero status.
+        """
+        src = self.sources
+        X = np.ascontiguousarray(states, dtype=float)
+        pv = np.ascontiguousarray(np.ravel(p), dtype=float)
+        if X.ndim != 2 or X.shape[1] != src.nx or pv.size != src.n_p:
+            raise ModelError(f"{src.name}_step needs states of shape (n, {src.nx}) and p of "
+                             f"size {src.n_p}; got {X.shape} and {pv.size}")
+        fn = ctypes.CDLL(str(self.library))[f"{src.name}_step"]
+        dp = ctypes.POINTER(ctypes.c_double)
+        fn.argtypes, fn.restype = [dp, dp, dp], ctypes.c_int
+        U = np.empty((X.shape[0], src.nu))
+        pbuf = np.zeros(max(1, pv.size))
+        pbuf[:pv.size] = pv
+        pp = pbuf.ctypes.data_as(dp)
+        for i in range(X.shape[0]):
+            status = fn(X[i].ctypes.data_as(dp), pp, U[i].ctypes.data_as(dp))
+            if status != 0:
+                raise CompileError(f"{src.name}_step returned status {status} at state {i}",
+                                   command=[], returncode=status, stderr="")
+        return U
+
+    def run_example(self) -> list[float]:
+        """Run the example program; return the ``u`` it prints."""
+        out = _run([str(self.directory / "example")], cwd=self.directory,
+                   what=f"example of {self.sources.name}").stdout
+        return [float(v) for v in re.findall(r"^u\[\d+\] = (\S+)$", out, re.M)]
+
+
+def _commands(name: str, compiler: str, opt: Optimization) -> list[list[str]]:
+    flags = [*CFLAGS_WARN, *opt.flags]
+    return [
+        [compiler, *flags, "-fPIC", "-shared", f"{name}.c", "-o", f"lib{name}.so", "-lm"],
+        [compiler, *flags, "-c", f"{name}.c", "-o", f"{name}.o"],
+        [compiler, *flags, "main.c", f"{name}.o", "-o", "example", "-lm"],
+        [compiler, *flags, "bench.c", f"{name}.o", "-o", "bench", "-lm"],
+    ]
+
+
+def compile_sources(sources: CSources, *, optimization: Optimization,
+                    compiler: str = "gcc", cache_dir: str | os.PathLike | None = None
+                    ) -> CompiledController:
+    """Compile the sources into the cache (or reuse an identical cached build).
+
+    Parameters
+    ----------
+    sources : CSources
+        From :func:`workbench.codegen.csource.generate`.
+    optimization : Optimization
+        Optimisation flags (the warning flags ``-std=c99 -Wall -Wextra -Werror`` are
+        always on).
+    compiler : str
+        The C compiler command.
+    cache_dir : path-like, optional
+        Cache directory (see :func:`cache_root`).
+
+    Returns
+    -------
+    CompiledController
+
+    Raises
+    ------
+    CompileError
+        The compiler is missing or failed (its message included).
+    """
+    opt = Optimization(optimization)
+    commands = _commands(sources.name, compiler, opt)
+    h = hashlib.sha256()
+    h.update(sources.digest.encode())
+    h.update(json.dumps(commands).encode())
+    h.update(_compiler_version(compiler).encode())
+    digest = h.hexdigest()
+    root = cache_root(cache_dir)
+    final = root / f"{sources.name}-{digest[:20]}"
+    if (final / "manifest.json").is_file():
+        return CompiledController(sources, opt, final, digest, cached=True)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{sources.name}-", dir=root))
+    except OSError as exc:
+        raise ExportError(f"cache directory {str(root)!r} is not writable ({exc.strerror}); "
+                          f"set {CACHE_ENV} or pass cache_dir=") from exc
+    try:
+        for fname, text in sources.files.items():
+            (tmp / fname).write_text(text)
+        for cmd in commands:
+            _run(cmd, cwd=tmp, what=f"compiling {sources.name}")
+        (tmp / "manifest.json").write_text(json.dumps({
+            "name": sources.name, "binding": sources.binding.value, "hash": digest,
+            "source_digest": sources.digest, "commands": commands,
+            "compiler": _compiler_version(compiler), "casadi": ca.__version__,
+            "nx": sources.nx, "np": sources.n_p, "nu": sources.nu, "work": sources.work,
+            "with_jacobian": sources.with_jacobian}, indent=2))
+        try:
+            os.rename(tmp, final)
+        except OSError:
+            if not (final / "manifest.json").is_file():  # not a concurrent identical build
+                raise
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return CompiledController(sources, opt, final, digest, cached=False)
+
+
+@dataclass(frozen=True)
+class BenchResult:
+    """Nanoseconds per call of a compiled step function, measured in C.
+
+    Attributes
+    ----------
+    name : str
+        Controller.
+    median_ns, min_ns, max_ns : float
+        Median, minimum and maximum over batches of the mean time per call.
+    calls, batches : int
+        Calls per batch and number of batches.
+    """
+
+    name: str
+    median_ns: float
+    min_ns: float
+    max_ns: float
+    calls: int
+    batches: int
+
+
+def bench_c(compiled: CompiledController, *, calls: int = 200_000, batches: int = 51
+            ) -> BenchResult:
+    """Run the compiled benchmark program.
+
+    Parameters
+    ----------
+    compiled : CompiledController
+        A compiled controller.
+    calls : int
+        Calls per batch.
+    batches : int
+        Number of batches (1 to 1001); the median over batches is reported.
+
+    Returns
+    -------
+    BenchResult
+    """
+    out = _run([str(compiled.directory / "bench"), str(int(calls)), str(int(batches))],
+               cwd=compiled.directory, what=f"benchmark of {compiled.sources.name}").stdout
+    vals = dict(re.findall(r"(\w+)=(\S+)", out))
+    return BenchResult(compiled.sources.name, float(vals["median_ns"]),
+                       float(vals["min_ns"]), float(vals["max_ns"]), int(vals["calls"]),
+                       int(vals["batches"]))
+
+
+def _writable_target(out_dir: Path) -> Path:
+    """Check ``out_dir`` can receive the export; return the directory for the temp dir."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ExportError(f"output directory {str(out_dir)!r} exists and is not a directory; "
+                          f"expected a directory (it is created if missing)")
+    parent = out_dir if out_dir.is_dir() else out_dir.parent
+    if not parent.is_dir():
+        raise ExportError(f"output directory {str(out_dir)!r} cannot be created: its parent "
+                          f"{str(parent)!r} is not an existing directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ExportError(f"output directory {str(out_dir)!r} is not writable: no write "
+                          f"permission on {str(parent)!r}")
+    return parent
+
+
+def _temp_dir(parent: Path, prefix: str, out_dir: Path) -> Path:
+    try:
+        return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    except OSError as exc:
+        raise ExportError(f"output directory {str(out_dir)!r} is not writable: cannot "
+                          f"create files in {str(parent)!r} ({exc.strerror})") from exc
+
+
+def export(sources: CSources, out_dir: str | os.PathLike) -> list[Path]:
+    """Write the sources to ``out_dir`` without ever leaving a partial export.
+
+    The files are written to a temporary directory first. If ``out_dir`` does not exist,
+    that directory is renamed to it (one atomic step); otherwise each file replaces its
+    namesake atomically, after all were written.
+
+    Parameters
+    ----------
+    sources : CSources
+        The sources (compile them first with :func:`compile_sources` to check them).
+    out_dir : path-like
+        Output directory; created if missing (its parent must exist).
+
+    Returns
+    -------
+    list of Path
+        The written files.
+
+    Raises
+    ------
+    ExportError
+        ``out_dir`` is a file, its parent is missing, or it is not writable.
+    """
+    out = Path(out_dir)
+    tmp = _temp_dir(_writable_target(out), f".{sources.name}-export-", out)
+    try:
+        for fname, text in sources.files.items():
+            (tmp / fname).write_text(text)
+        if not out.exists():
+            os.rename(tmp, out)
+        else:
+            for fname in sources.files:
+                os.replace(tmp / fname, out / fname)
+    except OSError as exc:
+        raise ExportError(f"cannot write the export to {str(out)!r} ({exc.strerror})") from exc
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return [out / f for f in sources.files]

@@ -1,0 +1,201 @@
+"""What an exportable controller is: its function, its documentation, its bindings.
+
+An entry of the registry (:mod:`workbench.codegen.registry`) builds an
+:class:`ExportableController`: the workbench's own controller (a ``casadi.Function``
+``u = k(x, p)`` from :mod:`models.controllers`, or the chain's geometric LQR feedback), the
+model it controls with the parameter values of the paper's example, the default gains of
+that example, the units and meaning of every input and output entry (for the C header),
+an example state (the paper's initial condition), and a sampler of test states that
+crowds the controller's singular or saturated regions.
+
+For :attr:`Binding.PARAMETERS_AND_GAINS` the gains become run-time inputs. The papers'
+laws are written once more with symbolic gains (the ``_law_*`` functions of
+:mod:`workbench.codegen.catalogue`); at the default gains they must reproduce the
+workbench's controller, which ``tests/test_codegen.py`` checks to 1e-12 on the same sampled states.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.model import Context, Model
+
+__all__ = ["Binding", "Entry", "ExportableController", "Law", "Sampler"]
+
+E3 = np.array([0.0, 0.0, 1.0])
+
+
+class Binding(str, Enum):
+    """What the exported code takes at run time besides the state.
+
+    Attributes
+    ----------
+    FROZEN
+        Model parameters and gains are constants of the generated code (smallest, fastest
+        code); the run-time vector ``p`` is empty. Changing a value means exporting again.
+
+    Parameters
+    ----------
+        The model's parameters (:attr:`Model.p`, in its storage order) are the run-time
+        vector ``p``; the gains are constants.
+    PARAMETERS_AND_GAINS
+        ``p`` holds the model's parameters followed by the gains (each flattened row-major).
+        The generated code does not check the gains against the papers' conditions.
+    """
+
+    FROZEN = "frozen"
+    PARAMETERS = "parameters"
+    PARAMETERS_AND_GAINS = "parameters-and-gains"
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One named block of an input or output vector, for the C header.
+
+    Attributes
+    ----------
+    name : str
+        Name, e.g. ``"omega"``.
+    size : int
+        Number of scalars.
+    description : str
+        Meaning, unit and storage order.
+    """
+
+    name: str
+    size: int
+    description: str
+
+
+Law = Callable[[Context, dict[str, Any]], Any]
+Sampler = Callable[[np.random.Generator, int], np.ndarray]
+
+
+@dataclass
+class ExportableController:
+    """A controller of the workbench with everything an export needs.
+
+    Attributes
+    ----------
+    name : str
+        Export name, a C identifier (the prefix of every C symbol).
+    title : str
+        One line: what it is, with the paper's equation numbers.
+    model : Model
+        The controlled model, with the paper's parameter values.
+    function : casadi.Function
+        The workbench's controller ``(x, p) -> u`` (the reference of every check).
+    gains : dict of str to ndarray
+        The default gains (the paper's example), in the order of :attr:`gain_entries`.
+    gain_entries : tuple of Entry
+        Documentation of the gains as run-time inputs.
+    law : callable
+        ``law(ctx, gains) -> u``: the same law with symbolic ``gains`` (dict by name).
+    state_entries : tuple of Entry
+        Documentation of the stored state ``x``.
+    output : Entry
+        Documentation of ``u``.
+    example_state : ndarray
+        A state on the model's manifold (the paper's initial condition).
+    example_note : str
+        Where the example state comes from.
+    singular : str
+        Where the law is singular or saturates (for the header and the tests).
+    sampler : callable
+        ``sampler(rng, n) -> states, shape=(n, nx)``: generic and near-singular states.
+    """
+
+    name: str
+    title: str
+    model: Model
+    function: ca.Function
+    gains: dict[str, np.ndarray]
+    gain_entries: tuple[Entry, ...]
+    law: Law
+    state_entries: tuple[Entry, ...]
+    output: Entry
+    example_state: np.ndarray
+    example_note: str
+    singular: str
+    sampler: Sampler
+    _cache: dict[Binding, ca.Function] = field(default_factory=dict, repr=False)
+
+    @property
+    def nx(self) -> int:
+        """Size of the stored state."""
+        return int(self.model.manifold.ambient_dim)
+
+    @property
+    def nu(self) -> int:
+        """Number of inputs of the model (size of ``u``)."""
+        return int(self.model.n_inputs)
+
+    def parameter_entries(self) -> tuple[Entry, ...]:
+        """The model's parameters as header entries (matrices row-major)."""
+        return tuple(Entry(p.name, p.size, p.description + (
+            ", row-major" if len(p.shape) == 2 else "")) for p in self.model.parameters)
+
+    def runtime_entries(self, binding: Binding) -> tuple[Entry, ...]:
+        """Layout of the run-time vector ``p`` for a binding."""
+        binding = Binding(binding)
+        if binding is Binding.FROZEN:
+            return ()
+        if binding is Binding.PARAMETERS:
+            return self.parameter_entries()
+        return self.parameter_entries() + self.gain_entries
+
+    def runtime_values(self, binding: Binding) -> np.ndarray:
+        """The run-time vector ``p`` holding the model's values and the default gains."""
+        binding = Binding(binding)
+        if binding is Binding.FROZEN:
+            return np.zeros(0)
+        if binding is Binding.PARAMETERS:
+            return np.asarray(self.model.p, dtype=float)
+        flat = [np.asarray(self.gains[e.name], dtype=float).reshape(-1) for e in
+                self.gain_entries]
+        return np.concatenate([self.model.p, *flat])
+
+    def function_for(self, binding: Binding) -> ca.Function:
+        """The SX function exported for a binding, named :attr:`name`.
+
+        ``FROZEN``: ``x -> u`` with the model's values substituted (constants folded);
+        ``PARAMETERS``: the workbench's controller ``(x, p) -> u`` (expanded to SX);
+        ``PARAMETERS_AND_GAINS``: ``(x, p) -> u`` from :attr:`law` with ``p`` the model's
+        parameters followed by the gains.
+        """
+        binding = Binding(binding)
+        if binding in self._cache:
+            return self._cache[binding]
+        x = ca.SX.sym("x", self.nx)
+        ref = self.function.expand() if self.function.is_a("MXFunction") else self.function
+        if binding is Binding.FROZEN:
+            fn = ca.Function(self.name, [x], [ref(x, ca.DM(self.model.p))], ["x"], ["u"])
+        elif binding is Binding.PARAMETERS:
+            p = ca.SX.sym("p", self.model.n_params)
+            fn = ca.Function(self.name, [x, p], [ref(x, p)], ["x", "p"], ["u"])
+        else:
+            n_par = self.model.n_params
+            n_all = n_par + sum(e.size for e in self.gain_entries)
+            p = ca.SX.sym("p", n_all)
+            ctx = Context(self.model, x, ca.SX.sym("u", self.nu), p[:n_par])
+            gains, k = {}, n_par
+            for e in self.gain_entries:
+                shape = np.shape(self.gains[e.name])
+                piece = p[k:k + e.size]
+                gains[e.name] = (ca.reshape(piece, shape[1], shape[0]).T
+                                 if len(shape) == 2 else piece)
+                k += e.size
+            fn = ca.Function(self.name, [x, p], [ca.vec(self.law(ctx, gains))], ["x", "p"],
+                             ["u"], {"cse": True})
+        self._cache[binding] = fn
+        return fn
+
+    def sample_states(self, n: int, *, seed: int) -> np.ndarray:
+        """``n`` seeded test states, shape ``(n, nx)`` (see :attr:`sampler`)."""
+        return np.asarray(self.sampler(np.random.default_rng(seed), int(n)), dtype=float)
