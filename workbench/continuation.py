@@ -1,0 +1,679 @@
+"""Continuation of one-dimensional zero sets on manifolds (pseudo-arclength).
+
+A branch is a curve of zeros of a :class:`~workbench.equilibria.ZeroProblem`
+``F: P -> R^m`` whose tangent Jacobian ``A = dF/dy N`` has rank ``dim P - 1`` (redundant
+rows are allowed: the rank, not the row count, decides). From a point ``y`` with unit
+tangent ``d`` (ambient coordinates; the null vector of ``A``) a step of length ``h``
+
+* predicts ``retract(y, h t)``, so the predictor is exactly on ``P``;
+* corrects by Newton on the manifold for ``F(z) = 0`` and Keller's arclength condition
+  ``d . (z - y) = h`` (ambient inner product);
+* is accepted if the corrector converges within ``max_corrector_iterations`` and the
+  tangent turns by less than ``max_turn``; otherwise ``h`` is halved, down to
+  ``min_step``. Accepted steps grow towards a turn of ``max_turn / 2`` per step.
+
+Along the branch the continuation records the problem's monitors, and reports special
+points, each located to ``locate_tol`` by re-correcting points inside the step:
+
+* events: zero crossings of named monitors (e.g. ``k = 0``, a static equilibrium);
+* bounds: a monitor leaving a declared interval ends the branch there (e.g. ``|k| = k_max``
+  on a branch that goes to infinity);
+* simple branch points: sign changes of the bordered determinant
+  ``det [U^T A; t^T]`` (``U`` a range basis carried from the previous point, the sign
+  corrected for the change of tangent basis), where two branches cross;
+  :func:`switch_branch` follows the other one;
+* changes of a user classification (the stability from the eigenstructure).
+
+Every knob that trades speed for accuracy is a field of :class:`StepControl`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Hashable, Mapping, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+from scipy.optimize import brentq
+
+from workbench._types import ArrayLike, Matrix, Vector
+from workbench.equilibria import (
+    Root,
+    ZeroProblem,
+    check_count,
+    check_positive,
+    newton_on_manifold,
+)
+from workbench.errors import ManifoldError, ParameterError, SolverError
+
+__all__ = [
+    "StepControl",
+    "EndReason",
+    "PointKind",
+    "SpecialPoint",
+    "Branch",
+    "continue_branch",
+    "switch_branch",
+    "correct_point",
+]
+
+
+@dataclass(frozen=True)
+class StepControl:
+    """Accuracy and step-size knobs of the continuation.
+
+    Attributes
+    ----------
+    step : float
+        First step length (ambient arclength).
+    min_step : float
+        A step that fails at this length ends the branch (STEP_TOO_SMALL).
+    max_step : float
+        Largest step length.
+    max_turn : float
+        Largest angle [rad] between consecutive tangents; steps aim at half of it.
+    growth : float
+        Largest factor by which a step grows after an easy one.
+    tol : float
+        Corrector convergence: ``max |F| <= tol`` (absolute).
+    step_tol : float
+        The corrector also stops when its Newton step is below this (roundoff level).
+    max_corrector_iterations : int
+        Corrector iterations allowed per step.
+    rank_rtol : float
+        Relative singular-value cutoff for ranks and null spaces.
+    locate_tol : float
+        Special points are located to this arclength.
+    """
+
+    step: float = 0.02
+    min_step: float = 1e-8
+    max_step: float = 0.25
+    max_turn: float = 0.15
+    growth: float = 2.0
+    tol: float = 1e-11
+    step_tol: float = 1e-14
+    max_corrector_iterations: int = 6
+    rank_rtol: float = 1e-8
+    locate_tol: float = 1e-10
+
+    def __post_init__(self) -> None:
+        for name in ("step", "min_step", "max_step", "max_turn", "tol", "step_tol",
+                     "rank_rtol", "locate_tol"):
+            check_positive(name, getattr(self, name))
+        check_count("max_corrector_iterations", self.max_corrector_iterations)
+        if not self.min_step <= self.step <= self.max_step:
+            raise ParameterError(
+                f"need min_step <= step <= max_step; got {self.min_step}, {self.step}, "
+                f"{self.max_step}"
+            )
+        if not self.growth >= 1.0:
+            raise ParameterError(f"growth must be >= 1; got {self.growth}")
+
+
+class EndReason(Enum):
+    """Why a branch ended.
+
+    Attributes
+    ----------
+    BOUND
+        A monitor reached a bound (the end point lies on it).
+    STOP_EVENT
+        A terminal event was reached (the end point is the event).
+    MAX_POINTS
+        The point limit.
+    MAX_ARCLENGTH
+        The arclength limit.
+    CLOSED
+        The branch returned to its start (a closed curve).
+    STEP_TOO_SMALL
+        The corrector failed down to ``min_step``: a singular point the method could not
+        pass, or the end of the zero set.
+    """
+
+    BOUND = "bound"
+    STOP_EVENT = "stop_event"
+    MAX_POINTS = "max_points"
+    MAX_ARCLENGTH = "max_arclength"
+    CLOSED = "closed"
+    STEP_TOO_SMALL = "step_too_small"
+
+
+class PointKind(Enum):
+    """Kinds of special points on a branch."""
+
+    EVENT = "event"
+    BOUND = "bound"
+    BRANCH_POINT = "branch_point"
+    CLASS_CHANGE = "class_change"
+
+
+@dataclass
+class SpecialPoint:
+    """A located special point.
+
+    Attributes
+    ----------
+    kind : PointKind
+    name : str
+        The monitor's name, ``"branch point"`` or ``"classification"``.
+    y : ndarray
+        The located point (a zero of F).
+    s : float
+        Its arclength along the branch.
+    index : int
+        Index of the branch point just before it.
+    residual : float
+        ``max |F(y)|``.
+    tangent : ndarray
+        Unit ambient tangent of the branch there (incoming orientation).
+    data : dict
+        Kind-specific: monitor values; for a branch point the singular values of A; for a
+        class change ``before`` and ``after``.
+    """
+
+    kind: PointKind
+    name: str
+    y: Vector
+    s: float
+    index: int
+    residual: float
+    tangent: Vector
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data."""
+        return {"kind": self.kind.value, "name": self.name, "s": self.s,
+                "residual": self.residual, "y": self.y.tolist(),
+                "data": {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v)
+                         for k, v in self.data.items()}}
+
+
+@dataclass
+class Branch:
+    """A traced branch with its cost and accuracy.
+
+    Attributes
+    ----------
+    problem : str
+        The problem's name.
+    points : ndarray, shape=(n, ambient_dim)
+        Zeros along the branch, in order (the start first).
+    tangents : ndarray, shape=(n, ambient_dim)
+        Unit ambient tangents, oriented along the direction of travel.
+    s : ndarray, shape=(n,)
+        Arclength (sum of the accepted step lengths).
+    residuals : ndarray, shape=(n,)
+        ``max |F|`` at every point.
+    monitors : dict of str to ndarray
+        Every monitor of the problem at every point.
+    labels : list
+        The classification of every point (empty without ``classify``).
+    special : list of SpecialPoint
+        Events, bounds, branch points and class changes, in order of arclength.
+    end : EndReason
+    end_message : str
+    corrector_iterations : ndarray
+        Per accepted step (0 for the start).
+    rejected_steps : int
+    evaluations : int
+        Evaluations of F with its Jacobian.
+    wall_time : float
+    """
+
+    problem: str
+    points: Vector
+    tangents: Vector
+    s: Vector
+    residuals: Vector
+    monitors: dict[str, Vector]
+    labels: list[Hashable]
+    special: list[SpecialPoint]
+    end: EndReason
+    end_message: str
+    corrector_iterations: Vector
+    rejected_steps: int
+    evaluations: int
+    wall_time: float
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def specials(self, kind: PointKind, name: str | None = None) -> list[SpecialPoint]:
+        """Special points of one kind (and name)."""
+        return [p for p in self.special if p.kind is kind and (name is None or p.name == name)]
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data (no per-point arrays)."""
+        return {
+            "n_points": len(self),
+            "arclength": float(self.s[-1]) if len(self.s) else 0.0,
+            "max_residual": float(np.max(self.residuals)) if len(self) else 0.0,
+            "end": self.end.value,
+            "end_message": self.end_message,
+            "special": [p.summary() for p in self.special],
+            "rejected_steps": self.rejected_steps,
+            "evaluations": self.evaluations,
+            "wall_time": self.wall_time,
+            "mean_corrector_iterations": float(np.mean(self.corrector_iterations[1:]))
+            if len(self) > 1 else 0.0,
+        }
+
+
+# ----------------------------------------------------------------------------------------
+# geometry helpers
+
+
+def _null_tangent(A: Matrix, N: Matrix, rank_rtol: float) -> tuple[Vector, int, Matrix, Vector]:
+    """Null vector of A (last right singular vector), its null dimension, U and sigma."""
+    U, s, Vt = np.linalg.svd(A, full_matrices=True)
+    n = A.shape[1]
+    rank = int(np.sum(s > rank_rtol * s[0])) if s.size and s[0] > 0 else 0
+    t = Vt[-1]
+    t = t / np.linalg.norm(N @ t)
+    return t, n - rank, U[:, : n - 1], s
+
+
+def _bordered_sign(U: Matrix, A: Matrix, t: Vector) -> float:
+    return float(np.sign(np.linalg.det(np.vstack([U.T @ A, t]))))
+
+
+def correct_point(
+    problem: ZeroProblem,
+    y: ArrayLike,
+    d: ArrayLike,
+    h: float,
+    *,
+    control: StepControl,
+    t: ArrayLike | None = None,
+) -> Root:
+    """One predictor-corrector step: from ``y`` along the unit ambient direction ``d``.
+
+    Parameters
+    ----------
+    problem : ZeroProblem
+    y : array-like
+        A zero of the problem.
+    d : array-like, shape=(ambient_dim,)
+        Unit ambient direction (the tangent).
+    h : float
+        Step length.
+    control : StepControl
+    t : array-like, optional
+        ``d`` in the tangent coordinates at ``y`` (computed if omitted).
+
+    Returns
+    -------
+    Root
+        The corrected point, with status.
+    """
+    man = problem.manifold
+    yv = np.asarray(y, dtype=float)
+    dv = np.asarray(d, dtype=float)
+    if t is None:
+        t = np.linalg.lstsq(man.tangent_basis(yv), dv, rcond=None)[0]
+    z0 = man.retract(yv, h * np.asarray(t))
+
+    def fun(z: Vector) -> tuple[Vector, Matrix]:
+        F, A, N = problem.linearization(z)
+        return np.append(F, dv @ (z - yv) - h), np.vstack([A, dv @ N])
+
+    return newton_on_manifold(fun, man, z0, tol=control.tol,
+                              max_iterations=control.max_corrector_iterations,
+                              rank_rtol=1e-14, step_tol=control.step_tol)
+
+
+# ----------------------------------------------------------------------------------------
+# the continuation
+
+
+class _Tracer:
+    """State of one continuation run (kept out of the public function for size)."""
+
+    def __init__(self, problem: ZeroProblem, control: StepControl, events: Sequence[str],
+                 stop_at: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+                 classify: Callable[[Vector], Hashable] | None,
+                 detect_branch_points: bool) -> None:
+        self.problem, self.c = problem, control
+        self.events, self.stop_at = list(events), set(stop_at)
+        self.bounds = dict(bounds)
+        known = problem.monitor_names
+        for name in [*self.events, *self.bounds]:
+            if name not in known:
+                raise ParameterError(
+                    f"unknown monitor {name!r} in events/bounds; the problem's monitors are "
+                    f"{known}"
+                )
+        for name in self.stop_at:
+            if name not in self.events:
+                raise ParameterError(f"stop_at names {name!r}, which is not in events")
+        for name, (lo, hi) in self.bounds.items():
+            if not lo < hi:
+                raise ParameterError(f"bounds[{name!r}] must be (lo, hi) with lo < hi; "
+                                     f"got {(lo, hi)}")
+        self.classify = classify
+        self.detect = detect_branch_points
+
+    # one point's data
+    def info(self, y: Vector, d_ref: Vector | None) -> dict[str, Any]:
+        F, A, N = self.problem.linearization(y)
+        t, nulldim, U, s = _null_tangent(A, N, self.c.rank_rtol)
+        d = N @ t
+        if d_ref is not None and d @ d_ref < 0:
+            t, d = -t, -d
+        return {"y": y, "F": F, "A": A, "N": N, "t": t, "d": d, "U": U, "sigma": s,
+                "nulldim": nulldim, "mon": self.problem.monitors(y)}
+
+    def crossing_sign(self, prev: dict[str, Any], new: dict[str, Any]) -> tuple[float, float]:
+        """Bordered-determinant signs at prev and new in prev's range frame."""
+        s_prev = _bordered_sign(prev["U"], prev["A"], prev["t"])
+        C = np.linalg.lstsq(new["N"], prev["N"], rcond=None)[0]
+        s_new = _bordered_sign(prev["U"], new["A"], new["t"]) * np.sign(np.linalg.det(C))
+        return s_prev, s_new
+
+    def point_at(self, prev: dict[str, Any], theta: float, h: float) -> dict[str, Any]:
+        root = correct_point(self.problem, prev["y"], prev["d"], theta * h, control=self.c,
+                             t=prev["t"])
+        if not root.ok:
+            raise SolverError(f"locating a special point: corrector failed ({root.message})",
+                              status=root.status.value)
+        return self.info(root.x, prev["d"])
+
+    def locate_scalar(self, prev: dict[str, Any], h: float,
+                      g: Callable[[dict[str, Any]], float]) -> tuple[dict[str, Any], float]:
+        cache: dict[float, dict[str, Any]] = {}
+
+        def fn(theta: float) -> float:
+            if theta == 0.0:
+                return g(prev)
+            cache[theta] = self.point_at(prev, theta, h)
+            return g(cache[theta])
+
+        theta = brentq(fn, 0.0, 1.0, xtol=self.c.locate_tol / h, rtol=4 * np.finfo(float).eps)
+        pt = cache.get(theta) or self.point_at(prev, theta, h)
+        return pt, theta
+
+    def locate_change(self, prev: dict[str, Any], h: float,
+                      same: Callable[[dict[str, Any]], bool]) -> tuple[dict[str, Any], float]:
+        lo, hi, best = 0.0, 1.0, None
+        while (hi - lo) * h > self.c.locate_tol and hi - lo > 1e-14:
+            mid = 0.5 * (lo + hi)
+            pt = self.point_at(prev, mid, h)
+            if same(pt):
+                lo = mid
+            else:
+                hi, best = mid, pt
+        theta = 0.5 * (lo + hi)
+        return self.point_at(prev, theta, h) if theta > 0 else (best or prev), theta
+
+
+def continue_branch(
+    problem: ZeroProblem,
+    start: ArrayLike,
+    *,
+    direction: ArrayLike | None = None,
+    control: StepControl | None = None,
+    max_points: int = 1000,
+    max_arclength: float = math.inf,
+    events: Sequence[str] = (),
+    stop_at: Sequence[str] = (),
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    classify: Callable[[Vector], Hashable] | None = None,
+    detect_branch_points: bool = True,
+    start_tol: float = 1e-9,
+) -> Branch:
+    """Trace the branch of zeros through ``start`` in one direction.
+
+    Parameters
+    ----------
+    problem : ZeroProblem
+        The map whose zero set is followed.
+    start : array-like, shape=(ambient_dim,)
+        A point on the manifold near the branch (corrected by Newton first; its residual
+        must reach ``control.tol``).
+    direction : array-like, shape=(ambient_dim,), optional
+        Ambient vector choosing the orientation: the first tangent has a positive inner
+        product with it. Without it, the sign of the computed null vector is used.
+    control : StepControl, optional
+        Step and accuracy knobs.
+    max_points, max_arclength
+        Limits (ends MAX_POINTS, MAX_ARCLENGTH).
+    events : sequence of str
+        Monitors whose zero crossings are located and reported.
+    stop_at : sequence of str
+        Events that end the branch (the end point is the located event).
+    bounds : mapping of str to (float, float)
+        Monitor ranges; leaving one ends the branch on the bound (BOUND).
+    classify : callable, optional
+        ``classify(y) -> label`` at every point; label changes are located.
+    detect_branch_points : bool
+        Locate sign changes of the bordered determinant (simple branch points).
+    start_tol : float
+        Largest constraint residual accepted for ``start`` on the manifold.
+
+    Returns
+    -------
+    Branch
+
+    Raises
+    ------
+    ManifoldError
+        If ``start`` is off the manifold.
+    SolverError
+        If the start cannot be corrected onto the zero set, or the zero set is not a
+        curve there (null space of dimension other than 1: an isolated zero, a surface of
+        zeros, or a branch point; see :func:`switch_branch`).
+    """
+    t_start = time.perf_counter()
+    c = control or StepControl()
+    max_points = check_count("max_points", max_points, minimum=2)
+    tr = _Tracer(problem, c, events, stop_at, bounds or {}, classify, detect_branch_points)
+    man = problem.manifold
+    y0 = man.check(start, name="start", tol=start_tol)
+    ev0 = problem.evaluations
+
+    def fun(z: Vector) -> tuple[Vector, Matrix]:
+        F, A, _ = problem.linearization(z)
+        return F, A
+
+    root = newton_on_manifold(fun, man, y0, tol=c.tol, max_iterations=30,
+                              rank_rtol=c.rank_rtol, step_tol=c.step_tol)
+    if not root.ok:
+        raise SolverError(f"continue_branch({problem.name}): the start is not near a zero: "
+                          f"{root.message}", status=root.status.value)
+    d_hint = None if direction is None else np.asarray(direction, dtype=float).ravel()
+    cur = tr.info(root.x, None)
+    if cur["nulldim"] != 1:
+        raise SolverError(
+            f"continue_branch({problem.name}): the zero set at the start is not a curve: "
+            f"the Jacobian has a null space of dimension {cur['nulldim']} (singular values "
+            f"{np.array2string(cur['sigma'], precision=3)}); 0 means an isolated zero, 2 or "
+            f"more a surface of zeros or a branch point (use switch_branch)",
+            status="not_a_curve",
+        )
+    if d_hint is not None:
+        if d_hint.size != man.ambient_dim:
+            raise ManifoldError(f"direction must have {man.ambient_dim} entries; "
+                                f"got {d_hint.size}")
+        proj = float(cur["d"] @ d_hint)
+        if abs(proj) <= 1e-6 * np.linalg.norm(d_hint):
+            raise ParameterError(
+                "direction is orthogonal to the branch tangent at the start; it cannot "
+                f"choose an orientation (tangent {np.round(cur['d'], 6).tolist()})"
+            )
+        if proj < 0:
+            cur["t"], cur["d"] = -cur["t"], -cur["d"]
+
+    pts, tans, arc, res, iters = [cur["y"]], [cur["d"]], [0.0], [root.residual], [0]
+    mons = {k: [v] for k, v in cur["mon"].items()}
+    labels = [classify(cur["y"])] if classify else []
+    special: list[SpecialPoint] = []
+    first = cur
+    h, rejected, s = c.step, 0, 0.0
+    end, end_msg = EndReason.MAX_POINTS, f"reached max_points = {max_points}"
+
+    def record(pt: dict[str, Any], s_pt: float, it: int, residual: float,
+               label: Hashable = None) -> None:
+        pts.append(pt["y"])
+        tans.append(pt["d"])
+        arc.append(s_pt)
+        res.append(residual)
+        iters.append(it)
+        for k, v in pt["mon"].items():
+            mons[k].append(v)
+        if classify:
+            labels.append(classify(pt["y"]) if label is None else label)
+
+    def special_at(kind: PointKind, name: str, pt: dict[str, Any], s_pt: float,
+                   data: dict[str, Any]) -> SpecialPoint:
+        sp = SpecialPoint(kind, name, pt["y"], s_pt, len(pts) - 1,
+                          float(np.max(np.abs(pt["F"]))), pt["d"], {**pt["mon"], **data})
+        special.append(sp)
+        return sp
+
+    while len(pts) < max_points:
+        if s >= max_arclength:
+            end, end_msg = EndReason.MAX_ARCLENGTH, f"reached max_arclength = {max_arclength}"
+            break
+        h = min(h, max_arclength - s) if math.isfinite(max_arclength) else h
+        root = correct_point(problem, cur["y"], cur["d"], h, control=c, t=cur["t"])
+        new = tr.info(root.x, cur["d"]) if root.ok else None
+        turn = (float(np.arccos(np.clip(new["d"] @ cur["d"], -1.0, 1.0)))
+                if new is not None else math.inf)
+        if new is None or turn > c.max_turn:
+            rejected += 1
+            if h <= c.min_step:
+                end = EndReason.STEP_TOO_SMALL
+                end_msg = (f"step failed at min_step = {c.min_step:g} "
+                           f"({root.message if not root.ok else f'turn {turn:.3g} rad'}): "
+                           f"a singular point or the end of the zero set")
+                break
+            h = max(0.5 * h, c.min_step)
+            continue
+        # special points inside the accepted step [cur, new]
+        stop = None
+        crossings = [("event", n) for n in tr.events if cur["mon"][n] * new["mon"][n] < 0]
+        crossings += [("bound", n) for n, (lo, hi) in tr.bounds.items()
+                      if not lo <= new["mon"][n] <= hi]
+        for kind, name in crossings:
+            if kind == "event":
+                pt, th = tr.locate_scalar(cur, h, lambda p, n=name: p["mon"][n])
+                special_at(PointKind.EVENT, name, pt, s + th * h, {})
+                if name in tr.stop_at and (stop is None or th < stop[1]):
+                    stop = (EndReason.STOP_EVENT, th, pt, f"stopped at the event {name} = 0")
+            else:
+                lo, hi = tr.bounds[name]
+                edge = hi if new["mon"][name] > hi else lo
+                pt, th = tr.locate_scalar(cur, h, lambda p, n=name, e=edge: p["mon"][n] - e)
+                special_at(PointKind.BOUND, name, pt, s + th * h, {"bound": edge})
+                if stop is None or th < stop[1]:
+                    stop = (EndReason.BOUND, th, pt, f"{name} reached its bound {edge:g}")
+        if tr.detect:
+            s_prev, s_new = tr.crossing_sign(cur, new)
+            if s_prev * s_new < 0:
+                ref = cur
+
+                def same_side(p: dict[str, Any], ref: dict[str, Any] = ref) -> bool:
+                    a, b = tr.crossing_sign(ref, p)
+                    return a * b > 0
+
+                pt, th = tr.locate_change(cur, h, same_side)
+                if stop is None or th < stop[1]:
+                    special_at(PointKind.BRANCH_POINT, "branch point", pt, s + th * h,
+                               {"sigma": pt["sigma"]})
+        lab_new = None
+        if classify and stop is None:
+            lab_new = classify(new["y"])
+            if lab_new != labels[-1]:
+                before = labels[-1]
+                pt, th = tr.locate_change(cur, h, lambda p, b=before: classify(p["y"]) == b)
+                special_at(PointKind.CLASS_CHANGE, "classification", pt, s + th * h,
+                           {"before": before, "after": lab_new})
+        special.sort(key=lambda p: p.s)
+        if stop is not None:
+            end, th, pt, end_msg = stop[0], stop[1], stop[2], stop[3]
+            record(pt, s + th * h, root.iterations, float(np.max(np.abs(pt["F"]))))
+            s += th * h
+            special = [p for p in special if p.s <= s + c.locate_tol]
+            break
+        s += h
+        record(new, s, root.iterations, root.residual, lab_new)
+        cur = new
+        # closed curve: back at the start, same orientation
+        if s > 4 * h and np.linalg.norm(cur["y"] - first["y"]) < 0.5 * h and \
+                cur["d"] @ first["d"] > 0:
+            end, end_msg = EndReason.CLOSED, "returned to the start: a closed curve of zeros"
+            break
+        factor = min(c.growth, max(0.5, 0.5 * c.max_turn / max(turn, 1e-12)))
+        if root.iterations >= c.max_corrector_iterations - 1:
+            factor = min(factor, 0.7)
+        h = float(np.clip(h * factor, c.min_step, c.max_step))
+
+    return Branch(
+        problem=problem.name,
+        points=np.array(pts),
+        tangents=np.array(tans),
+        s=np.array(arc),
+        residuals=np.array(res),
+        monitors={k: np.array(v) for k, v in mons.items()},
+        labels=labels,
+        special=special,
+        end=end,
+        end_message=end_msg,
+        corrector_iterations=np.array(iters),
+        rejected_steps=rejected,
+        evaluations=problem.evaluations - ev0,
+        wall_time=time.perf_counter() - t_start,
+    )
+
+
+def switch_branch(
+    problem: ZeroProblem,
+    point: SpecialPoint,
+    *,
+    step: float,
+    control: StepControl | None = None,
+) -> list[tuple[Vector, Vector]]:
+    """Starts on the other branch through a located simple branch point.
+
+    At the branch point the Jacobian has a two-dimensional null space containing the
+    incoming tangent; the other branch leaves along (approximately) the null direction
+    orthogonal to it. From the branch point, a step of length ``step`` along each sign of
+    that direction is corrected with Keller's condition (which selects the branch that
+    crosses the hyperplane at distance ``step``).
+
+    Parameters
+    ----------
+    problem : ZeroProblem
+    point : SpecialPoint
+        A BRANCH_POINT of a traced branch.
+    step : float
+        Distance from the branch point.
+    control : StepControl, optional
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        ``(start, direction)`` pairs for :func:`continue_branch`, one per side that
+        converged; each start is a zero at distance ``step`` from the branch point.
+    """
+    if point.kind is not PointKind.BRANCH_POINT:
+        raise ParameterError(f"point must be a branch point; got a {point.kind.value}")
+    c = control or StepControl()
+    step = check_positive("step", step)
+    _, A, N = problem.linearization(point.y)
+    _, _, Vt = np.linalg.svd(A)
+    Q = np.linalg.qr(N @ Vt[-2:].T)[0]  # ambient basis of the two-dimensional null space
+    a, b = Q.T @ point.tangent
+    d = Q @ np.array([-b, a])  # the null direction orthogonal to the incoming tangent
+    d /= np.linalg.norm(d)
+    t = np.linalg.lstsq(N, d, rcond=None)[0]
+    out = []
+    for sign in (1.0, -1.0):
+        root = correct_point(problem, point.y, sign * d, step, control=c, t=sign * t)
+        if root.ok:
+            out.append((root.x, sign * d))
+    return out
