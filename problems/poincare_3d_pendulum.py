@@ -12,8 +12,9 @@ c      E [J]     what the map shows (measured by the finite-time Lyapunov expone
 1      -2.653    regular (a): small oscillations about the hanging attitude, points on
                  closed curves; FTLE ~ 0.005/s, decaying like log(t)/t
 3      -0.333    chaotic (b): points scatter over an area; FTLE ~ 0.4/s
-4.5     2.930    chaotic (c): just below the inverted energy m g |rho| = 2.943; FTLE ~ 0.9/s
-6       7.497    chaotic (d): above the inverted energy, still mixing; FTLE ~ 0.6/s
+4.5     2.930    chaotic (c): just below the inverted energy m g |rho| = 2.943; FTLE ~ 1/s
+6       7.497    chaotic (d): above the inverted energy, still mixing, with sticky
+                 regions (FTLE 0.2-0.6/s depending on the horizon)
 10     26.057    regular (e): fast rotation, points on curves again; FTLE ~ 0.015/s
 =====  ========  ==========================================================================
 
@@ -148,7 +149,7 @@ def solve(*, quick: bool = False) -> Result:
                                 lyapunov_time=[t_ly]), workers=2, desc="Poincare orbits")
     items = out.values()
     per_c: dict[str, Any] = {}
-    ftle_tol = 0.1 if quick else 0.05
+    ftle_tol = 0.08 if quick else 0.05  # regular orbits: ~log(t)/t, 0.06 at 100 s
     for it in items:
         c, orb = it["c"], it["orbit"]
         d = orb.diagnostics
@@ -168,8 +169,8 @@ def solve(*, quick: bool = False) -> Result:
             res.compare(f"c = {c}: FTLE [1/s] (regular: near 0)", 0.0, it["ftle"],
                         tolerance=ftle_tol, source="Fig. 5.1 (a), (e) periodic")
         else:
-            res.compare(f"c = {c}: FTLE >= 0.2 / s (chaotic; 1 = yes)", 1.0,
-                        float(it["ftle"] >= 0.2), tolerance=0,
+            res.compare(f"c = {c}: FTLE >= 0.1 / s (chaotic; 1 = yes)", 1.0,
+                        float(it["ftle"] >= 0.1), tolerance=0,
                         source="Fig. 5.1 (b), (c) chaotic")
         per_c[f"c={c}"] = {
             "energy": d["invariant_initial"], "mu": it["mu"], "ftle": it["ftle"],
@@ -263,9 +264,9 @@ def _figure(orbits: list[PoincareOrbit], cs: list[float], ftles: list[float]):  
         ax.set_box_aspect((1, 1, 1))
         ax.view_init(elev=-60, azim=30)
         ax.set_axis_off()
+    fig.tight_layout(rect=(0, 0, 1, 0.9))
     fig.suptitle("Poincare section P of the Routh model: Gamma at e3.Gamma-dot = 0, "
                  "e3.(Gamma x Gamma-dot) > 0", fontsize=10)
-    fig.tight_layout()
     return fig
 
 
