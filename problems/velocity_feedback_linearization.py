@@ -19,6 +19,11 @@ inverted equilibrium, on TSO(3) (dimension 6) and on S^2 x R^3 (dimension 5, (16
    plane with at least one negative real; inverted: one zero, three negative and two
    positive real eigenvalues; on S^2 x R^3 the zero is gone and the inverted equilibrium
    is a hyperbolic saddle with a 3-dimensional stable subspace, the tangent of M_i).
+3. Remarks 2-3 derived symbolically: for J = diag(J1, J2, J3), rho = rho e3 and
+   u = -diag(k1, k2, k3) omega, the closed-loop characteristic polynomial is read from the
+   reduced model's graph into sympy (workbench.symbolic), factored and printed, and
+   checked to equal (s^2 + (k1/J1) s +- m g rho/J1)(s^2 + (k2/J2) s +- m g rho/J2)
+   (s + k3/J3) (d_i = k_i / J_i and m g l_i = m g rho / J_i for this body).
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from models import controllers as ctl
 from models import pendulum3d as p3
@@ -37,6 +43,7 @@ from problems.pendulum3d_linearization import (
 from workbench.eigen import eigenstructure
 from workbench.linearize import linearize
 from workbench.result import Result
+from workbench.symbolic import symbolic_linearization
 
 TITLE = "Angular-velocity feedback: closed-loop spectra at hanging and inverted (paper 001)"
 
@@ -63,6 +70,36 @@ def _signs(ev: np.ndarray, tol: float) -> dict[str, int]:
         "left_half_plane": int(np.sum(re < -tol)),
         "right_half_plane": int(np.sum(re > tol)),
     }
+
+
+def _symbolic_remark(res: Result) -> dict[str, str]:
+    """Remarks 2-3 derived in sympy from the reduced model's graph (workbench.symbolic).
+
+    With J = diag(J1, J2, J3) and rho = rho e3 (so M = diag(sqrt(J_i)), D = diag(k_i / J_i),
+    m g l_i = m g rho / J_i) and u = -diag(k1, k2, k3) omega, the characteristic polynomial
+    of the closed loop is read from the graph and compared with the Remark's product.
+    """
+    J1, J2, J3, r, m, g, k1, k2, k3 = sp.symbols("J1 J2 J3 rho m g k1 k2 k3", positive=True)
+    model = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.4])
+    res.use(model)
+    out: dict[str, str] = {}
+    for eq, k in (("hanging", 1), ("inverted", -1)):
+        x_e = model.state(Gamma=[0.0, 0.0, float(k)], omega=np.zeros(3))
+        lin = symbolic_linearization(model, x_e, parameters={
+            "J": sp.diag(J1, J2, J3), "rho": [0, 0, r], "m": m, "g": g})
+        K = sp.zeros(3, 5)
+        K[:, 2:] = sp.diag(k1, k2, k3)
+        closed = lin.closed_loop(K)
+        s = closed.s
+        remark = ((s**2 + k1 / J1 * s + k * m * g * r / J1)
+                  * (s**2 + k2 / J2 * s + k * m * g * r / J2) * (s + k3 / J3))
+        diff = sp.simplify(sp.together(closed.charpoly() - remark))
+        res.compare(f"symbolic, {eq}: det(sI - A) - Remark {2 if k > 0 else 3} product is 0",
+                    1, int(diff == 0), tolerance=0,
+                    source=f"paper 001 Remark {2 if k > 0 else 3} (J diagonal, rho = rho e3)")
+        out[eq] = str(closed.factored())
+        out[f"{eq}_latex"] = sp.latex(closed.factored())
+    return out
 
 
 def solve(*, quick: bool = False) -> Result:
@@ -137,6 +174,8 @@ def solve(*, quick: bool = False) -> Result:
             res.compare(f"{gname}, full, {eq}: max |A - [[0, I], [-k Lambda, -D]]| in x coords",
                         0.0, float(np.max(np.abs(lin_x.A - A_paper))), tolerance=1e-10,
                         source=f"paper 001 ({25 if k > 0 else 28}), (19)")
+    with res.timed("symbolic Remark 2 from the graph (sympy)"):
+        values["symbolic"] = _symbolic_remark(res)
     res.values = values
     res.notes.append(
         "Psi'(0) = M D M^T with diagonal D is the feedback for which Remarks 2-3 apply "

@@ -395,27 +395,19 @@ def closed_loop_jacobians(model: Model, controller: ca.Function | None) -> ca.Fu
     -------
     casadi.Function
     """
-    if controller is None:
-        f, fx, fu = model.function("f"), model.function("f_x"), model.function("f_u")
-        S = model.sym
-        x = S.sym("x", model.manifold.ambient_dim)
-        u, p = S.sym("u", model.n_inputs), S.sym("p", model.n_params)
-        return ca.Function("lin_open", [x, u, p], [f(x, u, p), fx(x, u, p), fu(x, u, p)],
-                           ["x", "u", "p"], ["f", "f_x", "f_u"])
-    _check_controller(model, controller)
-    f = model.function("f")
+    if controller is not None:
+        _check_controller(model, controller)
     S = model.sym
     x = S.sym("x", model.manifold.ambient_dim)
     u, p = S.sym("u", model.n_inputs), S.sym("p", model.n_params)
-    k = controller(x) if controller.n_in() == 1 else controller(x, p)
-    if isinstance(k, (list, tuple)):
-        k = k[0]
-    if model.symbolic == "SX" and isinstance(k, ca.MX):  # pragma: no cover - defensive
-        raise ModelError("controller built with MX cannot be composed into an SX model")
-    xdot = f(x, k + u, p)
-    return ca.Function("lin_closed", [x, u, p],
-                       [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, u)],
-                       ["x", "u", "p"], ["f", "f_x", "f_u"])
+    f = model.function("f")
+    if controller is None:
+        outs = [f(x, u, p), model.function("f_x")(x, u, p), model.function("f_u")(x, u, p)]
+    else:
+        k = controller(x) if controller.n_in() == 1 else controller(x, p)
+        xdot = f(x, k + u, p)
+        outs = [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, u)]
+    return ca.Function("jacobians", [x, u, p], outs, ["x", "u", "p"], ["f", "f_x", "f_u"])
 
 
 def _check_controller(model: Model, controller: Any) -> None:
@@ -442,6 +434,7 @@ def _check_controller(model: Model, controller: Any) -> None:
 
 
 _JAC_CACHE: dict[tuple[int, int], tuple[Any, Any, ca.Function]] = {}
+_JAC_CACHE_SIZE = 64  # most recent (model graphs, controller) pairs kept
 
 
 def _jacobians(model: Model, controller: ca.Function | None) -> ca.Function:
@@ -460,6 +453,8 @@ def _jacobians(model: Model, controller: ca.Function | None) -> ca.Function:
                 f"{model.name}.jacobians[{controller.name()}]", int(fn.n_nodes()),
                 time.perf_counter() - t0, model.symbolic))
         hit = (graphs, controller, fn)
+        if len(_JAC_CACHE) >= _JAC_CACHE_SIZE:
+            _JAC_CACHE.pop(next(iter(_JAC_CACHE)))
         _JAC_CACHE[key] = hit
     return hit[2]
 
