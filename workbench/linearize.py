@@ -103,7 +103,7 @@ def mechanical_order(
     paired by name: ``pairs={"R": "omega"}`` for the 3D pendulum on TSO(3),
     ``{"x": "v"}`` for the cart of the chain. At an equilibrium at rest the velocity
     coordinates are the rates of the configuration coordinates (checked by
-    :func:`workbench.linearize.SecondOrderForm` users, not here).
+    :func:`workbench.controllability.second_order_form`, not here).
 
     Parameters
     ----------
