@@ -31,18 +31,17 @@ import numpy as np
 
 from models import pendulum3d as p3
 from workbench.continuation import Branch, EndReason, PointKind, StepControl
-from workbench.equilibria import DenseEvaluator
 from workbench.errors import ParameterError
 from workbench.relative_equilibria import (
-    RelativeEquilibria,
     alpha,
     limit_at_infinity,
     slice_zeros,
     sphere_points,
     static_equilibria,
-    trace_relative_equilibria,
 )
+from workbench.relative_families import RelativeEquilibria, trace_relative_equilibria
 from workbench.result import Result
+from workbench.roots import DenseEvaluator
 
 TITLE = ("Relative equilibria of the 3D pendulum: hanging, inverted, (4.10) and the families "
          "L1-L4 by continuation (paper 000 Sec. 4.3, Prop. 9, 20)")

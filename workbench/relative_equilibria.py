@@ -7,7 +7,8 @@ vertical at rate ``k``, a relative equilibrium of the full model. The unknowns a
 ``y = (Gamma, k)`` on ``S^2 x R``, and the residual is the model's own vector field at
 ``(Gamma, k Gamma)`` with ``u = 0``, taken from its graph (:func:`rotation_problem`).
 Its zero set is a union of curves (the families of paper 000 Prop. 9), which
-:func:`trace_relative_equilibria` follows by pseudo-arclength continuation from
+:func:`workbench.relative_families.trace_relative_equilibria` follows by pseudo-arclength
+continuation from
 
 * the static equilibria (the zeros with ``k = 0``, :func:`static_equilibria`), in both
   directions of ``k``;
@@ -26,34 +27,19 @@ from automatic differentiation of the invariants. The family parameter of the pa
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike, Vector
-from workbench.continuation import (
-    Branch,
-    EndReason,
-    PointKind,
-    StepControl,
-    continue_branch,
-    switch_branch,
-)
-from workbench.equilibria import (
-    Equilibrium,
-    Root,
-    ZeroProblem,
-    check_positive,
-    find_equilibrium,
-    newton_on_manifold,
-)
+from workbench.equilibria import Equilibrium, find_equilibrium
 from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.manifolds import S2, ProductManifold, Rn
 from workbench.model import Model
+from workbench.roots import Root, ZeroProblem, newton_on_manifold
 
 __all__ = [
     "rotation_problem",
@@ -64,8 +50,6 @@ __all__ = [
     "static_equilibria",
     "stability_label",
     "limit_at_infinity",
-    "RelativeEquilibria",
-    "trace_relative_equilibria",
 ]
 
 
@@ -438,185 +422,3 @@ def stability_label(model: Model, x: ArrayLike, *, tol: float | None = None) -> 
     ev = np.linalg.eigvals(A)
     unstable = ev.real > t
     return int(np.sum(unstable)), int(np.sum(unstable & (np.abs(ev.imag) > t)))
-
-
-# ----------------------------------------------------------------------------------------
-# tracing all families
-
-
-@dataclass
-class RelativeEquilibria:
-    """All branches of relative equilibria found from the static equilibria and infinity.
-
-    Attributes
-    ----------
-    problem : ZeroProblem
-    static : dict of str to Equilibrium
-        ``hanging`` and ``inverted``.
-    branches : list of Branch
-        Traced branches (each from one start in one direction).
-    origins : list of str
-        How each branch was started ("hanging +k", "end at k = 100 (Gamma ...)",
-        "branch point of branch 3").
-    surfaces : list of SliceZero
-        Zeros at which the zero set is (at least) two-dimensional (not traced).
-    ends : list of SliceZero
-        The isolated zeros on the slices ``k = +-k_max``.
-    k_max : float
-    slice_failures : int
-        Guesses on the slices from which Newton did not converge.
-    wall_time : float
-    """
-
-    problem: ZeroProblem
-    static: dict[str, Equilibrium]
-    branches: list[Branch]
-    origins: list[str]
-    surfaces: list[SliceZero]
-    ends: list[SliceZero]
-    k_max: float
-    slice_failures: int
-    wall_time: float
-    notes: list[str] = field(default_factory=list)
-
-    def summary(self) -> dict[str, Any]:
-        """Plain data."""
-        return {
-            "n_branches": len(self.branches),
-            "origins": self.origins,
-            "branches": [b.summary() for b in self.branches],
-            "n_surface_points": len(self.surfaces),
-            "k_max": self.k_max,
-            "slice_failures": self.slice_failures,
-            "wall_time": self.wall_time,
-        }
-
-
-def _near_branch(y: Vector, branches: Sequence[Branch], tol: float) -> bool:
-    """Whether ``y`` is within ``tol`` of a traced polyline."""
-    for b in branches:
-        P = b.points
-        if len(P) == 1:
-            if np.linalg.norm(P[0] - y) <= tol:
-                return True
-            continue
-        a, d = P[:-1], P[1:] - P[:-1]
-        L2 = np.einsum("ij,ij->i", d, d)
-        t = np.clip(np.einsum("ij,ij->i", y - a, d) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
-        dist = np.linalg.norm(a + t[:, None] * d - y, axis=1)
-        if float(np.min(dist)) <= tol:
-            return True
-    return False
-
-
-def trace_relative_equilibria(
-    model: Model,
-    *,
-    k_max: float = 100.0,
-    control: StepControl | None = None,
-    max_points: int = 2000,
-    with_stability: bool = True,
-    stability_tol: float | None = None,
-    n_guesses: int = 64,
-    switch_step: float = 1e-3,
-    max_branches: int = 40,
-    attitude: str = "Gamma",
-    velocity: str = "omega",
-) -> RelativeEquilibria:
-    """Trace every family of relative equilibria reachable from the statics and infinity.
-
-    Parameters
-    ----------
-    model : Model
-        A model accepted by :func:`rotation_problem`.
-    k_max : float
-        Branches end where ``|k|`` reaches it (a family going to infinity); the slices
-        ``k = +-k_max`` give the starts of families that do not reach ``k = 0``.
-    control : StepControl, optional
-        Continuation knobs.
-    max_points : int
-        Point limit per branch.
-    with_stability : bool
-        Classify every point by :func:`stability_label` and locate the changes.
-    stability_tol : float, optional
-        Real-part tolerance of the classification.
-    n_guesses : int
-        Attitude guesses (:func:`sphere_points`) on each slice.
-    switch_step : float
-        Distance from a branch point at which the other branch is picked up.
-    max_branches : int
-        Safety limit on the number of branches traced.
-    attitude, velocity : str
-        Factor names.
-
-    Returns
-    -------
-    RelativeEquilibria
-
-    Raises
-    ------
-    ParameterError
-        For a balanced body (from :func:`static_equilibria`), or bad knobs.
-    """
-    t0 = time.perf_counter()
-    k_max = check_positive("k_max", k_max)
-    control = control or StepControl()
-    problem = rotation_problem(model, attitude=attitude, velocity=velocity)
-    static = static_equilibria(model, attitude=attitude, velocity=velocity)
-    classify = None
-    if with_stability:
-        def classify(y: Vector) -> tuple[int, int]:
-            return stability_label(model, problem.state(y), tol=stability_tol)
-
-    opts = dict(control=control, max_points=max_points, events=("k", "k1"), stop_at=("k",),
-                bounds={"k": (-k_max, k_max)}, classify=classify)
-    ez = np.array([0.0, 0.0, 0.0, 1.0])
-    queue: list[tuple[Vector, Vector, str]] = []
-    for name, eq in static.items():
-        y = np.append(eq.x[:3], 0.0)
-        queue += [(y, ez, f"{name} +k"), (y, -ez, f"{name} -k")]
-    guesses = sphere_points(n_guesses)
-    ends: list[SliceZero] = []
-    surfaces: list[SliceZero] = []
-    failures = 0
-    for kk in (k_max, -k_max):
-        zs, nf = slice_zeros(problem, kk, guesses, tol=control.tol)
-        failures += nf
-        ends += [z for z in zs if z.local_dimension == 0]
-        surfaces += [z for z in zs if z.local_dimension > 0]
-    branches: list[Branch] = []
-    origins: list[str] = []
-    notes: list[str] = []
-    pending_ends = list(ends)
-
-    def run(y: Vector, d: Vector, origin: str) -> None:
-        b = continue_branch(problem, y, direction=d, **opts)
-        branches.append(b)
-        origins.append(origin)
-        for sp in b.specials(PointKind.BRANCH_POINT):
-            for ys, ds in switch_branch(problem, sp, step=switch_step, control=control):
-                queue.append((ys, ds, f"branch point of branch {len(branches) - 1} "
-                                      f"(k = {sp.y[3]:.6g})"))
-
-    while queue or pending_ends:
-        if len(branches) >= max_branches:
-            notes.append(f"stopped after max_branches = {max_branches}; "
-                         f"{len(queue) + len(pending_ends)} starts not traced")
-            break
-        if queue:
-            y, d, origin = queue.pop(0)
-            if origin.startswith("branch point") and _near_branch(y, branches,
-                                                                  0.5 * switch_step):
-                continue
-            run(y, d, origin)
-            continue
-        z = pending_ends.pop(0)
-        if _near_branch(z.y, branches, 1e-6):
-            continue
-        run(z.y, -np.sign(z.y[3]) * ez,
-            f"end at k = {z.y[3]:g} (Gamma = {np.round(z.y[:3], 6).tolist()})")
-    for b, o in zip(branches, origins):
-        if b.end not in (EndReason.BOUND, EndReason.STOP_EVENT):
-            notes.append(f"branch from {o} ended by {b.end.value}: {b.end_message}")
-    return RelativeEquilibria(problem, static, branches, origins, surfaces, ends, k_max,
-                              failures, time.perf_counter() - t0, notes)
