@@ -40,8 +40,8 @@ def test_invariants_are_conserved_by_the_graph_and_the_flow(n, rng):
     drift = tr.diagnostics["invariant_drift"]
     E0 = abs(drift["energy"]["initial"])
     assert drift["energy"]["max_abs"] < 1e-8 * max(E0, 1.0)
-    for name in ("px", "py", "Lz"):
-        assert drift[name]["max_abs"] < 1e-9, f"{name} drift {drift[name]['max_abs']:.2e}"
+    for name in ("px", "py", "Lz"):  # momenta of order 0.1-1; integration error at rtol 1e-11
+        assert drift[name]["max_abs"] < 1e-8, f"{name} drift {drift[name]['max_abs']:.2e}"
     # the constraints are kept by the exact flow; what remains is integration error of
     # fast short links at rtol = 1e-11 over 2 s
     assert max(tr.diagnostics["constraint_residual"].values()) < 1e-7

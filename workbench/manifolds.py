@@ -440,6 +440,8 @@ class Rn(Factor):
         return f"R^{self.n}"
 
     def residual(self, x: Expr) -> Expr:  # noqa: D102
+        if isinstance(x, ca.MX):
+            return ca.MX(0, 1)
         return ca.SX(0, 1) if _is_casadi(x) else np.zeros(0)
 
     def tangent_basis(self, x: ArrayLike) -> Matrix:  # noqa: D102

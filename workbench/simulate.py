@@ -123,6 +123,7 @@ class Trajectory:
         ``steps`` and ``rhs_evaluations`` where the method reports them.
     diagnostics : dict
         ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
+        (relative to ``|initial|``; nan when the invariant starts at zero)
         deviation from its initial value; ``constraint_residual``: max-norm residual of
         every factor over the trajectory; ``closed_loop``: whether a controller acted
         (invariants are then not expected to be conserved).
@@ -483,11 +484,12 @@ def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
     for name in model.invariant_names:
         series = traj.invariant_series(name)
         dev = np.abs(series - series[0])
-        scale = max(abs(series[0]), np.finfo(float).tiny)
+        # relative to the initial value; undefined (nan) when the invariant starts at 0
+        scale = abs(series[0]) if series[0] != 0 else np.nan
         drift[name] = {
             "initial": float(series[0]),
             "max_abs": float(dev.max()),
-            "max_rel": float(dev.max() / scale),
+            "max_rel": float(dev.max() / scale) if np.isfinite(scale) else float("nan"),
         }
     residual = {name: float(series.max())
                 for name, series in constraint_residuals(model, traj.x).items()}
