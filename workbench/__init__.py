@@ -3,6 +3,8 @@
 Coordinate-free models as casadi graphs, and the analyses derived from them.
 """
 
+from workbench.controllability import kalman_rank, pbh, pbh_second_order, second_order_form
+from workbench.eigen import Eigenstructure, Stability, Subspace, eigenstructure
 from workbench.errors import (
     ManifoldError,
     ModelError,
@@ -10,13 +12,30 @@ from workbench.errors import (
     SolverError,
     WorkbenchError,
 )
+from workbench.linearize import LinearModel, linearize, linearize_ambient
+from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
 from workbench.model import BuildLog, Evaluator, Model, Parameter
-from workbench.simulate import Method, Trajectory, simulate
+from workbench.simulate import Method, Multistep, Trajectory, simulate
 
 __all__ = [
     "BuildLog",
+    "Eigenstructure",
     "Evaluator",
+    "LQRResult",
+    "LinearModel",
+    "Multistep",
+    "Stability",
+    "Subspace",
+    "eigenstructure",
+    "geometric_feedback",
+    "kalman_rank",
+    "linearize",
+    "linearize_ambient",
+    "lqr",
+    "pbh",
+    "pbh_second_order",
+    "second_order_form",
     "ManifoldError",
     "Method",
     "Model",
