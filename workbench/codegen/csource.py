@@ -316,8 +316,8 @@ static double now_ns(void) {{
 }}
 
 int main(int argc, char **argv) {{
-  long calls = argc > 1 ? atol(argv[1]) : 200000;
-  int batches = argc > 2 ? atoi(argv[2]) : 51;
+  long calls = argc > 1 ? atol(argv[1]) : 20000;
+  int batches = argc > 2 ? atoi(argv[2]) : 501;
   static double per_call[MAXBATCH];
   double u[{n}_NU], t0, sink = 0.0;
   long i;
