@@ -21,7 +21,8 @@ import numpy as np
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.attraction import SublevelSet, check_convergence
+from workbench.attraction import check_convergence
+from workbench.lyapunov import SublevelSet
 from workbench.manifolds import SO3
 from workbench.model import Model
 from workbench.result import Result

@@ -1,13 +1,19 @@
-"""Domains of attraction: certified sublevel sets and sampled basins.
+"""Domains of attraction: certified sublevel sets (Ipopt) and sampled basins (simulation).
 
-* :class:`SublevelSet` -- ``{x : V(x) <= c}`` (or ``< c``), optionally intersected with a
-  domain ``D = {b(x) < 0}``; membership and rejection sampling from a proposal.
-* :func:`optimize_lyapunov` -- extremise ``V`` over the state manifold under equality and
-  inequality constraints with Ipopt, from several starts (the global optimum is not
-  guaranteed by a local solver; every start's Ipopt status is reported).
-* :func:`level_in_domain` -- the minimum of ``V`` on the boundary ``b = 0`` of a domain;
+Certification (sublevel sets :class:`~workbench.lyapunov.SublevelSet` of a Lyapunov
+function inside a domain):
+
+* :func:`optimize` / :func:`optimize_lyapunov` -- extremise a function (``V``) over the
+  state manifold under constraints with Ipopt, from several starts (a local solver: the
+  global optimum is not guaranteed; every start's Ipopt status is reported);
+* :func:`level_in_domain` -- the minimum of ``V`` on the boundary ``b = 0`` of a domain:
   every level below it gives a sublevel set (its component through the equilibrium)
-  inside ``D``.
+  inside ``D``;
+* :func:`ray_extent` -- the distance from the equilibrium to the set's boundary along
+  tangent rays (a size measure).
+
+Testing and estimation by integrating the closed loop from many initial states:
+
 * :func:`check_convergence` -- integrate the closed loop from many initial states and
   report how many reach a target, the worst case, and a one-sided Clopper-Pearson bound
   on the failure probability under the sampling distribution.
@@ -18,7 +24,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,31 +34,23 @@ from scipy.stats import beta
 
 from workbench._types import ArrayLike
 from workbench.errors import ModelError, ParameterError, SolverError
-from workbench.lyapunov import Lyapunov
+from workbench.lyapunov import Lyapunov, SublevelSet, as_states
 from workbench.model import Model
 from workbench.simulate import closed_loop_function
 
 __all__ = [
-    "SublevelSet",
     "Constraint",
     "Extremum",
+    "optimize",
     "optimize_lyapunov",
     "level_in_domain",
+    "ray_extent",
     "ConvergenceReport",
     "check_convergence",
     "BasinEstimate",
     "estimate_basin",
     "clopper_pearson",
 ]
-
-
-def _states(model: Model, states: ArrayLike, name: str = "states") -> np.ndarray:
-    X = np.atleast_2d(np.asarray(states, dtype=float))
-    n = model.manifold.ambient_dim
-    if X.ndim != 2 or X.shape[1] != n:
-        raise ModelError(f"{name} must have shape (n, {n}) for model {model.name!r}; "
-                         f"got {np.shape(states)}")
-    return X
 
 
 def clopper_pearson(k: int, n: int, *, confidence: float = 0.95) -> tuple[float, float]:
@@ -78,96 +76,6 @@ def clopper_pearson(k: int, n: int, *, confidence: float = 0.95) -> tuple[float,
     lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
     hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
     return lo, hi
-
-
-# ----------------------------------------------------------------------------------------
-# sublevel sets
-
-
-@dataclass
-class SublevelSet:
-    """``{x : V(x) <= level}`` (``< level`` if ``strict``), intersected with ``{b(x) < 0}``.
-
-    Attributes
-    ----------
-    lyapunov : Lyapunov
-        The function ``V``.
-    level : float
-        The level ``c``.
-    strict : bool
-        Strict inequality ``V < c``.
-    domain : casadi.Function, optional
-        ``b(x, p)``; the set is intersected with ``D = {b < 0}``.
-    """
-
-    lyapunov: Lyapunov
-    level: float
-    strict: bool = False
-    domain: ca.Function | None = None
-
-    def contains(self, states: ArrayLike) -> np.ndarray:
-        """Membership of a batch of states.
-
-        Parameters
-        ----------
-        states : array-like, shape=(n, ambient_dim)
-
-        Returns
-        -------
-        ndarray of bool, shape=(n,)
-        """
-        model = self.lyapunov.model
-        X = _states(model, states)
-        V = self.lyapunov.values(X)
-        inside = V < self.level if self.strict else V <= self.level
-        if self.domain is not None:
-            b = np.asarray(self.domain.map(X.shape[0])(X.T, model.p)).ravel()
-            inside &= b < 0
-        return inside
-
-    def sample(
-        self,
-        proposal: Callable[[np.random.Generator, int], np.ndarray],
-        n: int,
-        *,
-        seed: int = 0,
-        batch: int = 1000,
-        max_draws: int = 1_000_000,
-    ) -> tuple[np.ndarray, int]:
-        """Rejection-sample ``n`` states of the set from a proposal distribution.
-
-        Parameters
-        ----------
-        proposal : callable
-            ``proposal(rng, k) -> ndarray, shape=(k, ambient_dim)`` of states on the manifold.
-        n : int
-            Number of samples wanted.
-        seed : int
-            Seed of the generator handed to ``proposal``.
-        batch : int
-            Proposals drawn per round.
-        max_draws : int
-            Give up (``SolverError``) after this many proposals.
-
-        Returns
-        -------
-        samples : ndarray, shape=(n, ambient_dim)
-            Accepted states, samples of the proposal conditioned on the set.
-        draws : int
-            Number of proposals drawn (acceptance rate ``n / draws`` at the last round).
-        """
-        rng = np.random.default_rng(seed)
-        kept: list[np.ndarray] = []
-        draws = 0
-        while sum(len(k) for k in kept) < n:
-            if draws >= max_draws:
-                raise SolverError(
-                    f"rejection sampling accepted {sum(len(k) for k in kept)} of {n} states "
-                    f"in {draws} proposals; widen or move the proposal", status="max_draws")
-            X = _states(self.lyapunov.model, proposal(rng, batch), "proposal(rng, k)")
-            draws += len(X)
-            kept.append(X[self.contains(X)])
-        return np.concatenate(kept)[:n], draws
 
 
 # ----------------------------------------------------------------------------------------
@@ -241,8 +149,9 @@ class Extremum:
                 "cost": self.cost}
 
 
-def optimize_lyapunov(
-    lyapunov: Lyapunov,
+def optimize(
+    model: Model,
+    objective: ca.Function,
     starts: ArrayLike,
     *,
     maximize: bool = False,
@@ -250,15 +159,18 @@ def optimize_lyapunov(
     tol: float = 1e-10,
     max_iter: int = 500,
 ) -> Extremum:
-    """Minimise (or maximise) ``V`` over the state manifold with Ipopt, multi-start.
+    """Minimise (or maximise) ``objective(x, p)`` over the state manifold with Ipopt.
 
     The decision variable is the stored ambient state; the manifold's constraints
-    ``h(x) = 0`` are equality constraints, the user's constraints are added.
+    ``h(x) = 0`` are equality constraints, the user's constraints are added. Ipopt is a
+    local solver: it is run from every start, and every start's status is reported.
 
     Parameters
     ----------
-    lyapunov : Lyapunov
-        The objective ``V``.
+    model : Model
+        The model whose state is optimised (its current parameters are used).
+    objective : casadi.Function
+        ``(x, p) -> scalar``.
     starts : array-like, shape=(n_starts, ambient_dim)
         Initial guesses.
     maximize : bool
@@ -279,11 +191,10 @@ def optimize_lyapunov(
     SolverError
         If no start succeeds (with every start's Ipopt status).
     """
-    model = lyapunov.model
-    X0 = _states(model, starts, "starts")
+    X0 = as_states(model, starts, "starts")
     S = model.sym
     x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
-    V = lyapunov.function()(x, p)
+    F = objective(x, p)
     xs = ca.SX.sym("x", model.manifold.ambient_dim)  # residual on SX, called on x
     h = ca.Function("h", [xs], [model.manifold.residual(xs)])
     gs, lb, ub = [h(x)], [], []
@@ -297,8 +208,8 @@ def optimize_lyapunov(
         lb.append(np.broadcast_to(np.asarray(c.lower, float), (k,)))
         ub.append(np.broadcast_to(np.asarray(c.upper, float), (k,)))
     lbg, ubg = np.concatenate(lb), np.concatenate(ub)
-    nlp = {"x": x, "p": p, "f": -V if maximize else V, "g": ca.vertcat(*gs)}
-    solver = ca.nlpsol("V_extremum", "ipopt", nlp, {
+    nlp = {"x": x, "p": p, "f": -F if maximize else F, "g": ca.vertcat(*gs)}
+    solver = ca.nlpsol("extremum", "ipopt", nlp, {
         "ipopt.tol": tol, "ipopt.max_iter": int(max_iter), "ipopt.print_level": 0,
         "print_time": False, "ipopt.sb": "yes"})
     gfun = ca.Function("g", [x, p], [nlp["g"]])
@@ -311,23 +222,48 @@ def optimize_lyapunov(
         statuses.append(str(st["return_status"]))
         iters += int(st.get("iter_count", 0))
         xv = np.asarray(sol["x"]).ravel()
-        val = float(lyapunov.values(xv)[0])
         if not st["success"]:
             values.append(float("nan"))
             continue
+        val = float(objective(xv, model.p))
         values.append(val)
-        better = best is None or (val > best[0] if maximize else val < best[0])
-        if better:
+        if best is None or (val > best[0] if maximize else val < best[0]):
             best = (val, xv, statuses[-1])
     wall = time.perf_counter() - t0
     if best is None:
         raise SolverError(
-            f"Ipopt failed from all {len(X0)} starts extremising {lyapunov.name}",
+            f"Ipopt failed from all {len(X0)} starts optimising {objective.name()}",
             status=", ".join(sorted(set(statuses))))
     g = np.asarray(gfun(best[1], model.p)).ravel()
     viol = float(np.max(np.maximum(0.0, np.maximum(lbg - g, g - ubg)))) if g.size else 0.0
-    return Extremum(best[0], best[1], best[2], statuses, int(np.isfinite(values).sum()), values,
-                    viol, {"wall_seconds": wall, "iterations": iters})
+    return Extremum(best[0], best[1], best[2], statuses, int(np.isfinite(values).sum()),
+                    values, viol, {"wall_seconds": wall, "iterations": iters})
+
+
+def optimize_lyapunov(
+    lyapunov: Lyapunov,
+    starts: ArrayLike,
+    *,
+    maximize: bool = False,
+    constraints: Sequence[Constraint] = (),
+    tol: float = 1e-10,
+    max_iter: int = 500,
+) -> Extremum:
+    """Minimise (or maximise) ``V`` over the state manifold: :func:`optimize` with ``V``.
+
+    Parameters
+    ----------
+    lyapunov : Lyapunov
+        The objective ``V``.
+    starts, maximize, constraints, tol, max_iter
+        As in :func:`optimize`.
+
+    Returns
+    -------
+    Extremum
+    """
+    return optimize(lyapunov.model, lyapunov.function(), starts, maximize=maximize,
+                    constraints=constraints, tol=tol, max_iter=max_iter)
 
 
 def level_in_domain(
@@ -364,6 +300,70 @@ def level_in_domain(
         constraints=[Constraint(boundary, 0.0, 0.0, "boundary of D")])
 
 
+def ray_extent(
+    sublevel: SublevelSet,
+    x_e: ArrayLike,
+    directions: ArrayLike,
+    *,
+    s_max: float,
+    n_grid: int = 2000,
+    rtol: float = 1e-10,
+) -> np.ndarray:
+    """Distance from an equilibrium to the first exit from a set along tangent rays.
+
+    Along each ray ``s -> retract(x_e, s d)`` (``d`` a tangent direction in the manifold's
+    tangent coordinates at ``x_e``, normalised) membership is scanned on ``n_grid``
+    points up to ``s_max``; the first change from inside to outside is refined by
+    bisection to ``rtol * s_max``. A ray that never leaves gives ``inf`` (the set
+    reaches beyond ``s_max``). A size measure that needs no optimisation (the set need
+    not be star-shaped: the first exit is reported).
+
+    Parameters
+    ----------
+    sublevel : SublevelSet
+    x_e : array-like, shape=(ambient_dim,)
+        A point of the set (the equilibrium).
+    directions : array-like, shape=(n_rays, dim)
+        Tangent directions (coordinates in the manifold's tangent basis at ``x_e``).
+    s_max : float
+        Largest ray parameter scanned.
+    n_grid : int
+        Scan points per ray.
+    rtol : float
+        Bisection tolerance relative to ``s_max``.
+
+    Returns
+    -------
+    ndarray, shape=(n_rays,)
+    """
+    model = sublevel.lyapunov.model
+    xe = model.check_state(x_e, name="x_e")
+    D = np.atleast_2d(np.asarray(directions, dtype=float))
+    if D.shape[1] != model.manifold.dim:
+        raise ModelError(f"directions must have {model.manifold.dim} columns (tangent "
+                         f"coordinates); got shape {D.shape}")
+    if not sublevel.contains(xe)[0]:
+        raise ModelError("x_e must lie in the set")
+    out = np.full(len(D), np.inf)
+    grid = np.linspace(0.0, float(s_max), int(n_grid) + 1)
+    for k, d in enumerate(D):
+        d = d / np.linalg.norm(d)
+
+        def point(s: float, d: np.ndarray = d) -> np.ndarray:
+            return model.manifold.retract(xe, s * d)
+
+        inside = sublevel.contains(np.array([point(s) for s in grid]))
+        if inside.all():
+            continue
+        j = int(np.argmin(inside))
+        lo, hi = grid[j - 1], grid[j]
+        while hi - lo > rtol * s_max:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if sublevel.contains(point(mid))[0] else (lo, mid)
+        out[k] = 0.5 * (lo + hi)
+    return out
+
+
 # ----------------------------------------------------------------------------------------
 # Monte-Carlo convergence
 
@@ -376,11 +376,12 @@ class ConvergenceReport:
     ----------
     n_samples, n_converged, n_failed : int
         Samples, samples within ``tolerance`` of the target at the horizon, and samples
-        whose integration failed (counted as not converged).
+        whose integration failed or that left the domain (counted as not converged).
     distances : ndarray, shape=(n_samples,)
         Distance to the target at the horizon (``inf`` for failures).
     statuses : list of str
-        ``"converged"``, ``"not converged"`` or the integrator's error.
+        ``"converged"``, ``"not converged"``, ``"left the domain by t = ..."`` or the
+        integrator's error.
     worst_index : int
         Sample with the largest final distance.
     horizon, tolerance : float
@@ -437,13 +438,18 @@ def check_convergence(
     tolerance: float,
     rtol: float = 1e-8,
     atol: float = 1e-10,
-    max_steps: int = 100_000,
+    max_steps: int = 20_000,
+    check_interval: float = 1.0,
+    domain: ca.Function | None = None,
     confidence: float = 0.95,
 ) -> ConvergenceReport:
     """Integrate the closed loop from every initial state and test convergence.
 
-    A sample converges when ``distance(x(horizon), p) <= tolerance``. An integrator
-    failure is recorded with its message and counts as not converged.
+    A sample converges when ``distance(x(horizon), p) <= tolerance``. The state is
+    output on a grid of spacing at most ``check_interval``; a sample found outside
+    ``domain`` (``b(x, p) >= 0``) at a grid time is reported as "left the domain", and an
+    integrator failure (e.g. ``max_steps`` within one grid interval, near a singularity
+    of the feedback) with its message. Both count as not converged.
 
     Parameters
     ----------
@@ -458,8 +464,16 @@ def check_convergence(
         Integration time.
     tolerance : float
         Convergence threshold on ``distance``.
-    rtol, atol, max_steps
-        CVODES options.
+    rtol, atol
+        CVODES tolerances.
+    max_steps : int
+        CVODES' limit on steps per grid interval (a small value makes a sample that runs
+        into a singularity fail fast).
+    check_interval : float
+        Longest grid interval.
+    domain : casadi.Function, optional
+        ``b(x, p)``; a sample with ``b >= 0`` at a grid time has left the domain (where
+        the feedback may not be defined).
     confidence : float
         Level of the one-sided bound on the failure probability.
 
@@ -467,7 +481,7 @@ def check_convergence(
     -------
     ConvergenceReport
     """
-    X0 = _states(model, initial_states, "initial_states")
+    X0 = as_states(model, initial_states, "initial_states")
     for i, x0 in enumerate(X0):
         model.check_state(x0, name=f"initial_states[{i}]")
     if not (np.isfinite(horizon) and horizon > 0):
@@ -476,26 +490,35 @@ def check_convergence(
     loop = closed_loop_function(model, controller)
     S = model.sym
     x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
+    n_pieces = max(1, int(np.ceil(horizon / check_interval - 1e-12)))
+    grid = np.linspace(0.0, float(horizon), n_pieces + 1)
     integ = ca.integrator("convergence", "cvodes", {"x": x, "p": p, "ode": loop(x, p)[0]},
-                          0.0, float(horizon),
-                          {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps)})
+                          0.0, grid[1:],
+                          {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
+                           "disable_internal_warnings": True})
+    b_all = None if domain is None else domain.map(n_pieces)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()
     dist, statuses = np.full(len(X0), np.inf), []
     for i, x0 in enumerate(X0):
         try:
-            xf = np.asarray(integ(x0=x0, p=model.p)["xf"]).ravel()
+            xs = np.asarray(integ(x0=x0, p=model.p)["xf"])
         except RuntimeError as exc:
             statuses.append(f"integrator failed: {str(exc).splitlines()[-1][:200]}")
             continue
-        if not np.all(np.isfinite(xf)):
-            statuses.append("integrator returned non-finite states")
+        if not np.all(np.isfinite(xs)):
+            statuses.append("integrator failed: non-finite states")
             continue
-        dist[i] = float(distance(xf, model.p))
+        if b_all is not None:
+            out = np.flatnonzero(np.asarray(b_all(xs, model.p)).ravel() >= 0)
+            if out.size:
+                statuses.append(f"left the domain by t = {grid[out[0] + 1]:.6g}")
+                continue
+        dist[i] = float(distance(xs[:, -1], model.p))
         statuses.append("converged" if dist[i] <= tolerance else "not converged")
     wall = time.perf_counter() - t0
     n_conv = statuses.count("converged")
-    n_fail = sum(s.startswith("integrator") for s in statuses)
+    n_fail = sum(s.startswith(("integrator", "left")) for s in statuses)
     n = len(X0)
     bound = 1.0 if n_conv == 0 else float(beta.ppf(confidence, n - n_conv + 1, n_conv))
     return ConvergenceReport(n, n_conv, n_fail, dist, statuses, int(np.argmax(dist)),
@@ -516,10 +539,13 @@ class BasinEstimate:
     ----------
     n_samples : int
         Proposal samples simulated.
+    n_membership : int
+        Proposal samples tested for membership of the certified set.
     n_certified, n_converged : int
-        Samples in the certified set; samples that converged.
+        Membership samples in the certified set; simulated samples that converged.
     n_certified_not_converged : int
-        Samples in the certified set that did not converge (0 if the certificate holds).
+        Simulated samples in the certified set that did not converge (0 if the
+        certificate holds).
     certified_fraction, basin_fraction : (float, float, float)
         Estimate and two-sided Clopper-Pearson interval ``(p, lo, hi)``.
     ratio : (float, float, float)
@@ -531,6 +557,7 @@ class BasinEstimate:
     """
 
     n_samples: int
+    n_membership: int
     n_certified: int
     n_converged: int
     n_certified_not_converged: int
@@ -542,7 +569,8 @@ class BasinEstimate:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain form."""
-        return {"n_samples": self.n_samples, "n_certified": self.n_certified,
+        return {"n_samples": self.n_samples, "n_membership": self.n_membership,
+                "n_certified": self.n_certified,
                 "n_converged": self.n_converged,
                 "n_certified_not_converged": self.n_certified_not_converged,
                 "certified_fraction": list(self.certified_fraction),
@@ -561,12 +589,18 @@ def estimate_basin(
     confidence: float = 0.95,
     rtol: float = 1e-8,
     atol: float = 1e-10,
+    max_steps: int = 20_000,
+    check_interval: float = 1.0,
+    domain: ca.Function | None = None,
+    membership_samples: ArrayLike | None = None,
 ) -> BasinEstimate:
     """Estimate how much larger the basin is than a certified set, by simulation.
 
     Every sample (drawn by the caller from a proposal distribution that covers the
     certified set) is simulated; the basin's share of the proposal is the converged
-    fraction, the certified share the fraction inside ``certified``.
+    fraction. The certified share is the fraction inside ``certified`` of
+    ``membership_samples`` (further draws from the same proposal: membership costs no
+    simulation, so a small certified set can be measured with many), or of ``samples``.
 
     Parameters
     ----------
@@ -574,7 +608,9 @@ def estimate_basin(
         The certified set.
     controller : casadi.Function or None
     samples : array-like, shape=(n, ambient_dim)
-    distance, horizon, tolerance, rtol, atol
+    membership_samples : array-like, shape=(m, ambient_dim), optional
+        Draws from the same proposal for the certified share.
+    distance, horizon, tolerance, rtol, atol, max_steps, check_interval, domain
         As in :func:`check_convergence`.
     confidence : float
         Level of the intervals.
@@ -584,15 +620,18 @@ def estimate_basin(
     BasinEstimate
     """
     model = certified.lyapunov.model
-    X = _states(model, samples)
+    X = as_states(model, samples)
     inside = certified.contains(X)
     rep = check_convergence(model, controller, X, distance=distance, horizon=horizon,
-                            tolerance=tolerance, rtol=rtol, atol=atol, confidence=confidence)
+                            tolerance=tolerance, rtol=rtol, atol=atol, confidence=confidence,
+                            max_steps=max_steps, check_interval=check_interval, domain=domain)
     conv = np.array([s == "converged" for s in rep.statuses])
-    n, nc, nb = len(X), int(inside.sum()), int(conv.sum())
-    cl, ch = clopper_pearson(nc, n, confidence=confidence)
+    M = X if membership_samples is None else as_states(model, membership_samples)
+    in_m = inside if membership_samples is None else certified.contains(M)
+    n, m, nc, nb = len(X), len(M), int(in_m.sum()), int(conv.sum())
+    cl, ch = clopper_pearson(nc, m, confidence=confidence)
     bl, bh = clopper_pearson(nb, n, confidence=confidence)
-    ratio = (nb / nc if nc else float("inf"), bl / ch if ch > 0 else float("inf"),
+    ratio = ((nb / n) / (nc / m) if nc else float("inf"), bl / ch if ch > 0 else float("inf"),
              bh / cl if cl > 0 else float("inf"))
-    return BasinEstimate(n, nc, nb, int((inside & ~conv).sum()), (nc / n, cl, ch),
+    return BasinEstimate(n, m, nc, nb, int((inside & ~conv).sum()), (nc / m, cl, ch),
                          (nb / n, bl, bh), ratio, float(confidence), rep)

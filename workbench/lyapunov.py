@@ -9,6 +9,14 @@ manifold, ``V-dot`` does not depend on how ``V`` is extended off the manifold.
 
 Numeric helpers evaluate ``V`` and ``V-dot`` on batches of states and measure how far a
 sampled trajectory departs from being non-increasing (:meth:`Lyapunov.monotonicity`).
+
+Sublevel sets and their certification:
+
+* :class:`SublevelSet` -- ``{x : V(x) <= c}`` (or ``< c``), optionally intersected with a
+  domain ``D = {b(x) < 0}``; membership and rejection sampling from a proposal.
+Sublevel sets: :class:`SublevelSet` is ``{x : V(x) <= c}`` (or ``< c``), optionally
+intersected with a domain ``D = {b(x) < 0}``, with membership and rejection sampling from
+a proposal. Certifying a level (with Ipopt) is in :mod:`workbench.attraction`.
 """
 
 from __future__ import annotations
@@ -22,11 +30,26 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
-from workbench.errors import ModelError
+from workbench.errors import ModelError, SolverError
 from workbench.model import BuildRecord, Context, Model
 from workbench.simulate import Trajectory, closed_loop_function
 
-__all__ = ["Lyapunov", "Monotonicity"]
+__all__ = [
+    "Lyapunov",
+    "Monotonicity",
+    "as_states",
+    "SublevelSet",
+]
+
+
+def as_states(model: Model, states: ArrayLike, name: str = "states") -> np.ndarray:
+    """Return a batch of stored states as an array of shape ``(n, ambient_dim)``, or raise."""
+    X = np.atleast_2d(np.asarray(states, dtype=float))
+    n = model.manifold.ambient_dim
+    if X.ndim != 2 or X.shape[1] != n:
+        raise ModelError(f"{name} must have shape (n, {n}) for model {model.name!r}; "
+                         f"got {np.shape(states)}")
+    return X
 
 
 @dataclass(frozen=True)
@@ -169,13 +192,7 @@ class Lyapunov:
     # numbers ---------------------------------------------------------------------------------
 
     def _batch(self, fn: ca.Function, states: ArrayLike) -> np.ndarray:
-        X = np.atleast_2d(np.asarray(states, dtype=float))
-        n_dim = self.model.manifold.ambient_dim
-        if X.shape[1] != n_dim:
-            raise ModelError(
-                f"states must have {n_dim} columns (the stored state of {self.model.name!r}); "
-                f"got shape {X.shape}"
-            )
+        X = as_states(self.model, states)
         return np.asarray(fn.map(X.shape[0])(X.T, self.model.p)).ravel()
 
     def values(self, states: ArrayLike) -> np.ndarray:
@@ -236,3 +253,93 @@ class Lyapunov:
 
     def __repr__(self) -> str:
         return f"Lyapunov({self.name!r} on {self.model.name!r})"
+
+
+# ----------------------------------------------------------------------------------------
+# sublevel sets
+
+
+@dataclass
+class SublevelSet:
+    """``{x : V(x) <= level}`` (``< level`` if ``strict``), intersected with ``{b(x) < 0}``.
+
+    Attributes
+    ----------
+    lyapunov : Lyapunov
+        The function ``V``.
+    level : float
+        The level ``c``.
+    strict : bool
+        Strict inequality ``V < c``.
+    domain : casadi.Function, optional
+        ``b(x, p)``; the set is intersected with ``D = {b < 0}``.
+    """
+
+    lyapunov: Lyapunov
+    level: float
+    strict: bool = False
+    domain: ca.Function | None = None
+
+    def contains(self, states: ArrayLike) -> np.ndarray:
+        """Membership of a batch of states.
+
+        Parameters
+        ----------
+        states : array-like, shape=(n, ambient_dim)
+
+        Returns
+        -------
+        ndarray of bool, shape=(n,)
+        """
+        model = self.lyapunov.model
+        X = as_states(model, states)
+        V = self.lyapunov.values(X)
+        inside = V < self.level if self.strict else V <= self.level
+        if self.domain is not None:
+            b = np.asarray(self.domain.map(X.shape[0])(X.T, model.p)).ravel()
+            inside &= b < 0
+        return inside
+
+    def sample(
+        self,
+        proposal: Callable[[np.random.Generator, int], np.ndarray],
+        n: int,
+        *,
+        seed: int = 0,
+        batch: int = 1000,
+        max_draws: int = 1_000_000,
+    ) -> tuple[np.ndarray, int]:
+        """Rejection-sample ``n`` states of the set from a proposal distribution.
+
+        Parameters
+        ----------
+        proposal : callable
+            ``proposal(rng, k) -> ndarray, shape=(k, ambient_dim)`` of states on the manifold.
+        n : int
+            Number of samples wanted.
+        seed : int
+            Seed of the generator handed to ``proposal``.
+        batch : int
+            Proposals drawn per round.
+        max_draws : int
+            Give up (``SolverError``) after this many proposals.
+
+        Returns
+        -------
+        samples : ndarray, shape=(n, ambient_dim)
+            Accepted states, samples of the proposal conditioned on the set.
+        draws : int
+            Number of proposals drawn (acceptance rate ``n / draws`` at the last round).
+        """
+        rng = np.random.default_rng(seed)
+        kept: list[np.ndarray] = []
+        draws = 0
+        while sum(len(k) for k in kept) < n:
+            if draws >= max_draws:
+                raise SolverError(
+                    f"rejection sampling accepted {sum(len(k) for k in kept)} of {n} states "
+                    f"in {draws} proposals; widen or move the proposal", status="max_draws")
+            X = as_states(self.lyapunov.model, proposal(rng, batch), "proposal(rng, k)")
+            draws += len(X)
+            kept.append(X[self.contains(X)])
+        return np.concatenate(kept)[:n], draws

@@ -1,0 +1,218 @@
+"""Nonlinear stabilisation of the inverted spherical pendulum on a cart (paper 003 Fig. 5).
+
+Paper 003 Section 4.2 and 5: the one-link chain on a cart (m = 0.5, m1 = 0.1, l1 = 0.1,
+g = 9.81) under the feedback (21) (with the erratum: no inverse) and (26), gains
+k_y = 4, k_ydot = 2.8, k_w = 1, k_q = 14, from x(0) = (0.2, 0.1), x-dot(0) = (0, 0.1),
+q1(0) = (0.64, -0.64, -0.42) (normalised explicitly, the change reported), omega1(0) = 0.
+
+Measured: the initial tilt against the printed 65 deg; convergence to the inverted
+equilibrium; the control Lyapunov function (25) non-increasing along the trajectory and
+its derivative from the graph non-positive. Then the two-step domain of attraction of
+Section 4.2: the nonlinear program for q1-tilde (Ipopt), the largest K for which the
+sublevel set {V < K V(q1-tilde, 0, 0, 0)} lies in D of (43) (the minimum of V on the
+boundary of D, Ipopt multi-start), the set's extent along each tangent coordinate, and
+the set verified by simulating samples drawn from it. Finally the sampled basin: states
+from a proposal distribution over D, simulated, against the certified share of the same
+samples, with Clopper-Pearson intervals.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from models import controllers as ctl
+from models.chain_cart import chain_cart
+from workbench.attraction import (
+    Constraint,
+    check_convergence,
+    estimate_basin,
+    level_in_domain,
+    optimize_lyapunov,
+    ray_extent,
+)
+from workbench.lyapunov import SublevelSet
+from workbench.model import Model
+from workbench.result import Result
+from workbench.simulate import simulate
+
+TITLE = "Nonlinear control of the inverted spherical pendulum on a cart; certified DOA (paper 003)"
+
+PLANT = {"m": 0.5, "masses": 0.1, "lengths": 0.1, "g": 9.81}
+GAINS = {"k_y": 4.0, "k_ydot": 2.8, "k_w": 1.0, "k_q": 14.0}
+Q1_PRINTED = np.array([0.64, -0.64, -0.42])
+TILT0_PRINTED_DEG = 65.0
+FAIL_FAST = {"check_interval": 0.1, "max_steps": 1000}
+"""Trajectories that run into the singular surface of (26) (the boundary of D) fail within
+1000 CVODES steps of a 0.1 s interval (a converging one takes about 4 steps per 0.1 s)."""
+X_EQ = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0]
+
+
+def equilibrium_distance(model: Model) -> ca.Function:
+    """``(x, p) -> |state - inverted equilibrium|`` (Euclidean in stored coordinates)."""
+    x, p = ca.MX.sym("x", model.manifold.ambient_dim), ca.MX.sym("p", model.n_params)
+    return ca.Function("inverted_distance", [x, p], [ca.norm_2(x - ca.DM(X_EQ))])
+
+
+def proposal_in_domain(s: float, *, x_box: float, v_box: float, w_box: float):  # noqa: ANN201
+    """Proposal over D: q1 area-uniform on the cap ``q1 . e3 < -s``, boxes for the rest.
+
+    ``omega1`` is drawn uniform in ``[-w_box, w_box]^3`` and projected onto ``T_q S^2``
+    (every tangent vector of the box is reached), ``x`` and ``x-dot`` uniform in their
+    boxes.
+    """
+
+    def draw(rng: np.random.Generator, k: int) -> np.ndarray:
+        q3 = rng.uniform(-1.0, -s, k)  # area-uniform on a spherical cap
+        phi = rng.uniform(0.0, 2 * np.pi, k)
+        r = np.sqrt(1 - q3**2)
+        q = np.c_[r * np.cos(phi), r * np.sin(phi), q3]
+        w = rng.uniform(-w_box, w_box, (k, 3))
+        w -= np.sum(w * q, axis=1, keepdims=True) * q
+        return np.c_[rng.uniform(-x_box, x_box, (k, 2)), rng.uniform(-v_box, v_box, (k, 2)),
+                     q, w]
+
+    return draw
+
+
+def solve(*, quick: bool = False) -> Result:
+    """Run the problem.
+
+    Parameters
+    ----------
+    quick : bool
+        20 instead of 200 certified samples, 60 instead of 600 simulated basin samples,
+        20 000 instead of 200 000 membership samples.
+
+    Returns
+    -------
+    Result
+    """
+    res = Result("cart_nonlinear_inverted", TITLE, quick=quick)
+    n_cert, n_basin, n_member = (20, 60, 20_000) if quick else (200, 600, 200_000)
+    model = chain_cart(1, **PLANT)
+    res.use(model)
+    k = ctl.cart_inverted_feedback(model, **GAINS)
+    V = ctl.cart_lyapunov(model, **GAINS)
+    b = ctl.cart_domain(model, k_w=GAINS["k_w"], k_q=GAINS["k_q"])
+    s = ctl.CartGains(**GAINS).s
+    dist = equilibrium_distance(model)
+
+    q1 = Q1_PRINTED / np.linalg.norm(Q1_PRINTED)
+    res.notes.append(f"q1(0) as printed has norm {np.linalg.norm(Q1_PRINTED):.6f}; it is "
+                     f"divided by its norm (a change of {np.linalg.norm(q1 - Q1_PRINTED):.3g}).")
+    x0 = model.state(x=[0.2, 0.1], v=[0.0, 0.1], link1=np.r_[q1, 0.0, 0.0, 0.0])
+    tilt0 = float(np.degrees(np.arccos(-q1[2])))
+    res.compare("initial angle to the upward vertical [deg]", TILT0_PRINTED_DEG, tilt0,
+                tolerance=0.5, source="paper 003 Sec. 5 (printed to 1 deg)")
+    horizon = 30.0
+    t = np.linspace(0.0, horizon, 3001)
+    with res.timed("Fig. 5 simulation"):
+        tr = simulate(model, x0, t, controller=k, rtol=1e-11, atol=1e-11)
+    res.compare("|x(T) - inverted equilibrium|", 0.0, float(dist(tr.final, model.p)),
+                tolerance=1e-6, source="paper 003 Prop. 5")
+    mono = V.monotonicity(tr, tolerance=1e-8)
+    vdot = V.derivative_values(tr.x, k)
+    res.compare("max relative rise of V (25) along Fig. 5", 0.0, mono.relative_increase,
+                tolerance=1e-8, source="paper 003 A.6 (V-dot = -k_ydot |y-dot|^2)")
+    res.compare("max V-dot (25) along Fig. 5, from the graph", 0.0,
+                max(0.0, float(vdot.max())), tolerance=1e-12, source="paper 003 A.6")
+
+    # two-step construction of Section 4.2
+    rng = np.random.default_rng(2014)
+    wide = proposal_in_domain(s, x_box=2.0, v_box=3.0, w_box=3.5)
+    x, p = ca.MX.sym("x", 10), ca.MX.sym("p", model.n_params)
+    at_rest = ca.Function("at_rest", [x, p], [ca.vertcat(x[0:4], x[7:10])])
+    with res.timed("step 1: q1-tilde (Ipopt)"):
+        step1 = optimize_lyapunov(V, wide(rng, 6), maximize=True, constraints=[
+            Constraint(at_rest, 0.0, 0.0, "x = x-dot = omega1 = 0"),
+            Constraint(b, -np.inf, 0.0, "q1 . e3 <= -sqrt((1 + k_w)/k_q)")])
+    with res.timed("step 2: min V on the boundary of D (Ipopt)"):
+        step2 = level_in_domain(V, b, wide(rng, 12))
+    K = min(1.0, step2.value / step1.value)
+    level = K * step1.value
+    certified = SublevelSet(V, level, strict=True, domain=b)
+    res.compare("q1-tilde . e3 (on the boundary of D)", -s, float(step1.x[6]), tolerance=1e-7,
+                source="paper 003 Sec. 4.2 (sup of the NLP on the closure)")
+    res.compare("spread of min V on the boundary of D over the Ipopt starts", 0.0,
+                step2.spread, tolerance=1e-7, source="multi-start agreement")
+    axes = ray_extent(certified, X_EQ, np.eye(8), s_max=20.0)
+    in_cert = bool(certified.contains(x0)[0])
+
+    # verification: samples of the certified set converge
+    big = proposal_in_domain(s, x_box=4.0, v_box=5.0, w_box=7.0)
+    with res.timed("certified set: sampling and simulation"):
+        S, draws = certified.sample(big, n_cert, seed=1)
+        rep = check_convergence(model, k, S, distance=dist, horizon=horizon, tolerance=1e-4,
+                                domain=b, **FAIL_FAST)
+        vdot_S = V.derivative_values(S, k)
+    res.compare("certified samples not converging", 0, rep.n_samples - rep.n_converged,
+                tolerance=0, source="paper 003 Sec. 4.2")
+    res.compare("max V-dot over the certified samples, from the graph", 0.0,
+                max(0.0, float(vdot_S.max())), tolerance=1e-12, source="paper 003 A.6")
+
+    # sampled basin over the same proposal
+    with res.timed("sampled basin"):
+        basin = estimate_basin(certified, k, big(np.random.default_rng(3), n_basin),
+                               distance=dist, horizon=horizon, tolerance=1e-4, domain=b,
+                               membership_samples=big(np.random.default_rng(4), n_member),
+                               **FAIL_FAST)
+    res.compare("certified samples of the basin proposal not converging", 0,
+                basin.n_certified_not_converged, tolerance=0, source="paper 003 Sec. 4.2")
+    res.notes.append(
+        f"Sampled basin: of {basin.n_samples} simulated proposal states "
+        f"{basin.basin_fraction[0]:.3f} converge ({100 * basin.confidence:.0f}% CI "
+        f"[{basin.basin_fraction[1]:.3f}, {basin.basin_fraction[2]:.3f}]); of "
+        f"{basin.n_membership} proposal states {basin.certified_fraction[0]:.2e} are certified "
+        f"(CI [{basin.certified_fraction[1]:.2e}, {basin.certified_fraction[2]:.2e}]): within "
+        f"the proposal box the basin is {basin.ratio[0]:.3g} times the certified set "
+        f"(conservative CI [{basin.ratio[1]:.3g}, {basin.ratio[2]:.3g}]).")
+
+    res.values = {
+        "plant": PLANT, "gains": GAINS, "s = sqrt((1 + k_w)/k_q)": s,
+        "q1_0": q1.tolist(), "tilt0_deg": tilt0, "V": mono.as_dict(),
+        "final_distance": float(dist(tr.final, model.p)),
+        "step1_q1_tilde": step1.x[4:7].tolist(), "step1_V_tilde": step1.value,
+        "step1": step1.as_dict(), "step2_min_V_on_boundary": step2.value,
+        "step2": step2.as_dict(), "K": K, "certified_level": level,
+        "certified_extent_along_tangent_axes": dict(zip(
+            ["x1", "x2", "xdot1", "xdot2", "q1.xi1", "q1.xi2", "omega1.1", "omega1.2"],
+            axes.tolist())),
+        "fig5_initial_state_in_certified_set": in_cert, "V_x0": float(V.values(x0)[0]),
+        "certified_verification": {**rep.as_dict(), "proposal_draws": draws,
+                                   "proposal": "the basin proposal, seed 1"},
+        "basin": {**basin.as_dict(), "proposal": "q1 area-uniform on D's cap, x in [-4,4]^2, "
+                  "x-dot in [-5,5]^2, omega1 in [-7,7]^3 projected, seed 3"},
+        "trajectory": tr.summary(),
+    }
+    res.notes.append(
+        f"The Fig. 5 initial state has V = {float(V.values(x0)[0]):.4g} "
+        f"{'<' if in_cert else '>='} the certified level {level:.4g}: "
+        f"{'inside' if in_cert else 'outside'} the certified set, and it converges.")
+    res.figures["fig5"] = _figure(tr, V.values(tr.x))
+    return res.finish()
+
+
+def _figure(tr, Vt):  # noqa: ANN001, ANN202
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(2, 2, figsize=(9, 6))
+    ax[0, 0].plot(tr.t, tr.x[:, 0:2])
+    ax[0, 0].set(title="cart position x", xlabel="t [s]", ylabel="m")
+    ax[0, 1].plot(tr.t, np.degrees(np.arccos(np.clip(-tr.x[:, 6], -1, 1))))
+    ax[0, 1].set(title="angle of q1 to the upward vertical", xlabel="t [s]", ylabel="deg")
+    ax[1, 0].plot(tr.t, tr.u)
+    ax[1, 0].set(title="control force u", xlabel="t [s]", ylabel="N")
+    ax[1, 1].semilogy(tr.t, np.maximum(Vt, 1e-300))
+    ax[1, 1].set(title="Lyapunov function V (25)", xlabel="t [s]")
+    fig.tight_layout()
+    return fig
+
+
+if __name__ == "__main__":
+    from workbench.cli import run_script
+
+    run_script(solve)
