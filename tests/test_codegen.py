@@ -277,6 +277,12 @@ def test_unknown_controllers_are_refused_with_the_known_names():
         codegen.build("chain_lqr_n0")
     with pytest.raises(ModelError, match="C identifier"):
         codegen.build("s2-pd")
+    with pytest.raises(ModelError, match="export name"):
+        codegen.export_c(controller("s2_pd").function, "/tmp", binding=Binding.FROZEN)
+    with pytest.raises(ModelError, match="binding must be one of"):
+        codegen.Binding("runtime")
+    with pytest.raises(ModelError, match="optimization must be one of"):
+        codegen.Optimization("-Ofast")
 
 
 def test_bad_output_directories_are_refused_and_nothing_is_written(tmp_path, cache):

@@ -26,7 +26,12 @@ __all__ = ["ExportResult", "Through", "agreement", "compile_controller", "export
 
 
 def _controller(controller: str | ExportableController) -> ExportableController:
-    return build(controller) if isinstance(controller, str) else controller
+    if isinstance(controller, str):
+        return build(controller)
+    if not isinstance(controller, ExportableController):
+        raise ModelError(f"controller must be an export name (see workbench.codegen.names()) "
+                         f"or an ExportableController; got {type(controller).__name__}")
+    return controller
 
 
 def compile_controller(
@@ -78,6 +83,10 @@ class Through(str, Enum):
 
     STEP = "step"
     EXTERNAL = "external"
+
+    @classmethod
+    def _missing_(cls, value: object) -> Through:
+        raise ModelError(f"through must be one of {[t.value for t in cls]}; got {value!r}")
 
 
 def agreement(controller: ExportableController, compiled: CompiledController,

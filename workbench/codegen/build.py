@@ -95,6 +95,11 @@ class Optimization(str, Enum):
     O3 = "O3"
     NATIVE = "O3-native"
 
+    @classmethod
+    def _missing_(cls, value: object) -> Optimization:
+        raise ModelError(f"optimization must be one of {[o.value for o in cls]} (or an "
+                         f"Optimization); got {value!r}")
+
     @property
     def flags(self) -> tuple[str, ...]:
         """The compiler flags."""

@@ -24,6 +24,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.errors import ModelError
 from workbench.model import Context, Model
 
 __all__ = ["Binding", "Entry", "ExportableController", "Law", "Sampler"]
@@ -52,6 +53,11 @@ class Binding(str, Enum):
     FROZEN = "frozen"
     PARAMETERS = "parameters"
     PARAMETERS_AND_GAINS = "parameters-and-gains"
+
+    @classmethod
+    def _missing_(cls, value: object) -> Binding:
+        raise ModelError(f"binding must be one of {[b.value for b in cls]} (or a Binding); "
+                         f"got {value!r}")
 
 
 @dataclass(frozen=True)
