@@ -131,8 +131,11 @@ class SpecialPoint:
     tangent : ndarray
         Unit ambient tangent of the branch there (incoming orientation).
     data : dict
-        Kind-specific: monitor values; for a branch point the singular values of A; for a
-        class change ``before`` and ``after``.
+        The monitor values there; ``located`` (False when a re-correction inside the step
+        failed, near a singular point: the point is then the end of the step, ``bracket``
+        the arclength it is known to, and ``message`` why); kind-specific entries: for a
+        branch point the singular values ``sigma`` of A, for a class change ``before``
+        and ``after``, for a bound the ``bound``.
     """
 
     kind: PointKind

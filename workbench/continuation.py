@@ -61,7 +61,7 @@ __all__ = [
 
 def _null_tangent(A: Matrix, N: Matrix, rank_rtol: float) -> tuple[Vector, int, Matrix, Vector]:
     """Null vector of A (last right singular vector), its null dimension, U and sigma."""
-    U, s, Vt = np.linalg.svd(A, full_matrices=True)
+    U, s, Vt = np.linalg.svd(A, full_matrices=A.shape[0] < A.shape[1])
     n = A.shape[1]
     rank = int(np.sum(s > rank_rtol * s[0])) if s.size and s[0] > 0 else 0
     t = Vt[-1]
@@ -115,7 +115,7 @@ def correct_point(
 
     return newton_on_manifold(fun, man, z0, tol=control.tol,
                               max_iterations=control.max_corrector_iterations,
-                              rank_rtol=1e-14, step_tol=control.step_tol)
+                              rank_rtol=1e-14, step_tol=control.step_tol, diagnostics=False)
 
 
 # ----------------------------------------------------------------------------------------
@@ -161,10 +161,12 @@ class _Tracer:
 
     def crossing_sign(self, prev: dict[str, Any], new: dict[str, Any]) -> tuple[float, float]:
         """Bordered-determinant signs at prev and new in prev's range frame."""
-        s_prev = _bordered_sign(prev["U"], prev["A"], prev["t"])
-        C = np.linalg.lstsq(new["N"], prev["N"], rcond=None)[0]
-        s_new = _bordered_sign(prev["U"], new["A"], new["t"]) * np.sign(np.linalg.det(C))
-        return s_prev, s_new
+        if "bsign" not in prev:
+            prev["bsign"] = _bordered_sign(prev["U"], prev["A"], prev["t"])
+        # sign of det(pinv(N_new) N_prev) = sign of det(N_new^T N_prev): the orientation
+        # change between the two tangent bases
+        flip = np.sign(np.linalg.det(new["N"].T @ prev["N"]))
+        return prev["bsign"], _bordered_sign(prev["U"], new["A"], new["t"]) * flip
 
     def point_at(self, prev: dict[str, Any], theta: float, h: float) -> dict[str, Any]:
         root = correct_point(self.problem, prev["y"], prev["d"], theta * h, control=self.c,
@@ -174,8 +176,14 @@ class _Tracer:
                               status=root.status.value)
         return self.info(root.x, prev["d"])
 
-    def locate_scalar(self, prev: dict[str, Any], h: float,
-                      g: Callable[[dict[str, Any]], float]) -> tuple[dict[str, Any], float]:
+    def locate_scalar(self, prev: dict[str, Any], new: dict[str, Any], h: float,
+                      g: Callable[[dict[str, Any]], float],
+                      ) -> tuple[dict[str, Any], float, dict[str, Any]]:
+        """Zero of ``g`` inside the step (Brent on the step fraction, points re-corrected).
+
+        If a re-correction fails (near a singular point), the crossing is reported at the
+        end point of the step with ``located = False`` and the bracket width.
+        """
         cache: dict[float, dict[str, Any]] = {}
 
         def fn(theta: float) -> float:
@@ -184,22 +192,31 @@ class _Tracer:
             cache[theta] = self.point_at(prev, theta, h)
             return g(cache[theta])
 
-        theta = brentq(fn, 0.0, 1.0, xtol=self.c.locate_tol / h, rtol=4 * np.finfo(float).eps)
-        pt = cache.get(theta) or self.point_at(prev, theta, h)
-        return pt, theta
+        try:
+            theta = brentq(fn, 0.0, 1.0, xtol=self.c.locate_tol / h,
+                           rtol=4 * np.finfo(float).eps)
+            pt = cache.get(theta) or self.point_at(prev, theta, h)
+        except (SolverError, ValueError) as exc:
+            return new, 1.0, {"located": False, "bracket": h, "message": str(exc)}
+        return pt, theta, {"located": True}
 
-    def locate_change(self, prev: dict[str, Any], h: float,
-                      same: Callable[[dict[str, Any]], bool]) -> tuple[dict[str, Any], float]:
-        lo, hi, best = 0.0, 1.0, None
+    def locate_change(self, prev: dict[str, Any], new: dict[str, Any], h: float,
+                      same: Callable[[dict[str, Any]], bool],
+                      ) -> tuple[dict[str, Any], float, dict[str, Any]]:
+        """Bisection on the step fraction for the first point where ``same`` turns false."""
+        lo, hi, best = 0.0, 1.0, new
         while (hi - lo) * h > self.c.locate_tol and hi - lo > 1e-14:
             mid = 0.5 * (lo + hi)
-            pt = self.point_at(prev, mid, h)
+            try:
+                pt = self.point_at(prev, mid, h)
+            except SolverError as exc:
+                return best, hi, {"located": False, "bracket": (hi - lo) * h,
+                                  "message": str(exc)}
             if same(pt):
                 lo = mid
             else:
                 hi, best = mid, pt
-        theta = 0.5 * (lo + hi)
-        return self.point_at(prev, theta, h) if theta > 0 else (best or prev), theta
+        return best, hi, {"located": True, "bracket": (hi - lo) * h}
 
 
 def continue_branch(
@@ -352,15 +369,16 @@ def continue_branch(
                       if not lo <= new["mon"][n] <= hi]
         for kind, name in crossings:
             if kind == "event":
-                pt, th = tr.locate_scalar(cur, h, lambda p, n=name: p["mon"][n])
-                special_at(PointKind.EVENT, name, pt, s + th * h, {})
+                pt, th, how = tr.locate_scalar(cur, new, h, lambda p, n=name: p["mon"][n])
+                special_at(PointKind.EVENT, name, pt, s + th * h, how)
                 if name in tr.stop_at and (stop is None or th < stop[1]):
                     stop = (EndReason.STOP_EVENT, th, pt, f"stopped at the event {name} = 0")
             else:
                 lo, hi = tr.bounds[name]
                 edge = hi if new["mon"][name] > hi else lo
-                pt, th = tr.locate_scalar(cur, h, lambda p, n=name, e=edge: p["mon"][n] - e)
-                special_at(PointKind.BOUND, name, pt, s + th * h, {"bound": edge})
+                pt, th, how = tr.locate_scalar(cur, new, h,
+                                               lambda p, n=name, e=edge: p["mon"][n] - e)
+                special_at(PointKind.BOUND, name, pt, s + th * h, {"bound": edge, **how})
                 if stop is None or th < stop[1]:
                     stop = (EndReason.BOUND, th, pt, f"{name} reached its bound {edge:g}")
         if tr.detect:
@@ -372,18 +390,19 @@ def continue_branch(
                     a, b = tr.crossing_sign(ref, p)
                     return a * b > 0
 
-                pt, th = tr.locate_change(cur, h, same_side)
+                pt, th, how = tr.locate_change(cur, new, h, same_side)
                 if stop is None or th < stop[1]:
                     special_at(PointKind.BRANCH_POINT, "branch point", pt, s + th * h,
-                               {"sigma": pt["sigma"]})
+                               {"sigma": pt["sigma"], **how})
         lab_new = None
         if classify and stop is None:
             lab_new = classify(new["y"])
             if lab_new != labels[-1]:
                 before = labels[-1]
-                pt, th = tr.locate_change(cur, h, lambda p, b=before: classify(p["y"]) == b)
+                pt, th, how = tr.locate_change(cur, new, h,
+                                               lambda p, b=before: classify(p["y"]) == b)
                 special_at(PointKind.CLASS_CHANGE, "classification", pt, s + th * h,
-                           {"before": before, "after": lab_new})
+                           {"before": before, "after": lab_new, **how})
         special.sort(key=lambda p: p.s)
         if stop is not None:
             end, th, pt, end_msg = stop[0], stop[1], stop[2], stop[3]

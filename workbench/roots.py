@@ -87,16 +87,17 @@ class Root:
     wall_time : float
         Seconds.
     singular_values : ndarray
-        Of the tangent Jacobian ``dF/dy N`` at ``x``.
+        Of the tangent Jacobian ``dF/dy N`` at ``x`` (empty without diagnostics).
     rank : int
-        Number of singular values above ``rank_rtol`` times the largest.
+        Number of singular values above ``rank_rtol`` times the largest (-1 without
+        diagnostics).
     local_dimension : int
         ``dim P - rank``: the dimension of the zero set near ``x`` when the rank is
-        constant there (0 for an isolated zero).
+        constant there (0 for an isolated zero; -1 without diagnostics).
     history : list of float
         ``max |F|`` at every iterate, starting with the guess.
     constraint_residual : float
-        Max constraint residual of ``x`` on the manifold.
+        Max constraint residual of ``x`` on the manifold (nan without diagnostics).
     """
 
     x: Vector
@@ -366,6 +367,7 @@ def newton_on_manifold(
     bound: Callable[[Vector], str | None] | None = None,
     min_damping: float = 1.0 / 1024,
     step_tol: float | None = None,
+    diagnostics: bool = True,
 ) -> Root:
     """Damped minimum-norm Gauss-Newton for ``F(y) = 0`` on a product manifold.
 
@@ -460,9 +462,13 @@ def newton_on_manifold(
         message = f"converged in {it} iterations to max |F| = {r:.2e}"
         if r > tol:
             message += f" (step below step_tol {step_tol:.1e}: roundoff level)"
-    s = np.linalg.svd(A, compute_uv=False) if A.size else np.zeros(0)
-    rank = _rank(s, rank_rtol)
     n = A.shape[1] if A.ndim == 2 else 0
+    if diagnostics:
+        s = np.linalg.svd(A, compute_uv=False) if A.size else np.zeros(0)
+        rank = _rank(s, rank_rtol)
+        cres = float(max(manifold.residual_norms(y).values(), default=0.0))
+    else:
+        s, rank, cres = np.zeros(0), -1, float("nan")
     return Root(
         x=y,
         status=status,
@@ -473,9 +479,7 @@ def newton_on_manifold(
         wall_time=time.perf_counter() - t0,
         singular_values=s,
         rank=rank,
-        local_dimension=n - rank,
+        local_dimension=n - rank if rank >= 0 else -1,
         history=history,
-        constraint_residual=float(
-            max(manifold.residual_norms(y).values(), default=0.0)
-        ),
+        constraint_residual=cres,
     )
