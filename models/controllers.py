@@ -13,12 +13,20 @@ controller always cancels the model it is evaluated with.
 * :func:`saturated_velocity_feedback`: paper 001 (34), ``u = -k P omega / (1 + |P omega|)``;
 * :func:`s2_pd`: paper 002 Section II-A, geometric PD on S^2 with gravity cancellation;
 * :func:`so3_pd`: paper 002 Section III-A, geometric PD on SO(3) with the attitude error
-  ``e_R = vee(G R_d^T R - R^T R_d G) / 2`` and gravity cancellation.
+  ``e_R = vee(G R_d^T R - R^T R_d G) / 2`` and gravity cancellation;
+* :func:`cart_inverted_feedback`: paper 003 (21) (with the erratum) and (26), the nonlinear
+  stabilisation of the inverted spherical pendulum on a cart (n = 1), gains checked by
+  :class:`CartGains`; :func:`cart_domain` is the domain D of (43).
+
+Lyapunov functions (:class:`~workbench.lyapunov.Lyapunov`, derivatives from the graph):
+:func:`velocity_feedback_lyapunov` (paper 001 (30); :func:`hanging_set_level` gives the
+levels of H_eps (29) and N (33)) and :func:`cart_lyapunov` (paper 003 (25)). The chain
+feedback (19) of paper 003 is :func:`workbench.lqr.geometric_feedback` (LQR gains through
+the chart).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -28,9 +36,9 @@ import numpy as np
 
 from workbench._types import ArrayLike
 from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import Lyapunov
+from workbench.lyapunov import Lyapunov, state_function
 from workbench.manifolds import S2, SO3, TS2, Rn, vee
-from workbench.model import BuildRecord, Context, Model
+from workbench.model import Context, Model, spd3
 
 __all__ = [
     "CartGains",
@@ -39,7 +47,6 @@ __all__ = [
     "cart_inverted_feedback",
     "cart_lyapunov",
     "hanging_set_level",
-    "sx_function",
     "velocity_feedback_lyapunov",
     "psi_feedback",
     "saturated_velocity_feedback",
@@ -73,48 +80,28 @@ def _spd(value: ArrayLike, name: str, condition: str) -> np.ndarray:
         raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got {value!r}") from exc
     if a.shape != (3, 3):
         raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError(f"{name} must be finite ({condition}); got {a.tolist()}")
-    scale = max(float(np.max(np.abs(a))), 1e-300)
-    asym = float(np.max(np.abs(a - a.T)))
-    if asym > 1e-12 * scale:
-        raise ParameterError(
-            f"{name} must be symmetric positive definite ({condition}); got a non-symmetric "
-            f"matrix (max |{name} - {name}^T| = {asym:.3g})"
-        )
-    eig = np.linalg.eigvalsh(a)
-    if np.any(eig <= 0):
-        raise ParameterError(
-            f"{name} must be symmetric positive definite ({condition}); got eigenvalues "
-            f"{np.array2string(eig, precision=6)}"
-        )
+    msg = spd3(a)
+    if msg:
+        raise ParameterError(f"{name} {msg.replace('; got', f' ({condition}); got', 1)}")
     return a
 
 
-def _require_factor(model: Model, name: str, kind: type, who: str) -> None:
-    man = model.manifold
-    if name not in man.names or not isinstance(man.factor(name), kind):
-        raise ModelError(
-            f"{who} needs a model with a {kind.__name__} state factor {name!r}; model "
-            f"{model.name!r} has factors {man.names} ({man.describe()})"
-        )
-
-
-def _require_parameters(model: Model, names: tuple[str, ...], who: str) -> None:
-    have = [p.name for p in model.parameters]
-    missing = [n for n in names if n not in have]
+def _require(model: Model, who: str, *, factors: dict[str, type] | None = None,
+             params: tuple[str, ...] = (), inputs: int | None = None) -> None:
+    """Check that ``model`` has the state factors, parameters and inputs a law needs."""
+    man, have = model.manifold, [p.name for p in model.parameters]
+    for name, kind in (factors or {}).items():
+        if name not in man.names or not isinstance(man.factor(name), kind):
+            raise ModelError(f"{who} needs a model with a {kind.__name__} state factor "
+                             f"{name!r}; model {model.name!r} has factors {man.names} "
+                             f"({man.describe()})")
+    missing = [n for n in params if n not in have]
     if missing:
-        raise ModelError(
-            f"{who} cancels gravity with the model parameters {list(names)}; model "
-            f"{model.name!r} lacks {missing} (has {have})"
-        )
-
-
-def _require_inputs(model: Model, n: int, who: str) -> None:
-    if model.n_inputs != n:
-        raise ModelError(
-            f"{who} returns {n} inputs; model {model.name!r} has {model.n_inputs} inputs"
-        )
+        raise ModelError(f"{who} uses the model parameters {list(params)}; model "
+                         f"{model.name!r} lacks {missing} (has {have})")
+    if inputs is not None and model.n_inputs != inputs:
+        raise ModelError(f"{who} returns {inputs} inputs; model {model.name!r} has "
+                         f"{model.n_inputs} inputs")
 
 
 def _norm_c1(v):
@@ -127,50 +114,6 @@ def _norm_c1(v):
     """
     s = ca.dot(v, v)
     return ca.if_else(s > 0, ca.sqrt(s), 0)
-
-
-def sx_function(
-    model: Model, name: str, build: Callable, out: str = "u", *, record: bool = True
-) -> ca.Function:
-    """Wrap ``build(ctx) -> expression`` into ``casadi.Function(name, [x, p], [out])``.
-
-    The expression is written on scalar (SX) symbols, whatever the model's symbol class,
-    so it stays compact and exports to C; for an MX model the SX function is called on
-    MX symbols (one call node). The build is recorded in the model's build log.
-
-    Parameters
-    ----------
-    model : Model
-        The model whose stored state and parameters are the inputs.
-    name : str
-        Function name (also the build-log entry ``<model>.<name>``).
-    build : callable
-        ``build(ctx) -> casadi SX`` with ``ctx`` a :class:`~workbench.model.Context` on SX
-        symbols.
-    out : str
-        Name of the output.
-    record : bool
-        Whether to add the build to the model's build log.
-
-    Returns
-    -------
-    casadi.Function
-        ``(x, p) -> out``.
-    """
-    t0 = time.perf_counter()
-    sx = Context(model, ca.SX.sym("x", model.manifold.ambient_dim),
-                 ca.SX.sym("u", model.n_inputs), ca.SX.sym("p", model.n_params))
-    core = ca.Function(name, [sx.x, sx.p], [ca.vec(build(sx))], ["x", "p"], [out],
-                       {"cse": True})
-    if model.symbolic == "MX":
-        x, p = ca.MX.sym("x", model.manifold.ambient_dim), ca.MX.sym("p", model.n_params)
-        fn = ca.Function(name, [x, p], [core(x, p)], ["x", "p"], [out])
-    else:
-        fn = core
-    if record:
-        model.build_log.add(BuildRecord(f"{model.name}.{name}", int(fn.n_nodes()),
-                                        time.perf_counter() - t0, model.symbolic))
-    return fn
 
 
 # ----------------------------------------------------------------------------------------
@@ -226,8 +169,7 @@ def psi_feedback(
         ``x^T Psi(x) <= 0``.
     """
     who = "angular-velocity feedback (paper 001 (14))"
-    _require_factor(model, "omega", Rn, who)
-    _require_inputs(model, 3, who)
+    _require(model, who, factors={"omega": Rn}, inputs=3)
     w = ca.SX.sym("w", 3)
     try:
         out = ca.vec(psi(w))
@@ -266,7 +208,7 @@ def psi_feedback(
     def build(ctx):
         return -f_psi(ctx["omega"])[0]
 
-    return sx_function(model, name, build)
+    return state_function(model, name, build)
 
 
 def angular_velocity_feedback(model: Model, D: ArrayLike) -> ca.Function:
@@ -363,9 +305,7 @@ def s2_pd(model: Model, q_d: ArrayLike, k_q: float, k_w: float) -> ca.Function:
         A gain is not positive.
     """
     who = "geometric PD on S^2 (paper 002 Sec. II-A)"
-    _require_factor(model, "q", TS2, who)
-    _require_parameters(model, ("m", "l", "g"), who)
-    _require_inputs(model, 3, who)
+    _require(model, who, factors={"q": TS2}, params=("m", "l", "g"), inputs=3)
     qd = S2().check(q_d, name="q_d")
     cond = "paper 002 Sec. II-A: positive constants k_q, k_omega"
     kq = _positive_scalar(k_q, "k_q", cond)
@@ -379,7 +319,7 @@ def s2_pd(model: Model, q_d: ArrayLike, k_q: float, k_w: float) -> ca.Function:
             -kq * ca.cross(ca.DM(qd), q) - kw * w - (g / l_) * ca.cross(q, ca.DM(E3))
         )
 
-    return sx_function(model, "s2_pd", build)
+    return state_function(model, "s2_pd", build)
 
 
 def _diag_gain(G: ArrayLike) -> np.ndarray:
@@ -442,10 +382,7 @@ def so3_pd(
     """
     who = "geometric PD on SO(3) (paper 002 Sec. III-A)"
 
-    _require_factor(model, "R", SO3, who)
-    _require_factor(model, "omega", Rn, who)
-    _require_parameters(model, ("rho", "m", "g"), who)
-    _require_inputs(model, 3, who)
+    _require(model, who, factors={"R": SO3, "omega": Rn}, params=("rho", "m", "g"), inputs=3)
     Rd = ca.DM(SO3.matrix(SO3().check(R_d, name="R_d")))
     cond = "paper 002 Sec. III-A: positive constants k_R, k_Omega"
     kR = _positive_scalar(k_R, "k_R", cond)
@@ -458,7 +395,7 @@ def so3_pd(
         gravity = ctx["m"] * ctx["g"] * ca.cross(ctx["rho"], R.T @ ca.DM(E3))
         return -kR * e_R - kW * w - gravity
 
-    return sx_function(model, "so3_pd", build)
+    return state_function(model, "so3_pd", build)
 
 
 # ----------------------------------------------------------------------------------------
@@ -512,14 +449,11 @@ def _cart_terms(ctx: Context, gains: CartGains) -> dict[str, Any]:
 
 
 def _require_cart(model: Model, who: str) -> None:
-    _require_factor(model, "x", Rn, who)
-    _require_factor(model, "v", Rn, who)
-    _require_factor(model, "link1", TS2, who)
+    _require(model, who, factors={"x": Rn, "v": Rn, "link1": TS2},
+             params=("m", "masses", "lengths", "g"), inputs=2)
     if "link2" in model.manifold.names:
         raise ModelError(f"{who} is for one link (n = 1); model {model.name!r} has "
                          f"factors {model.manifold.names}")
-    _require_parameters(model, ("m", "masses", "lengths", "g"), who)
-    _require_inputs(model, 2, who)
 
 
 def cart_inverted_feedback(
@@ -569,7 +503,7 @@ def cart_inverted_feedback(
         M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
         return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * t["w2"] * (Cd.T @ q)
 
-    return sx_function(model, "cart_inverted_feedback", build)
+    return state_function(model, "cart_inverted_feedback", build)
 
 
 def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:
@@ -589,7 +523,7 @@ def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:
     """
     _require_cart(model, "domain D of paper 003 (43)")
     s = CartGains(1.0, 1.0, k_w, k_q).s
-    return sx_function(model, "cart_domain_D", lambda ctx: ctx["link1"][2] + s, out="b")
+    return state_function(model, "cart_domain_D", lambda ctx: ctx["link1"][2] + s, out="b")
 
 
 # ----------------------------------------------------------------------------------------
@@ -612,8 +546,8 @@ def velocity_feedback_lyapunov(model: Model) -> Lyapunov:
     -------
     Lyapunov
     """
-    _require_factor(model, "omega", Rn, "Lyapunov function (30) of paper 001")
-    _require_parameters(model, ("J", "rho", "m", "g"), "Lyapunov function (30) of paper 001")
+    _require(model, "Lyapunov function (30) of paper 001", factors={"omega": Rn},
+             params=("J", "rho", "m", "g"))
     names = model.manifold.names
     if "Gamma" not in names and "R" not in names:
         raise ModelError(f"Lyapunov function (30) needs a factor 'Gamma' (S2) or 'R' (SO3); "
@@ -675,7 +609,7 @@ def cart_lyapunov(model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: f
     """
     _require_cart(model, "control Lyapunov function (25) of paper 003")
     G = CartGains(k_y, k_ydot, k_w, k_q)
-    core = sx_function(model, "V25", lambda ctx: _cart_V(ctx, G), out="V", record=False)
+    core = state_function(model, "V25", lambda ctx: _cart_V(ctx, G), out="V", record=False)
     return Lyapunov(model, lambda ctx: core(ctx.x, ctx.p), name="V25",
                     description="paper 003 (25)",
                     equation=r"\mathcal V = \tfrac12 k_y\|y\|^2 + \tfrac12\|\dot y\|^2 + k_w"

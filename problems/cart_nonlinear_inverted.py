@@ -29,9 +29,8 @@ from workbench.attraction import (
     estimate_basin,
     level_in_domain,
     optimize_lyapunov,
-    ray_extent,
 )
-from workbench.lyapunov import SublevelSet
+from workbench.lyapunov import SublevelSet, ray_extent
 from workbench.model import Model
 from workbench.result import Result
 from workbench.simulate import simulate

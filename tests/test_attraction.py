@@ -24,10 +24,9 @@ from workbench.attraction import (
     estimate_basin,
     level_in_domain,
     optimize_lyapunov,
-    ray_extent,
 )
 from workbench.errors import ParameterError, SolverError
-from workbench.lyapunov import SublevelSet
+from workbench.lyapunov import SublevelSet, ray_extent
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 BODY = {"J": J7, "rho": np.array([0.0, 0.0, 0.2]), "m": 100.0, "g": 10.0}

@@ -9,8 +9,7 @@ function inside a domain):
 * :func:`level_in_domain` -- the minimum of ``V`` on the boundary ``b = 0`` of a domain:
   every level below it gives a sublevel set (its component through the equilibrium)
   inside ``D``;
-* :func:`ray_extent` -- the distance from the equilibrium to the set's boundary along
-  tangent rays (a size measure).
+* :func:`~workbench.lyapunov.ray_extent` measures a set's size along tangent rays.
 
 Testing and estimation by integrating the closed loop from many initial states:
 
@@ -33,7 +32,7 @@ import numpy as np
 from scipy.stats import beta
 
 from workbench._types import ArrayLike
-from workbench.errors import ModelError, ParameterError, SolverError
+from workbench.errors import ParameterError, SolverError
 from workbench.lyapunov import Lyapunov, SublevelSet, as_states
 from workbench.model import Model
 from workbench.simulate import closed_loop_function
@@ -44,7 +43,6 @@ __all__ = [
     "optimize",
     "optimize_lyapunov",
     "level_in_domain",
-    "ray_extent",
     "ConvergenceReport",
     "check_convergence",
     "BasinEstimate",
@@ -298,70 +296,6 @@ def level_in_domain(
     return optimize_lyapunov(
         lyapunov, starts, maximize=False, tol=tol, max_iter=max_iter,
         constraints=[Constraint(boundary, 0.0, 0.0, "boundary of D")])
-
-
-def ray_extent(
-    sublevel: SublevelSet,
-    x_e: ArrayLike,
-    directions: ArrayLike,
-    *,
-    s_max: float,
-    n_grid: int = 2000,
-    rtol: float = 1e-10,
-) -> np.ndarray:
-    """Distance from an equilibrium to the first exit from a set along tangent rays.
-
-    Along each ray ``s -> retract(x_e, s d)`` (``d`` a tangent direction in the manifold's
-    tangent coordinates at ``x_e``, normalised) membership is scanned on ``n_grid``
-    points up to ``s_max``; the first change from inside to outside is refined by
-    bisection to ``rtol * s_max``. A ray that never leaves gives ``inf`` (the set
-    reaches beyond ``s_max``). A size measure that needs no optimisation (the set need
-    not be star-shaped: the first exit is reported).
-
-    Parameters
-    ----------
-    sublevel : SublevelSet
-    x_e : array-like, shape=(ambient_dim,)
-        A point of the set (the equilibrium).
-    directions : array-like, shape=(n_rays, dim)
-        Tangent directions (coordinates in the manifold's tangent basis at ``x_e``).
-    s_max : float
-        Largest ray parameter scanned.
-    n_grid : int
-        Scan points per ray.
-    rtol : float
-        Bisection tolerance relative to ``s_max``.
-
-    Returns
-    -------
-    ndarray, shape=(n_rays,)
-    """
-    model = sublevel.lyapunov.model
-    xe = model.check_state(x_e, name="x_e")
-    D = np.atleast_2d(np.asarray(directions, dtype=float))
-    if D.shape[1] != model.manifold.dim:
-        raise ModelError(f"directions must have {model.manifold.dim} columns (tangent "
-                         f"coordinates); got shape {D.shape}")
-    if not sublevel.contains(xe)[0]:
-        raise ModelError("x_e must lie in the set")
-    out = np.full(len(D), np.inf)
-    grid = np.linspace(0.0, float(s_max), int(n_grid) + 1)
-    for k, d in enumerate(D):
-        d = d / np.linalg.norm(d)
-
-        def point(s: float, d: np.ndarray = d) -> np.ndarray:
-            return model.manifold.retract(xe, s * d)
-
-        inside = sublevel.contains(np.array([point(s) for s in grid]))
-        if inside.all():
-            continue
-        j = int(np.argmin(inside))
-        lo, hi = grid[j - 1], grid[j]
-        while hi - lo > rtol * s_max:
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if sublevel.contains(point(mid))[0] else (lo, mid)
-        out[k] = 0.5 * (lo + hi)
-    return out
 
 
 # ----------------------------------------------------------------------------------------

@@ -16,7 +16,8 @@ Sublevel sets and their certification:
   domain ``D = {b(x) < 0}``; membership and rejection sampling from a proposal.
 Sublevel sets: :class:`SublevelSet` is ``{x : V(x) <= c}`` (or ``< c``), optionally
 intersected with a domain ``D = {b(x) < 0}``, with membership and rejection sampling from
-a proposal. Certifying a level (with Ipopt) is in :mod:`workbench.attraction`.
+a proposal; :func:`ray_extent` measures its size along tangent rays from the equilibrium.
+Certifying a level (with Ipopt) is in :mod:`workbench.attraction`.
 """
 
 from __future__ import annotations
@@ -38,8 +39,56 @@ __all__ = [
     "Lyapunov",
     "Monotonicity",
     "as_states",
+    "state_function",
     "SublevelSet",
+    "ray_extent",
 ]
+
+
+def state_function(
+    model: Model, name: str, build: Callable, out: str = "u", *, record: bool = True
+) -> ca.Function:
+    """Wrap ``build(ctx) -> expression`` into ``casadi.Function(name, [x, p], [out])``.
+
+    For feedback laws and other expressions of a model's state (the papers' controllers
+    in :mod:`models.controllers`). The expression is written on scalar (SX) symbols,
+    whatever the model's symbol class, so it stays compact and exports to C; for an MX
+    model the SX function is called on MX symbols (one call node). The build is recorded
+    in the model's build log.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose stored state and parameters are the inputs.
+    name : str
+        Function name (also the build-log entry ``<model>.<name>``).
+    build : callable
+        ``build(ctx) -> casadi SX`` with ``ctx`` a :class:`~workbench.model.Context` on SX
+        symbols.
+    out : str
+        Name of the output.
+    record : bool
+        Whether to add the build to the model's build log.
+
+    Returns
+    -------
+    casadi.Function
+        ``(x, p) -> out``.
+    """
+    t0 = time.perf_counter()
+    sx = Context(model, ca.SX.sym("x", model.manifold.ambient_dim),
+                 ca.SX.sym("u", model.n_inputs), ca.SX.sym("p", model.n_params))
+    core = ca.Function(name, [sx.x, sx.p], [ca.vec(build(sx))], ["x", "p"], [out],
+                       {"cse": True})
+    if model.symbolic == "MX":
+        x, p = ca.MX.sym("x", model.manifold.ambient_dim), ca.MX.sym("p", model.n_params)
+        fn = ca.Function(name, [x, p], [core(x, p)], ["x", "p"], [out])
+    else:
+        fn = core
+    if record:
+        model.build_log.add(BuildRecord(f"{model.name}.{name}", int(fn.n_nodes()),
+                                        time.perf_counter() - t0, model.symbolic))
+    return fn
 
 
 def as_states(model: Model, states: ArrayLike, name: str = "states") -> np.ndarray:
@@ -343,3 +392,67 @@ class SublevelSet:
             draws += len(X)
             kept.append(X[self.contains(X)])
         return np.concatenate(kept)[:n], draws
+
+
+def ray_extent(
+    sublevel: SublevelSet,
+    x_e: ArrayLike,
+    directions: ArrayLike,
+    *,
+    s_max: float,
+    n_grid: int = 2000,
+    rtol: float = 1e-10,
+) -> np.ndarray:
+    """Distance from an equilibrium to the first exit from a set along tangent rays.
+
+    Along each ray ``s -> retract(x_e, s d)`` (``d`` a tangent direction in the manifold's
+    tangent coordinates at ``x_e``, normalised) membership is scanned on ``n_grid``
+    points up to ``s_max``; the first change from inside to outside is refined by
+    bisection to ``rtol * s_max``. A ray that never leaves gives ``inf`` (the set
+    reaches beyond ``s_max``). A size measure that needs no optimisation (the set need
+    not be star-shaped: the first exit is reported).
+
+    Parameters
+    ----------
+    sublevel : SublevelSet
+    x_e : array-like, shape=(ambient_dim,)
+        A point of the set (the equilibrium).
+    directions : array-like, shape=(n_rays, dim)
+        Tangent directions (coordinates in the manifold's tangent basis at ``x_e``).
+    s_max : float
+        Largest ray parameter scanned.
+    n_grid : int
+        Scan points per ray.
+    rtol : float
+        Bisection tolerance relative to ``s_max``.
+
+    Returns
+    -------
+    ndarray, shape=(n_rays,)
+    """
+    model = sublevel.lyapunov.model
+    xe = model.check_state(x_e, name="x_e")
+    D = np.atleast_2d(np.asarray(directions, dtype=float))
+    if D.shape[1] != model.manifold.dim:
+        raise ModelError(f"directions must have {model.manifold.dim} columns (tangent "
+                         f"coordinates); got shape {D.shape}")
+    if not sublevel.contains(xe)[0]:
+        raise ModelError("x_e must lie in the set")
+    out = np.full(len(D), np.inf)
+    grid = np.linspace(0.0, float(s_max), int(n_grid) + 1)
+    for k, d in enumerate(D):
+        d = d / np.linalg.norm(d)
+
+        def point(s: float, d: np.ndarray = d) -> np.ndarray:
+            return model.manifold.retract(xe, s * d)
+
+        inside = sublevel.contains(np.array([point(s) for s in grid]))
+        if inside.all():
+            continue
+        j = int(np.argmin(inside))
+        lo, hi = grid[j - 1], grid[j]
+        while hi - lo > rtol * s_max:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if sublevel.contains(point(mid))[0] else (lo, mid)
+        out[k] = 0.5 * (lo + hi)
+    return out
