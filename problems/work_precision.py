@@ -272,6 +272,7 @@ def solve(*, quick: bool = False) -> Result:
 
 def _orders_figure(*wps):  # noqa: ANN002, ANN202
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -288,6 +289,7 @@ def _orders_figure(*wps):  # noqa: ANN002, ANN202
                 ax.loglog(s, np.array(o["errors"]), "o", mfc="none", ms=9,
                           color=line.get_color())
         ax.axhline(wp.reference.error_estimate, color="grey", ls=":", lw=1)
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("step h [s]")
         ax.set_ylabel("error at final time")
         ax.set_title(f"{wp.model}, T = {wp.horizon:g} s (circled: points fitted)")

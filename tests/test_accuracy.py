@@ -149,3 +149,21 @@ def test_bad_measurement_input_is_rejected(sphere, x0):
         work_precision(sphere, x0, 1.0, ok, energy="momentum")
     with pytest.raises(ParameterError, match="one knob value"):
         long_time(sphere, x0, 1.0, [Sweep(Method.RK, [0.1, 0.05])])
+
+
+@pytest.mark.slow
+def test_ten_thousand_periods_lgvi_bounded_rk_drifts():
+    """The long-time claim of the work-precision problem, at full length (slow)."""
+    from models import pendulum3d as p3
+    from problems.work_precision import BODY, C_CHAOTIC, slowest_period
+
+    body = p3.full(**BODY)
+    x0 = body.state(R=np.eye(3), omega=C_CHAOTIC * np.ones(3))
+    period = slowest_period(body, body.state(R=np.eye(3), omega=np.zeros(3)))
+    horizon = round(10_000 * period / 0.2) * 0.2
+    lt = long_time(body, x0, horizon, [Sweep(Method.LGVI, [0.01]), Sweep(Method.RK, [0.01])],
+                   n_samples=int(round(horizon / 0.2)) + 1)
+    vi, rk = (r.summary() for r in lt.runs)
+    assert abs(vi["energy_exponent"]) < 0.1 and vi["energy_growth"] < 1.2
+    assert vi["constraint_max"] < 1e-12
+    assert abs(rk["energy_exponent"] - 1.0) < 0.2 and rk["energy_growth"] > 5.0
