@@ -123,3 +123,13 @@ def test_sublevel_set_membership_and_sampling(rng):
     assert np.all(V.values(S) <= level) and np.all(S[:, 2] > 0)
     with pytest.raises(SolverError, match="rejection sampling"):
         SublevelSet(V, 1e-9).sample(proposal, 5, max_draws=2000)
+
+
+def test_derivatives_for_two_controllers_of_the_same_name_do_not_mix():
+    model = p3.reduced(**BODY)
+    V = ctl.velocity_feedback_lyapunov(model)
+    X = np.array([[0.0, 0.0, 1.0, 1.0, 0.0, 0.0]] * 3)
+    for kk in (1.0, 5.0, 1.0):
+        k = ctl.saturated_velocity_feedback(model, np.eye(3), kk)
+        assert_close(V.derivative_values(X, k), np.full(3, -kk / 2), atol=1e-14,
+                     what=f"k = {kk}: V-dot = -k |w|^2 / (1 + |w|)")

@@ -35,7 +35,7 @@ from workbench._types import ArrayLike
 from workbench.errors import ParameterError, SolverError
 from workbench.lyapunov import Lyapunov, SublevelSet, as_states
 from workbench.model import Model
-from workbench.simulate import closed_loop_function
+from workbench.simulate import Multistep, closed_loop_function
 
 __all__ = [
     "Constraint",
@@ -376,6 +376,7 @@ def check_convergence(
     check_interval: float = 1.0,
     domain: ca.Function | None = None,
     confidence: float = 0.95,
+    multistep: Multistep = Multistep.ADAMS,
 ) -> ConvergenceReport:
     """Integrate the closed loop from every initial state and test convergence.
 
@@ -410,6 +411,8 @@ def check_convergence(
         the feedback may not be defined).
     confidence : float
         Level of the one-sided bound on the failure probability.
+    multistep : Multistep
+        CVODES' family (Adams for non-stiff closed loops, BDF for stiff ones).
 
     Returns
     -------
@@ -429,7 +432,8 @@ def check_convergence(
     integ = ca.integrator("convergence", "cvodes", {"x": x, "p": p, "ode": loop(x, p)[0]},
                           0.0, grid[1:],
                           {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
-                           "disable_internal_warnings": True})
+                           "disable_internal_warnings": True,
+                           "linear_multistep_method": Multistep(multistep).value})
     b_all = None if domain is None else domain.map(n_pieces)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()

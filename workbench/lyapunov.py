@@ -242,7 +242,10 @@ class Lyapunov:
 
     def _batch(self, fn: ca.Function, states: ArrayLike) -> np.ndarray:
         X = as_states(self.model, states)
-        return np.asarray(fn.map(X.shape[0])(X.T, self.model.p)).ravel()
+        key = ("map", id(fn), X.shape[0])  # fn is kept alive by the cache of its builder
+        if key not in self._cache:  # building a map costs more than evaluating it
+            self._cache[key] = fn.map(X.shape[0])
+        return np.asarray(self._cache[key](X.T, self.model.p)).ravel()
 
     def values(self, states: ArrayLike) -> np.ndarray:
         """``V`` at a batch of states.
