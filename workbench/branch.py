@@ -185,6 +185,9 @@ class Branch:
     evaluations : int
         Evaluations of F with its Jacobian.
     wall_time : float
+    null_dimensions : ndarray of int
+        Dimension of the null space of the tangent Jacobian at every point (1 on a regular
+        curve; more where the branch meets a surface of zeros or passes a singular point).
     """
 
     problem: str
@@ -201,6 +204,7 @@ class Branch:
     rejected_steps: int
     evaluations: int
     wall_time: float
+    null_dimensions: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __len__(self) -> int:
         return len(self.points)
@@ -219,6 +223,7 @@ class Branch:
             "end_message": self.end_message,
             "special": [p.summary() for p in self.special],
             "rejected_steps": self.rejected_steps,
+            "points_off_a_curve": int(np.sum(self.null_dimensions > 1)),
             "evaluations": self.evaluations,
             "wall_time": self.wall_time,
             "mean_corrector_iterations": float(np.mean(self.corrector_iterations[1:]))

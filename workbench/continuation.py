@@ -317,6 +317,7 @@ def continue_branch(
             cur["t"], cur["d"] = -cur["t"], -cur["d"]
 
     pts, tans, arc, res, iters = [cur["y"]], [cur["d"]], [0.0], [root.residual], [0]
+    nulls = [cur["nulldim"]]
     mons = {k: [v] for k, v in cur["mon"].items()}
     labels = [classify(cur["y"])] if classify else []
     special: list[SpecialPoint] = []
@@ -331,6 +332,7 @@ def continue_branch(
         arc.append(s_pt)
         res.append(residual)
         iters.append(it)
+        nulls.append(pt["nulldim"])
         for k, v in pt["mon"].items():
             mons[k].append(v)
         if classify:
@@ -438,6 +440,7 @@ def continue_branch(
         rejected_steps=rejected,
         evaluations=problem.evaluations - ev0,
         wall_time=time.perf_counter() - t_start,
+        null_dimensions=np.array(nulls, dtype=int),
     )
 
 
