@@ -11,7 +11,7 @@ Newton iteration on the crossing time ``tau`` (bisection when a step leaves the 
 each iterate ``x(tau)`` computed from the sample before the crossing by ``refine_substeps``
 RK4 steps, a map that is smooth in ``tau`` (a re-started adaptive integrator is not: its
 step sequence jumps with ``tau``, and Newton stalls at the 1e-10 noise that makes). The
-refinement error is estimated by repeating the last iterate with twice the substeps.
+refinement error is estimated by Richardson extrapolation against half the substeps.
 Every crossing carries its event residual ``|g(x*)|``, that refinement error, the error of
 an invariant (the energy, which restricts the orbit to an energy level), and the
 transversality ``g-dot(x*)``; intervals
@@ -168,11 +168,16 @@ def turning_section(
     Section
     """
     a = tuple(float(v) for v in _axis(axis))
+    try:
+        direction = Direction(direction)
+    except ValueError as exc:
+        raise ParameterError(f"direction must be a Direction {[d.name for d in Direction]}; "
+                             f"got {direction!r}") from exc
     return Section(
         name=f"turning[{factor}, a={a}]",
         event=partial(_turning_event, factor, a),
         side=partial(_turning_side, factor, a),
-        direction=Direction(direction),
+        direction=direction,
         description=r"\{a^T\dot q = 0,\ a^T(q\times\dot q) > 0\} (paper 000 Sec. 5.6, a = e_3)",
     )
 
@@ -366,9 +371,9 @@ class PoincareOrbit:
     invariant_error : ndarray, shape=(n,)
         ``I(x*) - I(x0)``.
     refine_error : ndarray, shape=(n,)
-        Max-norm difference of ``x*`` computed with ``refine_substeps`` and twice as many
-        RK4 steps from the sample before the crossing (error estimate of the refinement;
-        the orbit's own integration error adds to it).
+        Richardson estimate ``|x*_n - x*_(n/2)| / (2^4 - 1)`` of the RK4 refinement error
+        (``n = refine_substeps`` steps from the sample before the crossing); the orbit's
+        own integration error adds to it.
     newton_iterations : ndarray of int, shape=(n,)
         Newton / bisection iterations spent refining each crossing.
     status : OrbitStatus
@@ -562,14 +567,16 @@ def poincare_map(
     orbit_int = ca.integrator("orbit", "cvodes", {"x": xs, "p": ps, "ode": field_fn(xs, ps)},
                               0.0, grid, opts)
     flow_ev = Evaluator(_rk_flow(field_fn, xs, ps, tau, refine_substeps))
-    check_ev = Evaluator(_rk_flow(field_fn, xs, ps, tau, 2 * refine_substeps))
+    half = max(1, refine_substeps // 2)
+    check_ev = Evaluator(_rk_flow(field_fn, xs, ps, tau, half))
+    richardson = 1.0 / ((refine_substeps / half) ** 4 - 1.0)
     ev1 = Evaluator(ev_fn)
     residual = ca.Function("h", [xs], [model.manifold.residual(xs)]).map(n_per)
     inv_fn = model.function(invariant) if invariant is not None else None
     build = time.perf_counter() - tb
 
     def flow_to(x: np.ndarray, dtau: float) -> np.ndarray:
-        return flow_ev(x, dtau, p)
+        return flow_ev(x, dtau, p)  # type: ignore[return-value]
 
     ts, xs_out, res_, rate, iters, ref_err = [], [], [], [], [], []
     steps = fevals = refinements = suspect = rejected = 0
@@ -611,7 +618,7 @@ def poincare_map(
             tau_, x_star, k, gd = _refine(flow_to, ev1, p, samples[i], G[i], G[i + 1], dt,
                                           time_tol, max_newton, tc + i * dt)
             refinements += k
-            if gd[2] <= 0:
+            if gd is None or gd[2] <= 0:
                 rejected += 1
                 continue
             ts.append(tc + i * dt + tau_)
@@ -619,7 +626,8 @@ def poincare_map(
             res_.append(abs(gd[0]))
             rate.append(gd[1])
             iters.append(k)
-            ref_err.append(float(np.max(np.abs(check_ev(samples[i], tau_, p) - x_star))))
+            ref_err.append(richardson * float(np.max(np.abs(check_ev(samples[i], tau_, p)
+                                                            - x_star))))
             if len(ts) == n_crossings:
                 status = OrbitStatus.COMPLETE
                 break
@@ -668,16 +676,23 @@ def _refine(
     xa: np.ndarray, Ga: np.ndarray, Gb: np.ndarray, dt: float, time_tol: float,
     max_newton: int, t_a: float,
 ) -> tuple[float, np.ndarray, int, np.ndarray]:
-    """Safeguarded Newton on the crossing time in (0, dt), re-integrating from ``xa``."""
+    """Safeguarded Newton on the crossing time in (0, dt), re-integrating from ``xa``.
+
+    Returns ``(tau, x, iterations, [g, g-dot, s])``, the last ``None`` when the side
+    function is negative by a margin no remaining Newton step can close.
+    """
     lo, hi = 0.0, dt
     glo = Ga[0]
     tau = _hermite_root(Ga[0], Ga[1], Gb[0], Gb[1], dt)
+    side_rate = abs(Gb[2] - Ga[2]) / dt  # size of s-dot over the interval
     for k in range(1, max_newton + 1):
         x = flow_to(xa, tau)
         gd = ev1(x, p)
         g, gdot = gd[0], gd[1]
         if g == 0.0:
             return tau, x, k, gd
+        if gd[2] < 0 and abs(gd[2]) > 10 * side_rate * (abs(g / gdot) + time_tol):
+            return tau, x, k, None  # s < 0 at the crossing however the last step goes
         if np.sign(g) == np.sign(glo):
             lo, glo = tau, g
         else:
