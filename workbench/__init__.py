@@ -3,8 +3,10 @@
 Coordinate-free models as casadi graphs, and the analyses derived from them.
 """
 
+from workbench.continuation import StepControl, continue_branch
 from workbench.controllability import kalman_rank, pbh, pbh_second_order, second_order_form
 from workbench.eigen import Eigenstructure, Stability, Subspace, eigenstructure
+from workbench.equilibria import enumerate_equilibria, find_equilibrium
 from workbench.errors import (
     ManifoldError,
     ModelError,
@@ -16,9 +18,16 @@ from workbench.linearize import LinearModel, linearize, linearize_ambient
 from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
 from workbench.model import BuildLog, Evaluator, Model, Parameter
+from workbench.relative_families import at_alpha, trace_relative_equilibria
 from workbench.simulate import Method, Multistep, Trajectory, simulate
 
 __all__ = [
+    "StepControl",
+    "at_alpha",
+    "continue_branch",
+    "enumerate_equilibria",
+    "find_equilibrium",
+    "trace_relative_equilibria",
     "BuildLog",
     "Eigenstructure",
     "Evaluator",
