@@ -69,6 +69,21 @@ def _vec(x: Expr) -> Expr:
     return np.asarray(x, dtype=float).reshape(-1, order="F")
 
 
+def _finite_array(v: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``v`` as a finite float array of ``shape``, or ManifoldError naming ``name``."""
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ManifoldError(
+            f"{name} must be a numeric array of shape {shape}; got {type(v).__name__} {v!r}"
+        ) from exc
+    if a.size != int(np.prod(shape)):
+        raise ManifoldError(f"{name} must have shape {shape}; got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ManifoldError(f"{name} must be finite; got {a.tolist()}")
+    return a.reshape(shape)
+
+
 def hat(v: Expr) -> Expr:
     """Skew-symmetric matrix of a 3-vector, ``hat(a) @ b == cross(a, b)``.
 
@@ -84,7 +99,7 @@ def hat(v: Expr) -> Expr:
     """
     if _is_casadi(v):
         return ca.skew(v)
-    v = np.asarray(v, dtype=float).reshape(3)
+    v = _finite_array(v, "v (hat)", (3,))
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
@@ -103,7 +118,7 @@ def vee(m: Expr) -> Expr:
     """
     if _is_casadi(m):
         return ca.vertcat(m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]) / 2
-    m = np.asarray(m, dtype=float)
+    m = _finite_array(m, "m (vee)", (3, 3))
     return 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
 
 
@@ -142,24 +157,33 @@ def so3_exp(v: Expr) -> Expr:
         a, b = _exp_coefficients(ca.dot(v, v))
         k = hat(v)
         return ca.DM.eye(3) + a * k + b * (k @ k)
-    v = np.asarray(v, dtype=float).reshape(3)
+    v = _finite_array(v, "v (so3_exp)", (3,))
     a, b = _exp_coefficients(float(v @ v))
     k = hat(v)
     return np.eye(3) + a * k + b * (k @ k)
 
 
-def so3_log(R: ArrayLike) -> Vector:
+def so3_log(R: ArrayLike, *, tol: float = 1e-6) -> Vector:
     """Logarithm of SO(3) (numeric), accurate near angles 0 and pi.
 
     Parameters
     ----------
     R : array-like, shape=(3, 3)
         A rotation matrix.
+    tol : float
+        Largest accepted max-norm of ``R^T R - I`` (loose, for iterates of solvers; the
+        result is accurate to about the same size). Farther from SO(3), or with
+        ``det R < 0``, nothing meaningful can be returned and ManifoldError is raised.
 
     Returns
     -------
     ndarray, shape=(3,)
         Rotation vector ``v`` with ``so3_exp(v) == R`` and ``|v| <= pi``.
+
+    Raises
+    ------
+    ManifoldError
+        ``R`` not a finite 3x3 matrix, not orthogonal to ``tol``, or a reflection.
 
     Notes
     -----
@@ -168,7 +192,14 @@ def so3_log(R: ArrayLike) -> Vector:
     is read from the symmetric part ``(R + R^T)/2 - cos t I = (1 - cos t) k k^T`` with the
     sign fixed by ``vee(R - R^T)``.
     """
-    R = np.asarray(R, dtype=float).reshape(3, 3)
+    R = _finite_array(R, "R (so3_log)", (3, 3))
+    orth = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if orth > tol or np.linalg.det(R) < 0:
+        raise ManifoldError(
+            f"R (so3_log) must be a rotation; got max |R^T R - I| = {orth:.3g} (tol "
+            f"{tol:.1g}), det R = {np.linalg.det(R):.6g}. Project it explicitly with "
+            f"SO3().project(R) first, or pass a larger tol"
+        )
     w = 0.5 * vee(R - R.T)  # = sin(t) k  (vee(R - R^T) = 2 sin(t) k)
     s = float(np.linalg.norm(w))
     c = (np.trace(R) - 1.0) / 2.0
@@ -202,7 +233,9 @@ def sphere_basis(q: ArrayLike) -> Matrix:
         coordinate axes along which ``q`` has its smallest components. At ``q = +-e3``
         this is ``[e1, e2]``, the tangent coordinates ``C^T xi`` of the chain-pendulum paper.
     """
-    q = np.asarray(q, dtype=float).reshape(3)
+    q = _finite_array(q, "q (sphere_basis)", (3,))
+    if not q @ q > 0:
+        raise ManifoldError("q (sphere_basis) must be a unit vector; got the zero vector")
     order = np.argsort(np.abs(q), kind="stable")
     basis = []
     for j in order[:2]:
@@ -493,8 +526,11 @@ class S1(Factor):
         return pe[0] * p[1] - pe[1] * p[0]
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
-        p = self._numeric(x)
-        return p / np.linalg.norm(p)
+        p = _finite_array(x, "p (S1.project)", (2,))
+        n = np.linalg.norm(p)
+        if n == 0:
+            raise ManifoldError("cannot project the zero vector onto S1: it has no direction")
+        return p / n
 
     def random_point(self, rng: np.random.Generator, *, scale: float = 1.0) -> Vector:  # noqa: D102
         a = rng.uniform(-np.pi, np.pi)
@@ -539,7 +575,7 @@ class S2(Factor):
         return B.T @ np.cross(qe, q)
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
-        q = self._numeric(x)
+        q = _finite_array(x, "q (S2.project)", (3,))
         n = np.linalg.norm(q)
         if n == 0:
             raise ManifoldError("cannot project the zero vector onto S2: it has no direction")
@@ -605,7 +641,7 @@ class TS2(Factor):
         return np.concatenate([B.T @ np.cross(qe, q), B.T @ (w - we)])
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
-        xv = self._numeric(x)
+        xv = _finite_array(x, "x (TS2.project)", (6,))
         q = S2().project(xv[:3])
         w = xv[3:] - (q @ xv[3:]) * q
         return np.concatenate([q, w])
@@ -678,7 +714,13 @@ class SO3(Factor):
         return vee(Re.T @ R - R.T @ Re) / 2
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
-        U, _, Vt = np.linalg.svd(self.matrix(self._numeric(x)))
+        M = self.matrix(_finite_array(self._numeric(x), "R (SO3.project)", (9,)))
+        U, sv, Vt = np.linalg.svd(M)
+        if not sv[1] > 1e-12 * sv[0]:
+            raise ManifoldError(
+                f"cannot project R onto SO3: its rank is below 2 (singular values "
+                f"{np.array2string(sv, precision=3)}), so the closest rotation is not unique"
+            )
         D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
         return self.flat(U @ D @ Vt)
 
@@ -769,9 +811,19 @@ class ProductManifold:
                 f"parts must name exactly the factors {self.names}; "
                 f"missing {missing}, unknown {extra}"
             )
-        return np.concatenate(
-            [np.asarray(parts[n], dtype=float).reshape(-1, order="F") for n in self.names]
-        )
+        out = []
+        for n, f in self.factors:
+            try:
+                a = np.asarray(parts[n], dtype=float).reshape(-1, order="F")
+            except (TypeError, ValueError) as exc:
+                raise ManifoldError(f"part {n!r} must be numeric; got {parts[n]!r}") from exc
+            if a.size != f.ambient_dim:
+                raise ManifoldError(
+                    f"part {n!r} must have {f.ambient_dim} entries for {f.kind}; got shape "
+                    f"{np.shape(parts[n])}"
+                )
+            out.append(a)
+        return np.concatenate(out)
 
     def residual(self, x: Expr) -> Expr:
         """Concatenated constraint residuals of all factors."""
@@ -796,6 +848,9 @@ class ProductManifold:
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:
         """Factor-wise retraction of tangent coordinates ``v`` (shape ``(dim,)``)."""
         xv, vv = np.asarray(x, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
+        if vv.size != self.dim:
+            raise ManifoldError(f"v must have {self.dim} tangent coordinates ({self.describe()});"
+                                f" got shape {np.shape(v)}")
         return np.concatenate(
             [f.retract(xv[self.slices[n]], vv[self.tangent_slices[n]]) for n, f in self.factors]
         )
