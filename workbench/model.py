@@ -514,15 +514,31 @@ class Model:
             raise ModelError(f"u must be finite; got {uv.tolist()}")
         return uv
 
+    def _raw_state(self, x: ArrayLike) -> Vector:
+        """``x`` flat, of the ambient size and finite (no manifold check), or ModelError."""
+        try:
+            xv = np.asarray(x, dtype=float).ravel()
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"x must be a numeric state for model {self.name!r}; got "
+                             f"{type(x).__name__}") from exc
+        n = self.manifold.ambient_dim
+        if xv.size != n or not np.all(np.isfinite(xv)):
+            raise ModelError(
+                f"x must be {n} finite numbers for model {self.name!r} "
+                f"({self.manifold.describe()}); got shape {np.shape(x)}"
+                + ("" if xv.size != n else f" with non-finite entries {xv.tolist()}")
+            )
+        return xv
+
     def rhs(self, x: ArrayLike, u: ArrayLike | None = None) -> Vector:
         """Evaluate the vector field at a numeric state (no manifold check)."""
         return np.asarray(
-            self.function("f")(np.asarray(x, float).ravel(), self._input(u), self.p)
+            self.function("f")(self._raw_state(x), self._input(u), self.p)
         ).ravel()
 
     def invariants(self, x: ArrayLike) -> dict[str, float]:
         """All invariants at a numeric state."""
-        vals = np.asarray(self.function("invariants")(np.asarray(x, float).ravel(), self.p))
+        vals = np.asarray(self.function("invariants")(self._raw_state(x), self.p))
         return {n: float(v) for n, v in zip(self._invariants, vals.ravel())}
 
     def __repr__(self) -> str:
