@@ -53,7 +53,12 @@ PARAMETERS = (
 
 
 def _values(J: ArrayLike, rho: ArrayLike, m: float, g: float) -> dict[str, ArrayLike]:
-    Jm = np.asarray(J, dtype=float)
+    try:
+        Jm = np.asarray(J, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(
+            f"parameter 'J' (inertia about the pivot) must be a numeric 3x3 matrix; got {J!r}"
+        ) from exc
     if Jm.shape == (3,):
         raise ParameterError(
             "parameter 'J' (inertia about the pivot) must be a 3x3 matrix; got a 3-vector "
