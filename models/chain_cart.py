@@ -36,7 +36,11 @@ LINEAR_SOLVER = "lapacklu"
 
 
 def _per_link(name: str, value: float | Sequence[float], n: int) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"parameter {name!r} must be a number or one number per link "
+                             f"({n}); got {value!r}") from exc
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
