@@ -175,9 +175,11 @@ class Trajectory:
 
 def _times(t: ArrayLike) -> np.ndarray:
     try:
-        tv = np.asarray(t, dtype=float).ravel()
+        tv = np.asarray(t, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ModelError(f"t must be a 1-D array of output times; got {t!r}") from exc
+    if tv.ndim != 1:
+        raise ModelError(f"t must be a 1-D array of output times; got shape {tv.shape}")
     if tv.size < 2:
         raise ModelError(f"t must hold at least two times (start and end); got {tv.size}")
     if not np.all(np.isfinite(tv)):
@@ -307,11 +309,16 @@ def simulate(
         raise ModelError(
             f"method must be one of {[m.value for m in Method]}; got {method!r}"
         ) from exc
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
+        if not (isinstance(val, (int, float, np.number)) and np.isfinite(val) and val > 0):
+            raise ModelError(f"{name} must be positive and finite; got {val!r}")
+    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) \
+            or max_steps < 1:
+        raise ModelError(f"max_steps must be an integer >= 1; got {max_steps!r}")
     x0v = model.check_state(x0, name="x0", tol=tol)
     tv = _times(t)
-    for name, val in (("rtol", rtol), ("atol", atol)):
-        if not (np.isfinite(val) and val > 0):
-            raise ModelError(f"{name} must be positive and finite; got {val!r}")
     horizon = abs(tv[-1] - tv[0])
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
