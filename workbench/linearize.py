@@ -568,6 +568,8 @@ def linearize(
         ``x_e`` is not an equilibrium (the message gives the residual by factor), or bad
         ``u_e`` / ``controller``.
     """
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     xe = model.check_state(x_e, name="x_e", tol=manifold_tol)
     ue = _input(model, u_e)
     if not (np.isfinite(tol) and tol > 0):
