@@ -180,10 +180,13 @@ def _matrices(system: Any, B: ArrayLike | None) -> tuple[Matrix, Matrix, tuple[s
         if B is not None:
             raise ModelError("pass B only with a bare matrix A, not with a LinearModel")
         return system.A, system.B, tuple(system.labels)
-    A = np.asarray(system, dtype=float)
     if B is None:
         raise ModelError("B is required when A is given as a matrix")
-    Bm = np.asarray(B, dtype=float)
+    try:
+        A, Bm = np.asarray(system, dtype=float), np.asarray(B, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"A and B must be numeric matrices; got A = {system!r}, "
+                         f"B = {B!r}") from exc
     if Bm.ndim == 1:
         Bm = Bm[:, None]
     if A.ndim != 2 or A.shape[0] != A.shape[1] or Bm.shape[0] != A.shape[0]:
@@ -289,6 +292,8 @@ def kalman_rank(
     KalmanResult
     """
     A, Bm, _ = _matrices(system, B)
+    if not (np.isfinite(tol) and 0 < tol < 1):
+        raise ModelError(f"tol must be in (0, 1); got {tol!r}")
     n = A.shape[0]
     a = max(1.0, float(np.linalg.norm(A, 2))) if n else 1.0
     blocks, blk = [], Bm.copy()

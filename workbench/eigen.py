@@ -236,8 +236,12 @@ def eigenstructure(
         A = np.asarray(system.A, dtype=float)
         N = np.asarray(system.basis, dtype=float)
     else:
-        A = np.asarray(system, dtype=float)
-        N = None if basis is None else np.asarray(basis, dtype=float)
+        try:
+            A = np.asarray(system, dtype=float)
+            N = None if basis is None else np.asarray(basis, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"A (and basis) must be numeric matrices; got "
+                             f"{type(system).__name__} {system!r}") from exc
     if A.ndim != 2 or A.shape[0] != A.shape[1] or not np.all(np.isfinite(A)):
         raise ModelError(f"A must be a finite square matrix; got shape {A.shape}")
     if N is not None and N.shape[1] != A.shape[0]:

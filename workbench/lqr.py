@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike, Matrix
-from workbench.controllability import PBH_TOL, PBHResult, pbh
+from workbench.controllability import PBH_TOL, PBHResult, _matrices, pbh
 from workbench.eigen import default_tol
 from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.linearize import LinearModel
@@ -194,10 +194,9 @@ def lqr(
             raise ModelError("pass B only with a bare matrix A, not with a LinearModel")
         A, Bm = lin.A, lin.B
     else:
-        A = np.asarray(system, dtype=float)
         if B is None:
             raise ModelError("B is required when the system is given as a matrix A")
-        Bm = np.asarray(B, dtype=float).reshape(A.shape[0], -1)
+        A, Bm, _ = _matrices(system, B)
     n, m = A.shape[0], Bm.shape[1]
     if m == 0:
         raise ParameterError("the system has no inputs; LQR needs at least one")
