@@ -98,6 +98,9 @@ def as_states(model: Model, states: ArrayLike, name: str = "states") -> np.ndarr
     if X.ndim != 2 or X.shape[1] != n:
         raise ModelError(f"{name} must have shape (n, {n}) for model {model.name!r}; "
                          f"got {np.shape(states)}")
+    if not np.all(np.isfinite(X)):
+        bad = np.flatnonzero(~np.all(np.isfinite(X), axis=1))
+        raise ModelError(f"{name} must be finite; rows {bad[:10].tolist()} of {len(X)} are not")
     return X
 
 
