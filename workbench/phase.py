@@ -74,8 +74,13 @@ def phase_density(J: ArrayLike) -> Callable[[np.ndarray], np.ndarray]:
     callable
         ``F(gamma)`` for ``gamma`` of shape ``(..., 3)`` (unit vectors), shape ``(...)``.
     """
-    Jm = np.asarray(J, dtype=float)
-    if Jm.shape != (3, 3) or not np.allclose(Jm, Jm.T) or np.any(np.linalg.eigvalsh(Jm) <= 0):
+    try:
+        Jm = np.asarray(J, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}"
+                             ) from exc
+    if Jm.shape != (3, 3) or not np.all(np.isfinite(Jm)) or not np.allclose(Jm, Jm.T) \
+            or np.any(np.linalg.eigvalsh(Jm) <= 0):
         raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}")
     trJ = float(np.trace(Jm))
 
@@ -169,7 +174,9 @@ def holonomy_angle(R_start: ArrayLike, R_end: ArrayLike) -> tuple[float, float]:
     residual : float
         ``|M e3 - e3|`` for ``M = R_end R_start^T`` (0 when both lie in one fibre).
     """
-    M = np.asarray(R_end, float) @ np.asarray(R_start, float).T
+    Rs = SO3.matrix(SO3().check(R_start, name="R_start", tol=1e-6))
+    Re = SO3.matrix(SO3().check(R_end, name="R_end", tol=1e-6))
+    M = Re @ Rs.T
     return wrap_angle(float(np.arctan2(M[1, 0], M[0, 0]))), float(np.linalg.norm(M @ E3 - E3))
 
 
@@ -184,7 +191,10 @@ def first_self_intersection(
     between them is then simple. Chords are compared in the tangent plane at
     ``gamma[j]`` (only chords on the same hemisphere). ``None`` if there is none.
     """
-    G = np.asarray(gamma, float).reshape(-1, 3)
+    G = np.asarray(gamma, float)
+    if G.ndim != 2 or G.shape[1] != 3 or not np.all(np.isfinite(G)):
+        raise ParameterError(f"gamma must be a finite array of shape (n, 3); got shape "
+                             f"{G.shape}")
     for j in range(min_gap, len(G) - 1):
         c, d = G[j], G[j + 1]
         B = sphere_basis(c)
