@@ -73,6 +73,8 @@ def exact_number(value: float, *, max_denominator: int = 10_000) -> sp.Expr:
     sympy.Rational or sympy.Float
     """
     v = float(value)
+    if not np.isfinite(v):
+        raise ParameterError(f"value must be a finite number to be made exact; got {value!r}")
     fr = Fraction(v).limit_denominator(max_denominator)
     if abs(float(fr) - v) <= 4 * np.finfo(float).eps * max(1.0, abs(v)):
         return sp.Rational(fr.numerator, fr.denominator)
