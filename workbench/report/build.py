@@ -168,7 +168,11 @@ def build_report(
         raise ReportInputError(
             f"unknown problem(s) {', '.join(map(repr, unknown))}; run 'workbench list' "
             f"(known: {', '.join(known)})")
-    formats = [Format(f) for f in formats]
+    try:
+        formats = [Format(f) for f in formats]
+    except ValueError as exc:
+        raise ReportInputError(f"formats must be among {[f.value for f in Format]}; got "
+                               f"{list(formats)!r}") from exc
     if not formats:
         raise ReportInputError("no output format chosen (HTML, PDF or both)")
     out = check_out_dir(out_dir)
