@@ -284,7 +284,11 @@ def static_equilibria(
     guesses : array-like, shape=(n, 3), optional
         Attitude guesses (default 26 :func:`sphere_points`).
     tol : float
-        Residual tolerance.
+        Residual tolerance, relative to the size of the field on the slice
+        (``max |F|`` over the guesses) when that is below 1: the field scales with
+        ``m g |rho|``, and for a nearly balanced body an absolute tolerance would accept
+        attitudes far from the equilibria (at ``|rho| = 1e-10`` an absolute ``1e-12``
+        means about 1e-4 rad).
     attitude, velocity : str
         Factor names.
 
@@ -303,6 +307,10 @@ def static_equilibria(
     """
     problem = rotation_problem(model, attitude=attitude, velocity=velocity)
     gs = sphere_points(26) if guesses is None else guesses
+    scale = max(float(np.max(np.abs(problem.residual(np.append(g, 0.0)))))
+                for g in np.atleast_2d(np.asarray(gs, dtype=float)))
+    if 0.0 < scale < 1.0:
+        tol = tol * scale
     zeros, _ = slice_zeros(problem, 0.0, gs, tol=tol)
     surface = [z for z in zeros if z.local_dimension > 0]
     if surface:
