@@ -186,11 +186,20 @@ def _matrix_table(title: str, m: list[list[Any]]) -> Table:
     )
 
 
+VECTOR_COLS = 6
+"""A long vector is shown in rows of this many entries."""
+
+
 def _vector_table(title: str, v: list[Any]) -> Table:
-    rows = [[str(i + 1), fmt(x)] for i, x in enumerate(v[:MAX_ROWS])]
-    note = f"{len(v) - MAX_ROWS} more entries (all in --json)" if len(v) > MAX_ROWS else ""
-    return Table(f"{title}  ({len(v)} entries)", ["#", "value"], rows, note=note,
-                 numeric=[False, True])
+    shown = v[: MAX_ROWS * VECTOR_COLS]
+    rows = []
+    for k in range(0, len(shown), VECTOR_COLS):
+        chunk = [fmt(x) for x in shown[k : k + VECTOR_COLS]]
+        rows.append([f"{k + 1}–{k + len(chunk)}"] + chunk + [""] * (VECTOR_COLS - len(chunk)))
+    n_more = len(v) - len(shown)
+    note = f"{n_more} more entries (all in --json)" if n_more > 0 else ""
+    return Table(f"{title}  ({len(v)} entries)", ["entries"] + [""] * VECTOR_COLS, rows, note=note,
+                 numeric=[False] + [True] * VECTOR_COLS)
 
 
 def _flat_record(r: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -232,10 +241,10 @@ def _walk(path: str, v: Any, pairs: list[tuple[str, Any]], tables: list[Table],
             _walk(f"{path}.{k}" if path else str(k), sub, pairs, tables, cost)
     elif _is_matrix(v):
         tables.append(_matrix_table(path, v))
-    elif _is_records(v):
-        tables.append(_records_table(path, v))
     elif isinstance(v, list) and all(_is_scalar(x) for x in v):
         tables.append(_vector_table(path, v))
+    elif _is_records(v):
+        tables.append(_records_table(path, v))
     elif isinstance(v, list):
         for i, sub in enumerate(v[:MAX_ROWS]):
             _walk(f"{path}[{i}]", sub, pairs, tables, cost)
@@ -259,8 +268,9 @@ def split_values(values: dict[str, Any]) -> tuple[list[Table], list[tuple[str, A
     head = []
     for group, pairs in groups.items():
         if pairs:
-            head.append(Table(group or "Values", ["quantity", "value"],
-                              [[k, fmt(v)] for k, v in pairs], numeric=[False, True]))
+            rows = [[k.removeprefix(f"{group}.") if group else k, fmt(v)] for k, v in pairs]
+            head.append(Table(group or "Values", ["quantity", "value"], rows,
+                              numeric=[False, True]))
     return head + tables, cost
 
 
