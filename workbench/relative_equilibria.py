@@ -284,11 +284,14 @@ def static_equilibria(
     guesses : array-like, shape=(n, 3), optional
         Attitude guesses (default 26 :func:`sphere_points`).
     tol : float
-        Residual tolerance, relative to the size of the field on the slice
-        (``max |F|`` over the guesses) when that is below 1: the field scales with
-        ``m g |rho|``, and for a nearly balanced body an absolute tolerance would accept
-        attitudes far from the equilibria (at ``|rho| = 1e-10`` an absolute ``1e-12``
-        means about 1e-4 rad).
+        Residual tolerance, relative to the size of the field on the slice (``max |F|``
+        over the guesses) when that is below 1: the field scales with ``m g |rho|``, and
+        for a nearly balanced body an absolute tolerance would accept attitudes far from
+        the equilibria (at ``|rho| = 1e-10`` an absolute ``1e-12`` means about 1e-4 rad).
+        The slice solves also stop when the Newton step is below 1e-15 (the residual is
+        then at its rounding level, which for an ill-conditioned inertia, ``cond J >=
+        1e6``, lies above ``1e-12``); the confirming :func:`find_equilibrium` accepts
+        that level.
     attitude, velocity : str
         Factor names.
 
@@ -326,7 +329,8 @@ def static_equilibria(
         raise SolverError(
             f"static_equilibria({model.name}): expected two isolated static equilibria, "
             f"found {len(zeros)} from {len(np.atleast_2d(gs))} guesses", status="count")
-    eqs = [find_equilibrium(model, problem.state(z.y), tol=tol) for z in zeros]
+    eqs = [find_equilibrium(model, problem.state(z.y), tol=max(tol, 2 * z.root.residual))
+           for z in zeros]
     energies = [problem.monitor("energy", z.y) for z in zeros]
     lo = int(np.argmin(energies))
     return {"hanging": eqs[lo], "inverted": eqs[1 - lo]}
