@@ -441,6 +441,12 @@ def newton_on_manifold(
                     f"steps: max |F| = {r:.3e} > tol {tol:.1e} at a local minimum of the "
                     f"residual; there is no zero near the guess"
                 )
+                if norm <= 1e-8 * max(1.0, float(np.linalg.norm(y))):
+                    message += (
+                        f", or, as the last Newton step is only {norm:.1e}, the residual is "
+                        f"at its rounding level above tol (large or badly scaled F): "
+                        f"try a larger tol"
+                    )
                 break
             y, F, A = y_try, F_try, A_try
             r = float(np.max(np.abs(F)))
