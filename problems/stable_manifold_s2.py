@@ -183,14 +183,13 @@ def solve(*, quick: bool = False) -> Result:
     with res.timed("validation (CVODES forward)"):
         val = validate(W, times=[6.0, 8.0, 9.0, 10.0], n_per_time=2 if quick else 4,
                        min_distance=1e-2, extra_time=15.0, perturbation=1e-2, seed=7,
-                       rtol=1e-12, atol=1e-12)
-    d_hang = float(distances(model, x_h[None], x_e)[0])
+                       rtol=1e-12, atol=1e-12, target=x_h)
     res.compare("forward from the manifold: max d_min / d_start", 0.0, val.worst_ratio,
                 tolerance=1e-3, source="definition of W^s, (9)")
     res.compare("forward over t: max distance to the seed (max-norm)", 0.0,
                 val.worst_seed_error, tolerance=1e-2, source="(10): F^t F^-t = id")
-    res.compare("off the manifold (1e-2): min final distance to the saddle / hanging's",
-                1.0, val.least_escape / d_hang, tolerance=1e-3,
+    res.compare("off the manifold (1e-2): max final distance to the hanging equilibrium",
+                0.0, val.worst_target_distance, tolerance=1e-3,
                 source="paper 002 Sec. II-C (hanging asymptotically stable)")
 
     with res.timed("per-point and method comparisons"):

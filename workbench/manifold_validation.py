@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from workbench._types import ArrayLike
 from workbench.errors import ParameterError
 from workbench.invariant_manifolds import InvariantManifold
 from workbench.manifold_seeds import distances
@@ -38,10 +39,11 @@ class Validation:
         ``d_start`` (distance (12) to the equilibrium), ``d_min`` and ``t_min`` (closest
         approach and when), ``ratio = d_min / d_start``, ``d_return`` (distance at time
         ``t``, where the point should be back on ``B_delta``), ``seed_error`` (max-norm
-        distance between that state and the seed), ``d_end`` (at the end of the run).
+        distance between that state and the seed), ``d_end`` (at the end of the run) and
+        ``x_end`` (the final state).
     off : list of dict
         The same points moved by ``perturbation`` off the manifold: ``d_start``,
-        ``d_min``, ``t_min``, ``d_end``.
+        ``d_min``, ``t_min``, ``d_end``, ``x_end`` and, with a target, ``d_end_target``.
     method : Method
         The independent integrator.
     options : dict
@@ -67,16 +69,28 @@ class Validation:
         return max(r["seed_error"] for r in self.on)
 
     @property
+    def worst_target_distance(self) -> float:
+        """Largest final distance of a perturbed point to the ``target`` (nan without one)."""
+        vals = [r["d_end_target"] for r in self.off if "d_end_target" in r]
+        return max(vals) if vals else float("nan")
+
+    @property
     def least_escape(self) -> float:
         """Smallest final distance of a perturbed point (large: they all left)."""
         return min(r["d_end"] for r in self.off) if self.off else float("nan")
 
+    def final_states(self, *, off: bool) -> np.ndarray:
+        """Final states of the manifold points (``off=False``) or the perturbed ones."""
+        return np.array([r["x_end"] for r in (self.off if off else self.on)])
+
     def summary(self) -> dict[str, Any]:
-        """Plain JSON-serialisable account."""
+        """Plain JSON-serialisable account (without the final states)."""
         return {"method": self.method.value, "options": self.options, "cost": self.cost,
                 "n_samples": len(self.on), "worst_ratio": self.worst_ratio,
                 "worst_seed_error": self.worst_seed_error, "least_escape": self.least_escape,
-                "on": self.on, "off": self.off}
+                "worst_target_distance": self.worst_target_distance,
+                "on": [{k: v for k, v in r.items() if k != "x_end"} for r in self.on],
+                "off": [{k: v for k, v in r.items() if k != "x_end"} for r in self.off]}
 
 
 def _sim_kwargs(method: Method, rtol: float, atol: float, step: float | None
@@ -102,6 +116,7 @@ def validate(
     atol: float = 1e-12,
     step: float | None = None,
     output_step: float | None = None,
+    target: ArrayLike | None = None,
 ) -> Validation:
     """Integrate manifold points in the other time direction; they must reach the equilibrium.
 
@@ -131,6 +146,9 @@ def validate(
         Step of a fixed-step method.
     output_step : float, optional
         Spacing of the distances recorded (default: the manifold's output step).
+    target : array-like, shape=(ambient_dim,), optional
+        A state the perturbed points are expected to reach (e.g. the stable equilibrium):
+        their final distance (12) to it is recorded as ``d_end_target``.
 
     Returns
     -------
@@ -152,6 +170,7 @@ def validate(
     kw = _sim_kwargs(method, rtol, atol, step)
     model, x_e = manifold.model, manifold.x_e
     man = model.manifold
+    xt = None if target is None else model.check_state(target, name="target")
     rng = np.random.default_rng(seed)
     dist = manifold.distance()
     on: list[dict[str, Any]] = []
@@ -179,15 +198,18 @@ def validate(
                        "d_min": float(d[k]), "t_min": float(abs(grid[k])),
                        "ratio": float(d[k] / d[0]), "d_return": float(d[k_ret]),
                        "seed_error": float(np.max(np.abs(tr.x[k_ret] - manifold.x[0, j]))),
-                       "d_end": float(d[-1])})
+                       "d_end": float(d[-1]), "x_end": tr.x[-1].tolist()})
             v = rng.standard_normal(man.dim)
             xp = man.retract(x, perturbation * v / np.linalg.norm(v))
             trp = simulate(model, xp, grid, controller=manifold.controller, **kw)
             dp = distances(model, trp.x, x_e)
             kp = int(np.argmin(dp))
-            off.append({"index": j, "t": float(manifold.t[i]), "d_start": float(dp[0]),
-                        "d_min": float(dp[kp]), "t_min": float(abs(grid[kp])),
-                        "d_end": float(dp[-1])})
+            entry = {"index": j, "t": float(manifold.t[i]), "d_start": float(dp[0]),
+                     "d_min": float(dp[kp]), "t_min": float(abs(grid[kp])),
+                     "d_end": float(dp[-1]), "x_end": trp.x[-1].tolist()}
+            if xt is not None:
+                entry["d_end_target"] = float(distances(model, trp.x[-1:], xt)[0])
+            off.append(entry)
             runs += 2
     options = {"times": [float(t) for t in times], "n_per_time": n_per_time,
                "min_distance": min_distance, "extra_time": extra_time,

@@ -38,8 +38,9 @@ __all__ = [
     "so3_manifold_figure",
 ]
 
-MAX_SEGMENTS = 12_000
-"""Default budget of line segments per axes (SVG size grows with it)."""
+MAX_SEGMENTS = 40_000
+"""Default budget of line segments per axes (drawing time grows with it; rasterised
+curves keep the size of vector outputs independent of it)."""
 
 
 def decimate(n: int, max_n: int) -> np.ndarray:
@@ -233,11 +234,12 @@ def _panels(n: int, ncols: int, size: float) -> tuple[Any, list[Any]]:
     return fig, [sphere_axes(fig, (nrows, ncols, k + 1)) for k in range(n)]
 
 
-def _running_curves(manifold: Any, t: float, take: Any) -> tuple[list, list, float]:
+def _running_curves(manifold: Any, t: float, take: Any, max_trajectories: int
+                    ) -> tuple[list, list, float]:
     """Per trajectory: the states up to ``t`` (and up to its stop), mapped by ``take``."""
     i = manifold.index(t)
     out_c, out_v = [], []
-    for j in range(manifold.n_points):
+    for j in decimate(manifold.n_points, max_trajectories):
         k = min(i, int(np.sum(manifold.t < manifold.stop_time[j])))  # last running index
         c, v = take(manifold.x[: k + 1, j])
         out_c.append(c)
@@ -256,7 +258,7 @@ def _velocity_norm(manifold: Any, X: np.ndarray) -> np.ndarray:
 def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | None = None,
                        marks: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                        size: float = 4.0, max_segments: int = MAX_SEGMENTS,
-                       rasterized: bool = True) -> Any:
+                       max_trajectories: int = 400, rasterized: bool = True) -> Any:
     """Paper 002 Fig. 1: a manifold of a model on S^2 at several ``t``, coloured by speed.
 
     Each trajectory is drawn from its seed to parameter ``t`` (or to its stop) as the curve
@@ -279,6 +281,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
         Panel size [inch].
     max_segments : int
         Segment budget per panel.
+    max_trajectories : int
+        Draw at most this many trajectories (evenly chosen by index).
     rasterized : bool
         Rasterise the curves in vector outputs.
 
@@ -296,7 +300,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
     fig, axes = _panels(len(times), ncols, size)
     for ax, t in zip(axes, times):
         curves, vals, vmax = _running_curves(
-            manifold, t, lambda X: (X[:, sl][:, :3], _velocity_norm(manifold, X)))
+            manifold, t, lambda X: (X[:, sl][:, :3], _velocity_norm(manifold, X)),
+            max_trajectories)
         coll = sphere_curves(ax, curves, vals, vmin=0.0, vmax=max(vmax, 1e-300),
                              max_segments=max_segments, rasterized=rasterized)
         if marks:
@@ -311,7 +316,7 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
 def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
                         attitudes: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                         size: float = 4.0, max_segments: int = MAX_SEGMENTS,
-                        rasterized: bool = True) -> Any:
+                        max_trajectories: int = 200, rasterized: bool = True) -> Any:
     """Paper 002 Figs. 2, 4, 5: a manifold on TSO(3) as body-axis curves at several ``t``.
 
     Parameters
@@ -323,7 +328,7 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
     attitudes : mapping of str to array-like (3, 3), optional
         Attitudes whose three axes are marked and labelled ``name:1``, ``name:2``,
         ``name:3`` (e.g. the desired attitude and the saddle); different markers each.
-    ncols, size, max_segments, rasterized
+    ncols, size, max_segments, max_trajectories, rasterized
         As in :func:`s2_manifold_figure`.
 
     Returns
@@ -342,7 +347,7 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
         def take(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return X[:, sl], _velocity_norm(manifold, X)
 
-        flat, vals, vmax = _running_curves(manifold, t, take)
+        flat, vals, vmax = _running_curves(manifold, t, take, max_trajectories)
         Rs = [np.stack([SO3.matrix(r) for r in f]) for f in flat]
         curves = [R[:, :, i] for R in Rs for i in range(3)]
         values = [v for v in vals for _ in range(3)]
