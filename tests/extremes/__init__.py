@@ -1,0 +1,1 @@
+"""Numerical extremes and bad input at every public entry point (issue 11)."""
