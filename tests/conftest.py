@@ -8,7 +8,10 @@ import pytest
 
 def assert_close(actual, expected, *, atol: float, rtol: float = 0.0, what: str = "") -> None:
     """The suite's single allclose: explicit tolerances, and the worst deviation on failure."""
-    a, e = np.asarray(actual, dtype=float), np.asarray(expected, dtype=float)
+    a, e = np.asarray(actual), np.asarray(expected)
+    # complex stays complex (spectra): |a - e| then measures both parts
+    kind = complex if np.iscomplexobj(a) or np.iscomplexobj(e) else float
+    a, e = a.astype(kind), e.astype(kind)
     assert a.shape == e.shape, f"{what}: shape {a.shape} != {e.shape}"
     dev = np.abs(a - e)
     bound = atol + rtol * np.abs(e)
