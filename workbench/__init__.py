@@ -18,10 +18,21 @@ from workbench.linearize import LinearModel, linearize, linearize_ambient
 from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
 from workbench.model import BuildLog, Evaluator, Model, Parameter
+from workbench.phase import geometric_phase_check
+from workbench.poincare import PoincareOrbit, Section, poincare_map, turning_section
 from workbench.relative_families import at_alpha, trace_relative_equilibria
 from workbench.simulate import Method, Multistep, Trajectory, simulate
+from workbench.sweep import SweepResult, grid, sweep
 
 __all__ = [
+    "PoincareOrbit",
+    "Section",
+    "SweepResult",
+    "geometric_phase_check",
+    "grid",
+    "poincare_map",
+    "sweep",
+    "turning_section",
     "StepControl",
     "at_alpha",
     "continue_branch",
