@@ -14,7 +14,8 @@ printed eigenvectors, written in the tangent coordinates, as eigenvectors (resid
 stable subspace at the inverted equilibrium against the tangent of the paper's
 E^s_loc (11), as ambient directions (the start of the stable-manifold computation), by
 the largest principal angle. The ambient form (6)-(7) is also computed: its admissible
-spectrum is the 4-dimensional one; the two spurious eigenvalues depend on how the field is
+spectrum is compared with the same printed closed forms; the two spurious eigenvalues
+depend on how the field is
 extended off TS^2 (the paper's (1): 0 and -k_omega; the model keeps only the moment normal
 to q, which makes both 0).
 """
@@ -104,9 +105,15 @@ def solve(*, quick: bool = False) -> Result:
                     source="paper 002 Sec. II-C")
         amb = linearize_ambient(model, x_e, controller=k)
         admissible, spurious = amb.constrained_eigenvalues()
-        worst = max(min(abs(z - w) for w in admissible) for z in es.eigenvalues)
-        res.compare(f"{name}: ambient (6)-(7) admissible spectrum vs tangent spectrum", 0.0,
-                    worst, tolerance=1e-8, source="paper 002 (6)-(7)")
+        # the admissible part of the ambient spectrum against the printed closed forms
+        # (matched as multisets: each printed value takes its nearest remaining eigenvalue)
+        pool = list(admissible)
+        worst = 0.0
+        for lp in lam_p:
+            j = int(np.argmin([abs(z - lp) for z in pool]))
+            worst = max(worst, abs(pool.pop(j) - lp))
+        res.compare(f"{name}: ambient (6)-(7) admissible spectrum vs the printed closed forms",
+                    0.0, worst, tolerance=1e-8, source="paper 002 Sec. II-C, (6)-(7)")
         values[name] = {**es.summary(), "ambient_spurious_eigenvalues": spurious.tolist(),
                         "A_tangent": lin.A.tolist()}
         if name == "inverted":
