@@ -19,7 +19,6 @@ divergence past a bound. Nothing is projected or retried silently.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -30,7 +29,9 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike, Matrix, Vector
-from workbench.errors import ModelError, ParameterError
+from workbench._validate import count as check_count
+from workbench._validate import positive as check_positive
+from workbench.errors import ModelError
 from workbench.manifolds import ProductManifold
 from workbench.model import Model
 
@@ -325,24 +326,6 @@ def _check_input(model: Model, u: ArrayLike | None) -> Vector:
     if not np.all(np.isfinite(uv)):
         raise ModelError(f"u must be finite; got {uv.tolist()}")
     return uv
-
-
-def check_positive(name: str, value: float, *, allow_inf: bool = False) -> float:
-    """Validate a positive tolerance or bound, naming it in the error."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a positive number; got {value!r}") from exc
-    if not (v > 0) or (math.isinf(v) and not allow_inf) or math.isnan(v):
-        raise ParameterError(f"{name} must be a positive finite number; got {value!r}")
-    return v
-
-
-def check_count(name: str, value: int, *, minimum: int = 1) -> int:
-    """Validate an integer count, naming it in the error."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ParameterError(f"{name} must be an integer >= {minimum}; got {value!r}")
-    return int(value)
 
 
 # ----------------------------------------------------------------------------------------

@@ -11,7 +11,6 @@ are explicit keywords.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from enum import Enum
@@ -21,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
+from workbench._validate import count
 from workbench.errors import ModelError, SolverError
 from workbench.integrators import (
     NEWTON_MAX_ITER,
@@ -30,6 +30,7 @@ from workbench.integrators import (
     rkmk4,
     s2_variational,
 )
+from workbench.integrators.common import check_step, steps_per_interval
 from workbench.manifolds import DEFAULT_TOL, SO3
 from workbench.model import Model
 
@@ -297,6 +298,10 @@ def simulate(
 
     Raises
     ------
+    ModelError
+        Bad input: an unknown ``method`` or ``multistep``, bad times, tolerances,
+        ``max_steps``, ``step`` (the check of :func:`workbench.integrators.integrate`,
+        raised as ModelError here) or ``degree``, or a bad controller.
     ManifoldError
         If ``x0`` is off the manifold.
     SolverError
@@ -314,9 +319,7 @@ def simulate(
     for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
         if not (isinstance(val, (int, float, np.number)) and np.isfinite(val) and val > 0):
             raise ModelError(f"{name} must be positive and finite; got {val!r}")
-    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) \
-            or max_steps < 1:
-        raise ModelError(f"max_steps must be an integer >= 1; got {max_steps!r}")
+    max_steps = count("max_steps", max_steps, error=ModelError)
     x0v = model.check_state(x0, name="x0", tol=tol)
     tv = _times(t)
     horizon = abs(tv[-1] - tv[0])
@@ -333,26 +336,22 @@ def simulate(
                     linear_multistep_method=multistep.value)
         options_used.update(rtol=rtol, atol=atol, multistep=multistep.value)
     else:
-        if step is None or not np.isfinite(step) or step <= 0:
+        if step is None:
             raise ModelError(f"step must be a positive number for method {method.value!r}; "
-                             f"got {step!r}")
-        if step > horizon:
-            raise ModelError(
-                f"step must not exceed the horizon |t[-1] - t[0]| = {horizon:.6g}; got {step}"
-            )
+                             f"got None")
+        step = check_step(step, horizon, error=ModelError)
         dt_out = float(np.max(np.abs(np.diff(tv))))
         if not np.allclose(np.abs(np.diff(tv)), dt_out, rtol=1e-9, atol=0):
             raise ModelError(
                 f"method {method.value!r} needs equally spaced output times t; got spacings "
                 f"between {np.abs(np.diff(tv)).min():.6g} and {dt_out:.6g}"
             )
-        n_fe = max(1, math.ceil(dt_out / step - 1e-12))
+        n_fe = steps_per_interval(dt_out, step)
         opts["number_of_finite_elements"] = n_fe
         options_used.update(step=dt_out / n_fe, requested_step=step)
         if method is Method.COLLOCATION:
-            if not isinstance(degree, (int, np.integer)) or degree < 1:
-                raise ModelError(f"degree must be an integer >= 1; got {degree!r}")
-            opts.update(interpolation_order=int(degree), collocation_scheme="legendre")
+            degree = count("degree", degree, error=ModelError)
+            opts.update(interpolation_order=degree, collocation_scheme="legendre")
             options_used["degree"] = int(degree)
 
     if method in GEOMETRIC_METHODS:

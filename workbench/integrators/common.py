@@ -30,7 +30,8 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
-from workbench.errors import ModelError, ParameterError, SolverError
+from workbench._validate import count, positive
+from workbench.errors import ModelError, ParameterError, SolverError, WorkbenchError
 from workbench.model import Evaluator, Model
 
 __all__ = [
@@ -143,12 +144,7 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
             f"newton_tol (relative residual of the implicit update) must be in (0, 1); "
             f"got {newton_tol!r}"
         )
-    if isinstance(newton_max_iter, bool) or not isinstance(newton_max_iter, (int, np.integer)) \
-            or newton_max_iter < 1:
-        raise ParameterError(
-            f"newton_max_iter must be an integer >= 1; got {newton_max_iter!r}"
-        )
-    return tol, int(newton_max_iter)
+    return tol, count("newton_max_iter", newton_max_iter)
 
 
 def feedback_function(model: Model, controller: ca.Function | None) -> ca.Function:
@@ -343,22 +339,33 @@ def steps_per_interval(dt_out: float, step: float) -> int:
     return max(1, math.ceil(dt_out / step - 1e-12))
 
 
-def check_step(step: Any, horizon: float) -> float:
+def check_step(
+    step: Any, horizon: float, *, error: type[WorkbenchError] = ParameterError
+) -> float:
     """Validate a step size against the horizon; return it as a float.
+
+    Parameters
+    ----------
+    step : float
+        The largest step size.
+    horizon : float
+        ``|t[-1] - t[0]|``.
+    error : type of WorkbenchError
+        The exception class raised (the caller's documented one:
+        :func:`~workbench.simulate.simulate` raises ModelError).
+
+    Returns
+    -------
+    float
 
     Raises
     ------
     ParameterError
-        ``step`` not a positive finite number, or larger than ``horizon``.
+        (or ``error``) ``step`` not a positive finite number, or larger than ``horizon``.
     """
-    try:
-        s = float(step)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"step must be a positive number; got {step!r}") from exc
-    if not (np.isfinite(s) and s > 0):
-        raise ParameterError(f"step must be a positive finite number; got {step!r}")
+    s = positive("step", step, error=error)
     if s > horizon:
-        raise ParameterError(
+        raise error(
             f"step must not exceed the horizon |t[-1] - t[0]| = {horizon:.6g}; got {s:.6g}"
         )
     return s
@@ -417,8 +424,7 @@ def integrate(
         )
     horizon = abs(tv[-1] - tv[0])
     s = check_step(step, horizon)
-    if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
-        raise ParameterError(f"chunk must be an integer >= 1; got {chunk!r}")
+    chunk = count("chunk", chunk)
     n_sub = steps_per_interval(dt_out, s)
     sign = 1.0 if tv[-1] > tv[0] else -1.0
     h = sign * dt_out / n_sub
