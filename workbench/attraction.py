@@ -32,6 +32,7 @@ import numpy as np
 from scipy.stats import beta
 
 from workbench._types import ArrayLike
+from workbench._validate import choice
 from workbench.errors import ParameterError, SolverError
 from workbench.lyapunov import Lyapunov, SublevelSet, as_states
 from workbench.model import Model
@@ -423,6 +424,7 @@ def check_convergence(
         model.check_state(x0, name=f"initial_states[{i}]")
     if not (np.isfinite(horizon) and horizon > 0):
         raise ParameterError(f"horizon must be positive; got {horizon!r}")
+    multistep = choice(Multistep, multistep, "multistep")
     t0 = time.perf_counter()
     loop = closed_loop_function(model, controller)
     S = model.sym
@@ -433,7 +435,7 @@ def check_convergence(
                           0.0, grid[1:],
                           {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
                            "disable_internal_warnings": True,
-                           "linear_multistep_method": Multistep(multistep).value})
+                           "linear_multistep_method": multistep.value})
     b_all = None if domain is None else domain.map(n_pieces)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -23,6 +23,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from workbench._types import ArrayLike, Matrix
+from workbench._validate import choice
 from workbench.errors import ModelError
 
 __all__ = ["Stability", "Subspace", "Eigenstructure", "eigenstructure", "default_tol"]
@@ -132,7 +133,7 @@ class Eigenstructure:
             Subspace.STABLE: self.stable_basis,
             Subspace.UNSTABLE: self.unstable_basis,
             Subspace.CENTRE: self.centre_basis,
-        }[Subspace(which)]
+        }[choice(Subspace, which, "which")]
 
     def ambient(self, which: Subspace) -> Matrix:
         """Ambient directions ``N V`` spanning one spectral subspace.

@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike, Matrix
+from workbench._validate import choice
 from workbench.controllability import PBH_TOL, PBHResult, _matrices, pbh
 from workbench.eigen import default_tol
 from workbench.errors import ModelError, ParameterError, SolverError
@@ -202,12 +203,7 @@ def lqr(
         raise ParameterError("the system has no inputs; LQR needs at least one")
     Qm = _weight(Q, "Q", n, "the tangent dimension of the linearisation", definite=False)
     Rm = _weight(R, "R", m, "the number of inputs", definite=True)
-    try:
-        require = Requirement(require)
-    except ValueError as exc:
-        raise ParameterError(
-            f"require must be one of {[r.value for r in Requirement]}; got {require!r}"
-        ) from exc
+    require = choice(Requirement, require, "require")
 
     t0 = time.perf_counter()
     test = pbh(lin, tol=pbh_tol) if lin is not None else pbh(A, Bm, tol=pbh_tol)

@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
-from workbench._validate import count
+from workbench._validate import choice, count
 from workbench.errors import ModelError, SolverError
 from workbench.integrators import (
     NEWTON_MAX_ITER,
@@ -308,12 +308,7 @@ def simulate(
         If the integrator fails (with its status), or an implicit update of a geometric
         method does not converge (with the step and its residual).
     """
-    try:
-        method = Method(method)
-    except ValueError as exc:
-        raise ModelError(
-            f"method must be one of {[m.value for m in Method]}; got {method!r}"
-        ) from exc
+    method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
@@ -326,12 +321,7 @@ def simulate(
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
     if method is Method.CVODES:
-        try:
-            multistep = Multistep(multistep)
-        except ValueError as exc:
-            raise ModelError(
-                f"multistep must be one of {[m.value for m in Multistep]}; got {multistep!r}"
-            ) from exc
+        multistep = choice(Multistep, multistep, "multistep", error=ModelError)
         opts.update(abstol=atol, reltol=rtol, max_num_steps=int(max_steps),
                     linear_multistep_method=multistep.value)
         options_used.update(rtol=rtol, atol=atol, multistep=multistep.value)

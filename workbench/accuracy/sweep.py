@@ -16,6 +16,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench._validate import choice
 from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.model import Model
 from workbench.simulate import Method, Trajectory, constraint_residuals, simulate
@@ -58,12 +59,7 @@ class Sweep:
     label: str = ""
 
     def __post_init__(self) -> None:
-        try:
-            method = Method(self.method)
-        except ValueError as exc:
-            raise ParameterError(
-                f"Sweep.method must be one of {[m.value for m in Method]}; got {self.method!r}"
-            ) from exc
+        method = choice(Method, self.method, "Sweep.method")
         object.__setattr__(self, "method", method)
         try:
             vals = tuple(float(v) for v in np.atleast_1d(np.asarray(self.values, dtype=float)))
@@ -92,7 +88,7 @@ class Sweep:
     @property
     def knob(self) -> Knob:
         """``Knob.RTOL`` for cvodes, ``Knob.STEP`` otherwise."""
-        return Knob.RTOL if Method(self.method) is Method.CVODES else Knob.STEP
+        return Knob.RTOL if self.method is Method.CVODES else Knob.STEP
 
     @property
     def order(self) -> int | None:

@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
+from workbench._validate import choice
 from workbench.accuracy.sweep import (
     Sweep,
     _check_common,
@@ -164,7 +165,7 @@ class WorkPrecision:
 
     def fastest(self, accuracy: float, *, cost: Cost = Cost.WALL) -> Run | None:
         """The cheapest successful run whose final error is at most ``accuracy``."""
-        cost = Cost(cost)
+        cost = choice(Cost, cost, "cost")
         ok = [r for r in self.runs if r.ok and r.final_error <= accuracy
               and getattr(r, cost.value) is not None]
         return min(ok, key=lambda r: getattr(r, cost.value)) if ok else None
@@ -179,7 +180,7 @@ class WorkPrecision:
             cheapest run reaching the accuracy, or None), ``knob`` (label -> its knob
             value), ``ratio_to_fastest`` (label -> cost / fastest cost).
         """
-        cost = Cost(cost)
+        cost = choice(Cost, cost, "cost")
         out = []
         for acc in accuracies:
             costs: dict[str, float | None] = {}

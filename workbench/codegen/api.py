@@ -11,6 +11,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from workbench._validate import choice
 from workbench.codegen.build import (
     CompiledController,
     Optimization,
@@ -118,7 +119,8 @@ def agreement(controller: ExportableController, compiled: CompiledController,
     -------
     ndarray, shape=(n,)
     """
-    binding = Binding(binding)
+    binding = choice(Binding, binding, "binding")
+    through = choice(Through, through, "through")
     if compiled.sources.binding is not binding:
         raise ModelError(f"compiled was built with binding {compiled.sources.binding.value}; "
                          f"got binding={binding.value}")
@@ -132,7 +134,7 @@ def agreement(controller: ExportableController, compiled: CompiledController,
         args = [X.T] + ([p] if f.n_in() == 2 else [])
         return np.asarray(f.map(X.shape[0])(*args)).T
 
-    u_c = compiled.step(X, p) if Through(through) is Through.STEP else run(compiled.function())
+    u_c = compiled.step(X, p) if through is Through.STEP else run(compiled.function())
     u_r = run(ref)
     num = np.max(np.abs(u_c - u_r), axis=1)
     den = np.max(np.abs(u_r), axis=1)

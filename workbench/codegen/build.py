@@ -32,6 +32,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from workbench._validate import choice
 from workbench.codegen.csource import CFLAGS_WARN, CSources
 from workbench.errors import ModelError, WorkbenchError
 
@@ -257,7 +258,7 @@ def compile_sources(sources: CSources, *, optimization: Optimization,
     CompileError
         The compiler is missing or failed (its message included).
     """
-    opt = Optimization(optimization)
+    opt = choice(Optimization, optimization, "optimization")
     commands = _commands(sources.name, compiler, opt)
     h = hashlib.sha256()
     h.update(sources.digest.encode())

@@ -30,6 +30,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from workbench._validate import choice
 from workbench.codegen.spec import Binding, Entry, ExportableController
 
 __all__ = ["CSources", "BENCH_STATES", "generate", "void_unused_parameters"]
@@ -402,7 +403,7 @@ def generate(controller: ExportableController, *, binding: Binding,
     -------
     CSources
     """
-    binding = Binding(binding)
+    binding = choice(Binding, binding, "binding")
     fn = controller.function_for(binding)
     casadi_c, casadi_h = _casadi_code(fn, bool(with_jacobian))
     N = controller.name
