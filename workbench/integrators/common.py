@@ -462,6 +462,10 @@ def integrate(
                     f"(newton_max_iter = {scheme.newton_max_iter})"
                 )
                 status, fix = "newton_not_converged", "Reduce step or raise newton_max_iter."
+                if r <= 100 * scheme.newton_tol:
+                    fix += (f" The residual is within {r / scheme.newton_tol:.3g} x newton_tol,"
+                            f" likely its rounding level (stiff or badly scaled inertia): "
+                            f"raise newton_tol.")
             else:
                 what = "the state became non-finite"
                 status, fix = "non-finite", "Reduce step."
