@@ -2,21 +2,28 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import assert_close
 
 from models import pendulum3d as p3
-from workbench import _validate
+from workbench import _validate, relative_families
 from workbench.accuracy import Sweep, WorkPrecision
 from workbench.attraction import check_convergence
+from workbench.branch import PointKind, StepControl
 from workbench.codegen import agreement, compile_sources, generate
+from workbench.continuation import continue_branch, switch_branch
 from workbench.eigen import eigenstructure
-from workbench.errors import ModelError, ParameterError
+from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.integrators import integrate, rkmk4
 from workbench.linearize import linearize
 from workbench.lqr import lqr
-from workbench.roots import check_count, check_positive
+from workbench.manifolds import ProductManifold, Rn
+from workbench.relative_families import trace_relative_equilibria
+from workbench.roots import RootStatus, ZeroProblem, check_count, check_positive
 from workbench.simulate import Method, simulate
 
 
@@ -112,3 +119,71 @@ def test_choice_accepts_members_and_values():
     assert _validate.choice(Method, Method.RK, "method") is Method.RK
     with pytest.raises(ModelError, match=r"method must be one of .*; got \[1\]"):
         _validate.choice(Method, [1], "method", error=ModelError)
+
+
+# ----------------------------------------------------------------------------------------
+# switching branches: a side that fails is reported, not dropped
+
+
+def plane_problem(expr_of) -> ZeroProblem:
+    y = ca.SX.sym("y", 2)
+    F = expr_of(y)
+    fn = ca.Function("F", [y, ca.SX.sym("u", 0), ca.SX.sym("p", 0)], [F, ca.jacobian(F, y)])
+    return ZeroProblem(name="plane", manifold=ProductManifold([("y", Rn(2))]), function=fn,
+                       u=[], p=[])
+
+
+@pytest.fixture(scope="module")
+def line_and_circle():
+    """y ((x - 1)^2 + y^2 - 1) = 0: the x-axis crosses the unit circle about (1, 0) at 0."""
+    prob = plane_problem(lambda y: y[1] * ((y[0] - 1) ** 2 + y[1] ** 2 - 1))
+    b = continue_branch(prob, [-1.0, 0.0], direction=[1.0, 0.0], max_arclength=1.5,
+                        control=StepControl(step=0.07, max_step=0.1))
+    (bp,) = b.specials(PointKind.BRANCH_POINT)
+    return prob, bp
+
+
+def test_switch_branch_returns_both_sides(line_and_circle):
+    prob, bp = line_and_circle
+    sw = switch_branch(prob, bp, step=0.1)
+    assert len(sw) == 2 and not sw.failed and sw.describe_failures() == ""
+    assert [r.status for r in sw.sides] == [RootStatus.CONVERGED] * 2
+    for (y, d), r in zip(sw, sw.sides):
+        assert y is r.x
+        assert_close(abs(y[1]), 0.1, atol=1e-12, what="Keller distance along the y-axis")
+        assert_close((y[0] - 1) ** 2 + y[1] ** 2, 1.0, atol=1e-12, what="on the circle")
+        assert_close(abs(d[1]), 1.0, atol=1e-9, what="leaves vertically")
+
+
+def test_switch_branch_raises_with_the_statuses_when_no_side_converges(line_and_circle):
+    """At distance 1.5 from the origin the circle (|y| <= 1) has no point: both sides fail."""
+    prob, bp = line_and_circle
+    with pytest.raises(SolverError, match="neither side") as info:
+        switch_branch(prob, bp, step=1.5)
+    statuses = info.value.status.split("/")
+    assert len(statuses) == 2 and "converged" not in statuses
+    sw = switch_branch(prob, bp, step=1.5, raise_on_failure=False)
+    assert len(sw) == 0 and list(sw) == [] and len(sw.failed) == 2
+    assert all(not r.ok and r.message for r in sw.sides)
+    assert "side +" in sw.describe_failures() and "side -" in sw.describe_failures()
+
+
+def test_trace_notes_a_branch_point_whose_other_branch_was_not_picked_up(monkeypatch):
+    """A corrector that cannot converge (tol below rounding) leaves a note per branch point."""
+    model = p3.reduced(J=np.diag([0.4486, 0.3943, 0.0772]), rho=[0.0, 0.1044, 0.4989])
+    real = relative_families.switch_branch
+
+    def failing(problem, sp, *, step, control, raise_on_failure):
+        hopeless = replace(control, tol=1e-300, max_corrector_iterations=1)
+        return real(problem, sp, step=step, control=hopeless,
+                    raise_on_failure=raise_on_failure)
+
+    monkeypatch.setattr(relative_families, "switch_branch", failing)
+    atlas = trace_relative_equilibria(model, control=StepControl(max_step=2.0),
+                                      with_stability=False)
+    bps = [sp for b in atlas.branches for sp in b.specials(PointKind.BRANCH_POINT)]
+    notes = [n for n in atlas.notes if "was not picked up" in n]
+    assert bps and len(notes) == len(bps)
+    assert all("2 of 2 sides" in n and "max_iterations" in n for n in notes)
+    assert not any(o.startswith("branch point") for o in atlas.origins)
+    assert atlas.summary()["notes"] == atlas.notes

@@ -2,12 +2,13 @@
 
 :class:`StepControl` holds every knob of :func:`workbench.continuation.continue_branch` that
 trades speed for accuracy; :class:`Branch` is a traced branch with its cost and accuracy;
-:class:`SpecialPoint` a located event, bound, branch point or change of classification.
+:class:`SpecialPoint` a located event, bound, branch point or change of classification;
+:class:`BranchSwitch` the starts on the other branch through a branch point.
 """
 
 from __future__ import annotations
 
-from collections.abc import Hashable
+from collections.abc import Hashable, Iterator
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
@@ -16,9 +17,9 @@ import numpy as np
 
 from workbench._types import Vector
 from workbench.errors import ParameterError
-from workbench.roots import check_count, check_positive
+from workbench.roots import Root, check_count, check_positive
 
-__all__ = ["StepControl", "EndReason", "PointKind", "SpecialPoint", "Branch"]
+__all__ = ["StepControl", "EndReason", "PointKind", "SpecialPoint", "Branch", "BranchSwitch"]
 
 
 @dataclass(frozen=True)
@@ -229,3 +230,55 @@ class Branch:
             "mean_corrector_iterations": float(np.mean(self.corrector_iterations[1:]))
             if len(self) > 1 else 0.0,
         }
+
+
+@dataclass
+class BranchSwitch:
+    """The starts on the other branch through a simple branch point, and how each side went.
+
+    A sequence of the ``(start, direction)`` pairs of the sides whose corrector converged
+    (``for y, d in switch_branch(...)``, ``len``, indexing), carrying the corrector result
+    of both sides so that a side that failed is reported, not dropped.
+
+    Attributes
+    ----------
+    point : SpecialPoint
+        The branch point.
+    step : float
+        Distance from the branch point at which the sides were corrected.
+    directions : ndarray, shape=(2, ambient_dim)
+        The unit ambient directions tried, ``+d`` then ``-d``.
+    sides : list of Root
+        The corrector result along each direction (same order), converged or not.
+    """
+
+    point: SpecialPoint
+    step: float
+    directions: Vector
+    sides: list[Root]
+
+    @property
+    def starts(self) -> list[tuple[Vector, Vector]]:
+        """``(start, direction)`` of every side that converged, for ``continue_branch``."""
+        return [(r.x, d) for r, d in zip(self.sides, self.directions) if r.ok]
+
+    @property
+    def failed(self) -> list[tuple[Vector, Root]]:
+        """``(direction, root)`` of every side whose corrector did not converge."""
+        return [(d, r) for r, d in zip(self.sides, self.directions) if not r.ok]
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def __iter__(self) -> Iterator[tuple[Vector, Vector]]:
+        return iter(self.starts)
+
+    def __getitem__(self, i: int) -> tuple[Vector, Vector]:
+        return self.starts[i]
+
+    def describe_failures(self) -> str:
+        """The failed sides in words (empty when both converged)."""
+        return "; ".join(
+            f"side {'+' if i == 0 else '-'}: {r.status.value} ({r.message})"
+            for i, r in enumerate(self.sides) if not r.ok
+        )

@@ -38,7 +38,14 @@ import numpy as np
 from scipy.optimize import brentq
 
 from workbench._types import ArrayLike, Matrix, Vector
-from workbench.branch import Branch, EndReason, PointKind, SpecialPoint, StepControl
+from workbench.branch import (
+    Branch,
+    BranchSwitch,
+    EndReason,
+    PointKind,
+    SpecialPoint,
+    StepControl,
+)
 from workbench.errors import ManifoldError, ParameterError, SolverError
 from workbench.roots import Root, ZeroProblem, check_count, check_positive, newton_on_manifold
 
@@ -48,6 +55,7 @@ __all__ = [
     "PointKind",
     "SpecialPoint",
     "Branch",
+    "BranchSwitch",
     "continue_branch",
     "switch_branch",
     "correct_point",
@@ -450,7 +458,8 @@ def switch_branch(
     *,
     step: float,
     control: StepControl | None = None,
-) -> list[tuple[Vector, Vector]]:
+    raise_on_failure: bool = True,
+) -> BranchSwitch:
     """Starts on the other branch through a located simple branch point.
 
     At the branch point the Jacobian has a two-dimensional null space containing the
@@ -467,12 +476,22 @@ def switch_branch(
     step : float
         Distance from the branch point.
     control : StepControl, optional
+    raise_on_failure : bool
+        Raise when the corrector converges on neither side; otherwise return the result
+        with no starts (its ``sides`` say why).
 
     Returns
     -------
-    list of (ndarray, ndarray)
-        ``(start, direction)`` pairs for :func:`continue_branch`, one per side that
-        converged; each start is a zero at distance ``step`` from the branch point.
+    BranchSwitch
+        A sequence of ``(start, direction)`` pairs for :func:`continue_branch`, one per
+        side that converged (each start a zero at distance ``step`` from the branch
+        point), with the corrector result of both sides in ``sides``.
+
+    Raises
+    ------
+    SolverError
+        If the corrector converges on neither side and ``raise_on_failure``; the status
+        is the two sides' statuses.
     """
     if point.kind is not PointKind.BRANCH_POINT:
         raise ParameterError(f"point must be a branch point; got a {point.kind.value}")
@@ -485,11 +504,17 @@ def switch_branch(
     d = Q @ np.array([-b, a])  # the null direction orthogonal to the incoming tangent
     d /= np.linalg.norm(d)
     t = np.linalg.lstsq(N, d, rcond=None)[0]
-    out = []
-    for sign in (1.0, -1.0):
-        root = correct_point(problem, point.y, sign * d, step, control=c, t=sign * t)
-        if root.ok:
-            out.append((root.x, sign * d))
+    sides = [correct_point(problem, point.y, sign * d, step, control=c, t=sign * t)
+             for sign in (1.0, -1.0)]
+    out = BranchSwitch(point, step, np.array([d, -d]), sides)
+    if raise_on_failure and not out.starts:
+        raise SolverError(
+            f"switch_branch: the corrector converged on neither side of the branch point "
+            f"at s = {point.s:.6g} (y = {np.round(point.y, 6).tolist()}) at distance "
+            f"{step:g}: {out.describe_failures()}. Try another step, or pass "
+            f"raise_on_failure=False to get the result",
+            status="/".join(r.status.value for r in sides),
+        )
     return out
 
 

@@ -60,6 +60,10 @@ class RelativeEquilibria:
     slice_failures : int
         Guesses on the slices from which Newton did not converge.
     wall_time : float
+    notes : list of str
+        What was not traced and why: a side of a branch point where the other branch was
+        not picked up (with the corrector's status), ``max_branches`` reached, branches
+        that ended otherwise than at a bound or a stop event.
     """
 
     problem: ZeroProblem
@@ -83,6 +87,7 @@ class RelativeEquilibria:
             "k_max": self.k_max,
             "slice_failures": self.slice_failures,
             "wall_time": self.wall_time,
+            "notes": list(self.notes),
         }
 
 
@@ -188,9 +193,15 @@ def trace_relative_equilibria(
         branches.append(b)
         origins.append(origin)
         for sp in b.specials(PointKind.BRANCH_POINT):
-            for ys, ds in switch_branch(problem, sp, step=switch_step, control=control):
-                queue.append((ys, ds, f"branch point of branch {len(branches) - 1} "
-                                      f"(k = {sp.y[3]:.6g})"))
+            where = f"branch point of branch {len(branches) - 1} (k = {sp.y[3]:.6g})"
+            switch = switch_branch(problem, sp, step=switch_step, control=control,
+                                   raise_on_failure=False)
+            if switch.failed:
+                notes.append(f"{where}: the other branch was not picked up on "
+                             f"{len(switch.failed)} of 2 sides at switch_step = "
+                             f"{switch_step:g} ({switch.describe_failures()})")
+            for ys, ds in switch:
+                queue.append((ys, ds, where))
 
     while queue or pending_ends:
         if len(branches) >= max_branches:
