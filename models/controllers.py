@@ -18,9 +18,11 @@ controller always cancels the model it is evaluated with.
   stabilisation of the inverted spherical pendulum on a cart (n = 1), gains checked by
   :class:`CartGains`; :func:`cart_domain` is the domain D of (43).
 
-Lyapunov functions (:class:`~workbench.lyapunov.Lyapunov`, derivatives from the graph):
-:func:`velocity_feedback_lyapunov` (paper 001 (30); :func:`hanging_set_level` gives the
-levels of H_eps (29) and N (33)) and :func:`cart_lyapunov` (paper 003 (25)). The chain
+The cart laws live in :mod:`models.cart_feedback`. Lyapunov functions
+(:class:`~workbench.lyapunov.Lyapunov`, derivatives from the graph) live in
+:mod:`models.lyapunov_functions`: :func:`velocity_feedback_lyapunov` (paper 001 (30);
+:func:`hanging_set_level` gives the levels of H_eps (29) and N (33)) and
+:func:`cart_lyapunov` (paper 003 (25)). All are re-exported here. The chain
 feedback (19) of paper 003 is :func:`workbench.lqr.geometric_feedback` (LQR gains through
 the chart).
 """
@@ -28,17 +30,22 @@ the chart).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from models._checks import E3, positive_scalar, require_model, spd_matrix
+from models.cart_feedback import CartGains, cart_domain, cart_inverted_feedback
+from models.lyapunov_functions import (
+    cart_lyapunov,
+    hanging_set_level,
+    velocity_feedback_lyapunov,
+)
 from workbench._types import ArrayLike
 from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import Lyapunov, state_function
+from workbench.lyapunov import state_function
 from workbench.manifolds import S2, SO3, TS2, Rn, vee
-from workbench.model import Context, Model, spd3
+from workbench.model import Model
 
 __all__ = [
     "CartGains",
@@ -54,54 +61,6 @@ __all__ = [
     "so3_pd",
     "E3",
 ]
-
-E3 = np.array([0.0, 0.0, 1.0])
-
-
-# ----------------------------------------------------------------------------------------
-# validation helpers
-
-
-def _positive_scalar(value: float, name: str, condition: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a positive number ({condition}); got {value!r}") \
-            from exc
-    if not np.isfinite(v) or v <= 0:
-        raise ParameterError(f"{name} must be positive and finite ({condition}); got {v!r}")
-    return v
-
-
-def _spd(value: ArrayLike, name: str, condition: str) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got {value!r}") from exc
-    if a.shape != (3, 3):
-        raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got shape {a.shape}")
-    msg = spd3(a)
-    if msg:
-        raise ParameterError(f"{name} {msg.replace('; got', f' ({condition}); got', 1)}")
-    return a
-
-
-def _require(model: Model, who: str, *, factors: dict[str, type] | None = None,
-             params: tuple[str, ...] = (), inputs: int | None = None) -> None:
-    """Check that ``model`` has the state factors, parameters and inputs a law needs."""
-    man, have = model.manifold, [p.name for p in model.parameters]
-    for name, kind in (factors or {}).items():
-        if name not in man.names or not isinstance(man.factor(name), kind):
-            raise ModelError(f"{who} needs a model with a {kind.__name__} state factor "
-                             f"{name!r}; model {model.name!r} has factors {man.names} "
-                             f"({man.describe()})")
-    missing = [n for n in params if n not in have]
-    if missing:
-        raise ModelError(f"{who} uses the model parameters {list(params)}; model "
-                         f"{model.name!r} lacks {missing} (has {have})")
-    if inputs is not None and model.n_inputs != inputs:
-        raise ModelError(f"{who} returns {inputs} inputs; model {model.name!r} has "
-                         f"{model.n_inputs} inputs")
 
 
 def _norm_c1(v):
@@ -169,7 +128,7 @@ def psi_feedback(
         ``x^T Psi(x) <= 0``.
     """
     who = "angular-velocity feedback (paper 001 (14))"
-    _require(model, who, factors={"omega": Rn}, inputs=3)
+    require_model(model, who, factors={"omega": Rn}, inputs=3)
     w = ca.SX.sym("w", 3)
     try:
         out = ca.vec(psi(w))
@@ -187,7 +146,7 @@ def psi_feedback(
             f"Psi(0) must be 0 (paper 001 (13): the hanging equilibrium must stay an "
             f"equilibrium of u = -Psi(omega)); got Psi(0) = {psi0.ravel().tolist()}"
         )
-    _spd(dpsi0, "Psi'(0)", "paper 001 (13): Psi'(0) symmetric positive definite")
+    spd_matrix(dpsi0, "Psi'(0)", "paper 001 (13): Psi'(0) symmetric positive definite")
     if check_samples:
         rng = np.random.default_rng(seed)
         dirs = rng.standard_normal((int(check_samples), 3))
@@ -231,7 +190,7 @@ def angular_velocity_feedback(model: Model, D: ArrayLike) -> ca.Function:
     ParameterError
         ``D`` is not symmetric positive definite.
     """
-    Dm = _spd(D, "D", "paper 001 (13): Psi'(0) = D must be symmetric positive definite")
+    Dm = spd_matrix(D, "D", "paper 001 (13): Psi'(0) = D must be symmetric positive definite")
     return psi_feedback(
         model, lambda w: ca.DM(Dm) @ w, check_samples=0, name="angular_velocity_feedback"
     )
@@ -262,8 +221,8 @@ def saturated_velocity_feedback(model: Model, P: ArrayLike, k: float) -> ca.Func
         ``P`` not symmetric positive definite or ``k <= 0``.
     """
     cond = "paper 001 (34): P symmetric positive definite, k > 0"
-    Pm = ca.DM(_spd(P, "P", cond))
-    kv = _positive_scalar(k, "k", cond)
+    Pm = ca.DM(spd_matrix(P, "P", cond))
+    kv = positive_scalar(k, "k", cond)
 
     def psi(w):
         Pw = Pm @ w
@@ -305,11 +264,11 @@ def s2_pd(model: Model, q_d: ArrayLike, k_q: float, k_w: float) -> ca.Function:
         A gain is not positive.
     """
     who = "geometric PD on S^2 (paper 002 Sec. II-A)"
-    _require(model, who, factors={"q": TS2}, params=("m", "l", "g"), inputs=3)
+    require_model(model, who, factors={"q": TS2}, params=("m", "l", "g"), inputs=3)
     qd = S2().check(q_d, name="q_d")
     cond = "paper 002 Sec. II-A: positive constants k_q, k_omega"
-    kq = _positive_scalar(k_q, "k_q", cond)
-    kw = _positive_scalar(k_w, "k_w", cond)
+    kq = positive_scalar(k_q, "k_q", cond)
+    kw = positive_scalar(k_w, "k_w", cond)
 
     def build(ctx):
         x = ctx["q"]
@@ -382,11 +341,11 @@ def so3_pd(
     """
     who = "geometric PD on SO(3) (paper 002 Sec. III-A)"
 
-    _require(model, who, factors={"R": SO3, "omega": Rn}, params=("rho", "m", "g"), inputs=3)
+    require_model(model, who, factors={"R": SO3, "omega": Rn}, params=("rho", "m", "g"), inputs=3)
     Rd = ca.DM(SO3.matrix(SO3().check(R_d, name="R_d")))
     cond = "paper 002 Sec. III-A: positive constants k_R, k_Omega"
-    kR = _positive_scalar(k_R, "k_R", cond)
-    kW = _positive_scalar(k_Omega, "k_Omega", cond)
+    kR = positive_scalar(k_R, "k_R", cond)
+    kW = positive_scalar(k_Omega, "k_Omega", cond)
     Gm = ca.DM(np.diag(_diag_gain(G)))
 
     def build(ctx):
@@ -396,228 +355,3 @@ def so3_pd(
         return -kR * e_R - kW * w - gravity
 
     return state_function(model, "so3_pd", build)
-
-
-# ----------------------------------------------------------------------------------------
-# paper 003: nonlinear controller for the inverted spherical pendulum on a cart (n = 1)
-
-C2 = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # C = [e1, e2], R^2 -> R^3
-
-
-@dataclass(frozen=True)
-class CartGains:
-    """Gains of paper 003 Proposition 5, checked against its conditions.
-
-    Attributes
-    ----------
-    k_y, k_ydot, k_w, k_q : float
-        Positive constants with ``k_q > 1 + k_w``.
-    """
-
-    k_y: float
-    k_ydot: float
-    k_w: float
-    k_q: float
-
-    def __post_init__(self) -> None:
-        cond = "paper 003 Prop. 5: positive constants k_y, k_ydot, k_q, k_w with k_q > 1 + k_w"
-        for name in ("k_y", "k_ydot", "k_w", "k_q"):
-            object.__setattr__(self, name, _positive_scalar(getattr(self, name), name, cond))
-        if not self.k_q > 1 + self.k_w:
-            raise ParameterError(
-                f"k_q must exceed 1 + k_w ({cond}; it makes V of (25) positive definite on "
-                f"the domain D of (43)); got k_q = {self.k_q}, 1 + k_w = {1 + self.k_w}"
-            )
-
-    @property
-    def s(self) -> float:
-        """``sqrt((1 + k_w) / k_q)``: ``D = {q1 . e3 < -s}`` of (43)."""
-        return float(np.sqrt((1 + self.k_w) / self.k_q))
-
-
-def _cart_terms(ctx: Context, gains: CartGains) -> dict[str, Any]:
-    """Build the output y (24), y-dot (44) and the pieces of (21), (26) on the n = 1 chain model."""
-    Cd, e3 = ca.DM(C2), ca.DM(E3)
-    x, v, link = ctx["x"], ctx["v"], ctx["link1"]
-    q, w = link[0:3], link[3:6]
-    l1, m1 = ctx["lengths"][0], ctx["masses"][0]
-    qh2 = ca.skew(q) @ ca.skew(q)
-    y = x + gains.k_q * l1 * (Cd.T @ q)
-    ydot = v - gains.k_q * l1 * (Cd.T @ ca.cross(q, w))
-    return {"C": Cd, "e3": e3, "x": x, "v": v, "q": q, "w": w, "l1": l1, "m1": m1,
-            "qh2": qh2, "y": y, "ydot": ydot, "w2": ca.dot(w, w)}
-
-
-def _require_cart(model: Model, who: str) -> None:
-    _require(model, who, factors={"x": Rn, "v": Rn, "link1": TS2},
-             params=("m", "masses", "lengths", "g"), inputs=2)
-    if "link2" in model.manifold.names:
-        raise ModelError(f"{who} is for one link (n = 1); model {model.name!r} has "
-                         f"factors {model.manifold.names}")
-
-
-def cart_inverted_feedback(
-    model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: float
-) -> ca.Function:
-    """Nonlinear stabilisation of the inverted spherical pendulum on a cart, paper 003.
-
-    The transformed input (26)
-    ``mu = ((1 + k_w) I + k_q C^T hat(q)^2 C)^-1 (-k_y y - k_ydot y-dot
-    + k_q g C^T hat(q)^2 e3 + k_q l |omega|^2 C^T q)`` with ``y = x + k_q l C^T q`` (24),
-    put through the feedback transformation (21) with the erratum (no inverse):
-    ``u = ((m + m1) I + m1 C^T hat(q)^2 C) mu - m1 g C^T hat(q)^2 e3
-    - m1 l |omega|^2 C^T q``. The matrix inverted in (26) has the eigenvalues
-    ``1 + k_w - k_q`` and ``1 + k_w - k_q (q . e3)^2``: it is singular on the boundary of
-    the domain ``D = {q . e3 < -sqrt((1 + k_w)/k_q)}`` of (43) and invertible inside.
-
-    Parameters
-    ----------
-    model : Model
-        :func:`models.chain_cart.chain_cart` with ``n = 1``.
-    k_y, k_ydot, k_w, k_q : float
-        Positive gains with ``k_q > 1 + k_w`` (Prop. 5).
-
-    Returns
-    -------
-    casadi.Function
-        ``(x, p) -> u``, ``u`` shape=(2,).
-
-    Raises
-    ------
-    ParameterError
-        A gain breaks the conditions of Prop. 5.
-    """
-    who = "nonlinear cart controller (paper 003 (21), (26))"
-    _require_cart(model, who)
-    G = CartGains(k_y, k_ydot, k_w, k_q)
-
-    def build(ctx: Context) -> ca.SX:
-        t = _cart_terms(ctx, G)
-        Cd, e3, q, qh2, l1, m1, g = t["C"], t["e3"], t["q"], t["qh2"], t["l1"], t["m1"], \
-            ctx["g"]
-        A = (1 + G.k_w) * ca.DM.eye(2) + G.k_q * (Cd.T @ qh2 @ Cd)
-        b = (-G.k_y * t["y"] - G.k_ydot * t["ydot"] + G.k_q * g * (Cd.T @ qh2 @ e3)
-             + G.k_q * l1 * t["w2"] * (Cd.T @ q))
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-        mu = ca.vertcat(A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]) / det
-        M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
-        return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * t["w2"] * (Cd.T @ q)
-
-    return state_function(model, "cart_inverted_feedback", build)
-
-
-def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:
-    """``b(x, p) = q1 . e3 + sqrt((1 + k_w)/k_q)``: the domain (43) is ``D = {b < 0}``.
-
-    Parameters
-    ----------
-    model : Model
-        :func:`models.chain_cart.chain_cart` with ``n = 1``.
-    k_w, k_q : float
-        Gains of Prop. 5 (``k_q > 1 + k_w``).
-
-    Returns
-    -------
-    casadi.Function
-        ``(x, p) -> b``.
-    """
-    _require_cart(model, "domain D of paper 003 (43)")
-    s = CartGains(1.0, 1.0, k_w, k_q).s
-    return state_function(model, "cart_domain_D", lambda ctx: ctx["link1"][2] + s, out="b")
-
-
-# ----------------------------------------------------------------------------------------
-# Lyapunov functions of the papers (their derivatives come from the graph)
-
-
-def velocity_feedback_lyapunov(model: Model) -> Lyapunov:
-    """Paper 001 (30): ``V = (omega^T J omega + m g |rho| |Gamma - Gamma_h|^2) / 2``.
-
-    ``Gamma_h = rho / |rho|``; ``Gamma`` is the factor ``Gamma`` of the reduced model or
-    ``R^T e3`` of the full one. Along ``u = -Psi(omega)`` the paper finds
-    ``V-dot = -omega^T Psi(omega)``; here ``V-dot`` comes from the graph.
-
-    Parameters
-    ----------
-    model : Model
-        :func:`models.pendulum3d.full` or :func:`models.pendulum3d.reduced`.
-
-    Returns
-    -------
-    Lyapunov
-    """
-    _require(model, "Lyapunov function (30) of paper 001", factors={"omega": Rn},
-             params=("J", "rho", "m", "g"))
-    names = model.manifold.names
-    if "Gamma" not in names and "R" not in names:
-        raise ModelError(f"Lyapunov function (30) needs a factor 'Gamma' (S2) or 'R' (SO3); "
-                         f"model {model.name!r} has {names}")
-    if not np.linalg.norm(model.values["rho"]) > 0:
-        raise ParameterError("rho must be nonzero for (30) (Gamma_h = rho/|rho|); got rho = 0 "
-                             "(the balanced case has no hanging equilibrium)")
-
-    def V(ctx: Context) -> Any:
-        gam = ctx["Gamma"] if "Gamma" in names else SO3.matrix(ctx["R"]).T @ ca.DM(E3)
-        rho, w = ctx["rho"], ctx["omega"]
-        nrho = ca.norm_2(rho)
-        d = gam - rho / nrho
-        return 0.5 * (ca.dot(w, ctx["J"] @ w) + ctx["m"] * ctx["g"] * nrho * ca.dot(d, d))
-
-    return Lyapunov(model, V, name="V30", description="paper 001 (30)",
-                    equation=r"V = \tfrac12[\omega^TJ\omega + mg\|\rho\|\|\Gamma-\Gamma_h\|^2]")
-
-
-def hanging_set_level(model: Model, *, eps: float = 0.0) -> float:
-    """Level ``2 m g |rho| - eps`` of the sets ``H_eps`` (29) and ``N = H_0`` (33).
-
-    Parameters
-    ----------
-    model : Model
-        A 3D pendulum model (its current ``m``, ``g``, ``rho``).
-    eps : float
-        ``0 <= eps < 2 m g |rho|``; 0 gives ``N``.
-
-    Returns
-    -------
-    float
-    """
-    top = 2 * float(model.values["m"] * model.values["g"] * np.linalg.norm(model.values["rho"]))
-    if not (0 <= eps < top):
-        raise ParameterError(f"eps must lie in [0, 2 m g |rho|) = [0, {top:.6g}) (paper 001 "
-                             f"Lemma 5); got {eps!r}")
-    return top - float(eps)
-
-
-def cart_lyapunov(model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: float
-                  ) -> Lyapunov:
-    """Paper 003 (25): ``V = k_y |y|^2 / 2 + |y-dot|^2 / 2 + k_w W``.
-
-    ``W = -k_q l^2 |omega|^2 / 2 + k_q g l (1 + q . e3) + |x-dot|^2 / 2``, ``y`` of (24).
-    Along (21), (26) the paper finds ``V-dot = -k_ydot |y-dot|^2``; here ``V-dot`` comes
-    from the graph.
-
-    Parameters
-    ----------
-    model : Model
-        :func:`models.chain_cart.chain_cart` with ``n = 1``.
-    k_y, k_ydot, k_w, k_q : float
-        Gains of Prop. 5.
-
-    Returns
-    -------
-    Lyapunov
-    """
-    _require_cart(model, "control Lyapunov function (25) of paper 003")
-    G = CartGains(k_y, k_ydot, k_w, k_q)
-    core = state_function(model, "V25", lambda ctx: _cart_V(ctx, G), out="V", record=False)
-    return Lyapunov(model, lambda ctx: core(ctx.x, ctx.p), name="V25",
-                    description="paper 003 (25)",
-                    equation=r"\mathcal V = \tfrac12 k_y\|y\|^2 + \tfrac12\|\dot y\|^2 + k_w"
-                    r"\mathcal W")
-
-
-def _cart_V(ctx: Context, G: CartGains) -> ca.SX:
-    t = _cart_terms(ctx, G)
-    W = (-0.5 * G.k_q * t["l1"] ** 2 * t["w2"] + G.k_q * ctx["g"] * t["l1"] * (1 + t["q"][2])
-         + 0.5 * ca.dot(t["v"], t["v"]))
-    return 0.5 * G.k_y * ca.dot(t["y"], t["y"]) + 0.5 * ca.dot(t["ydot"], t["ydot"]) + G.k_w * W

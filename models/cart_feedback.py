@@ -1,0 +1,148 @@
+"""Nonlinear stabilisation of the inverted spherical pendulum on a cart, paper 003 (n = 1).
+
+:class:`CartGains` (the gains of Proposition 5, checked against its conditions),
+:func:`cart_inverted_feedback` (the feedback (21), with the erratum, and (26)) and
+:func:`cart_domain` (the domain D of (43)). The control Lyapunov function (25) is
+:func:`models.lyapunov_functions.cart_lyapunov`. All are re-exported by
+:mod:`models.controllers`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from models._checks import E3, positive_scalar, require_model
+from workbench.errors import ModelError, ParameterError
+from workbench.lyapunov import state_function
+from workbench.manifolds import TS2, Rn
+from workbench.model import Context, Model
+
+__all__ = ["CartGains", "cart_domain", "cart_inverted_feedback"]
+
+C2 = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # C = [e1, e2], R^2 -> R^3
+
+
+@dataclass(frozen=True)
+class CartGains:
+    """Gains of paper 003 Proposition 5, checked against its conditions.
+
+    Attributes
+    ----------
+    k_y, k_ydot, k_w, k_q : float
+        Positive constants with ``k_q > 1 + k_w``.
+    """
+
+    k_y: float
+    k_ydot: float
+    k_w: float
+    k_q: float
+
+    def __post_init__(self) -> None:
+        cond = "paper 003 Prop. 5: positive constants k_y, k_ydot, k_q, k_w with k_q > 1 + k_w"
+        for name in ("k_y", "k_ydot", "k_w", "k_q"):
+            object.__setattr__(self, name, positive_scalar(getattr(self, name), name, cond))
+        if not self.k_q > 1 + self.k_w:
+            raise ParameterError(
+                f"k_q must exceed 1 + k_w ({cond}; it makes V of (25) positive definite on "
+                f"the domain D of (43)); got k_q = {self.k_q}, 1 + k_w = {1 + self.k_w}"
+            )
+
+    @property
+    def s(self) -> float:
+        """``sqrt((1 + k_w) / k_q)``: ``D = {q1 . e3 < -s}`` of (43)."""
+        return float(np.sqrt((1 + self.k_w) / self.k_q))
+
+
+def _cart_terms(ctx: Context, gains: CartGains) -> dict[str, Any]:
+    """Build the output y (24), y-dot (44) and the pieces of (21), (26) on the n = 1 chain model."""
+    Cd, e3 = ca.DM(C2), ca.DM(E3)
+    x, v, link = ctx["x"], ctx["v"], ctx["link1"]
+    q, w = link[0:3], link[3:6]
+    l1, m1 = ctx["lengths"][0], ctx["masses"][0]
+    qh2 = ca.skew(q) @ ca.skew(q)
+    y = x + gains.k_q * l1 * (Cd.T @ q)
+    ydot = v - gains.k_q * l1 * (Cd.T @ ca.cross(q, w))
+    return {"C": Cd, "e3": e3, "x": x, "v": v, "q": q, "w": w, "l1": l1, "m1": m1,
+            "qh2": qh2, "y": y, "ydot": ydot, "w2": ca.dot(w, w)}
+
+
+def _require_cart(model: Model, who: str) -> None:
+    require_model(model, who, factors={"x": Rn, "v": Rn, "link1": TS2},
+             params=("m", "masses", "lengths", "g"), inputs=2)
+    if "link2" in model.manifold.names:
+        raise ModelError(f"{who} is for one link (n = 1); model {model.name!r} has "
+                         f"factors {model.manifold.names}")
+
+
+def cart_inverted_feedback(
+    model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: float
+) -> ca.Function:
+    """Nonlinear stabilisation of the inverted spherical pendulum on a cart, paper 003.
+
+    The transformed input (26)
+    ``mu = ((1 + k_w) I + k_q C^T hat(q)^2 C)^-1 (-k_y y - k_ydot y-dot
+    + k_q g C^T hat(q)^2 e3 + k_q l |omega|^2 C^T q)`` with ``y = x + k_q l C^T q`` (24),
+    put through the feedback transformation (21) with the erratum (no inverse):
+    ``u = ((m + m1) I + m1 C^T hat(q)^2 C) mu - m1 g C^T hat(q)^2 e3
+    - m1 l |omega|^2 C^T q``. The matrix inverted in (26) has the eigenvalues
+    ``1 + k_w - k_q`` and ``1 + k_w - k_q (q . e3)^2``: it is singular on the boundary of
+    the domain ``D = {q . e3 < -sqrt((1 + k_w)/k_q)}`` of (43) and invertible inside.
+
+    Parameters
+    ----------
+    model : Model
+        :func:`models.chain_cart.chain_cart` with ``n = 1``.
+    k_y, k_ydot, k_w, k_q : float
+        Positive gains with ``k_q > 1 + k_w`` (Prop. 5).
+
+    Returns
+    -------
+    casadi.Function
+        ``(x, p) -> u``, ``u`` shape=(2,).
+
+    Raises
+    ------
+    ParameterError
+        A gain breaks the conditions of Prop. 5.
+    """
+    who = "nonlinear cart controller (paper 003 (21), (26))"
+    _require_cart(model, who)
+    G = CartGains(k_y, k_ydot, k_w, k_q)
+
+    def build(ctx: Context) -> ca.SX:
+        t = _cart_terms(ctx, G)
+        Cd, e3, q, qh2, l1, m1, g = t["C"], t["e3"], t["q"], t["qh2"], t["l1"], t["m1"], \
+            ctx["g"]
+        A = (1 + G.k_w) * ca.DM.eye(2) + G.k_q * (Cd.T @ qh2 @ Cd)
+        b = (-G.k_y * t["y"] - G.k_ydot * t["ydot"] + G.k_q * g * (Cd.T @ qh2 @ e3)
+             + G.k_q * l1 * t["w2"] * (Cd.T @ q))
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        mu = ca.vertcat(A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]) / det
+        M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
+        return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * t["w2"] * (Cd.T @ q)
+
+    return state_function(model, "cart_inverted_feedback", build)
+
+
+def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:
+    """``b(x, p) = q1 . e3 + sqrt((1 + k_w)/k_q)``: the domain (43) is ``D = {b < 0}``.
+
+    Parameters
+    ----------
+    model : Model
+        :func:`models.chain_cart.chain_cart` with ``n = 1``.
+    k_w, k_q : float
+        Gains of Prop. 5 (``k_q > 1 + k_w``).
+
+    Returns
+    -------
+    casadi.Function
+        ``(x, p) -> b``.
+    """
+    _require_cart(model, "domain D of paper 003 (43)")
+    s = CartGains(1.0, 1.0, k_w, k_q).s
+    return state_function(model, "cart_domain_D", lambda ctx: ctx["link1"][2] + s, out="b")
