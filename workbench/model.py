@@ -25,6 +25,7 @@ import numpy as np
 
 from workbench._types import ArrayLike, Vector
 from workbench.errors import ModelError, ParameterError
+from workbench.evaluator import Evaluator
 from workbench.manifolds import DEFAULT_TOL, ProductManifold
 
 __all__ = [
@@ -546,41 +547,3 @@ class Model:
             f"Model({self.name!r}, {self.manifold.describe()}, inputs={self.n_inputs}, "
             f"parameters={[p.name for p in self.parameters]})"
         )
-
-
-class Evaluator:
-    """Low-overhead numeric evaluation of a casadi.Function through its buffer interface.
-
-    Calling a casadi.Function from Python converts every argument (tens of microseconds);
-    an evaluator binds numpy arrays once and then costs about a microsecond per call on
-    top of the function's own work. Use it in Python-level loops and benchmarks.
-
-    Parameters
-    ----------
-    fn : casadi.Function
-        A function with dense vector inputs and outputs.
-
-    Examples
-    --------
-    >>> ev = Evaluator(model.function("f"))          # doctest: +SKIP
-    >>> xdot = ev(x, u, model.p)                     # doctest: +SKIP
-    """
-
-    def __init__(self, fn: ca.Function) -> None:
-        self.fn = fn
-        self._buf, self._eval = fn.buffer()
-        self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-        self._res = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        for i, a in enumerate(self._args):
-            self._buf.set_arg(i, memoryview(a))
-        for i, r in enumerate(self._res):
-            self._buf.set_res(i, memoryview(r))
-
-    def __call__(self, *args: ArrayLike) -> np.ndarray | tuple[np.ndarray, ...]:
-        """Evaluate; returns copies of the outputs (one array, or a tuple)."""
-        for dst, src in zip(self._args, args):
-            dst[:] = np.ravel(src)
-        self._eval()
-        if len(self._res) == 1:
-            return self._res[0].copy()
-        return tuple(r.copy() for r in self._res)

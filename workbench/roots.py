@@ -32,6 +32,7 @@ from workbench._types import ArrayLike, Matrix, Vector
 from workbench._validate import count as check_count
 from workbench._validate import positive as check_positive
 from workbench.errors import ModelError
+from workbench.evaluator import DenseEvaluator
 from workbench.manifolds import ProductManifold
 from workbench.model import Model
 
@@ -133,58 +134,6 @@ class Root:
             "local_dimension": self.local_dimension,
             "x": self.x.tolist(),
         }
-
-
-# ----------------------------------------------------------------------------------------
-# numeric evaluation
-
-
-class DenseEvaluator:
-    """Fast numeric calls of a casadi.Function with dense numpy outputs.
-
-    Like :class:`workbench.model.Evaluator` (buffer interface, about a microsecond of
-    overhead), but sparse outputs (Jacobians) are scattered into dense matrices.
-
-    Parameters
-    ----------
-    fn : casadi.Function
-        Dense vector inputs; any outputs.
-    """
-
-    def __init__(self, fn: ca.Function) -> None:
-        self.fn = fn
-        self._buf, self._eval = fn.buffer()
-        self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-        self._res = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        for i, a in enumerate(self._args):
-            self._buf.set_arg(i, memoryview(a))
-        for i, r in enumerate(self._res):
-            self._buf.set_res(i, memoryview(r))
-        self._scatter = []
-        for i in range(fn.n_out()):
-            sp = fn.sparsity_out(i)
-            shape = (sp.size1(), sp.size2())
-            if sp.is_dense():
-                self._scatter.append((shape, None))
-            else:
-                rows, cols = sp.get_triplet()
-                self._scatter.append((shape, (np.asarray(rows), np.asarray(cols))))
-
-    def __call__(self, *args: ArrayLike) -> tuple[np.ndarray, ...]:
-        """Evaluate; returns one dense array per output (vectors 1-D, matrices 2-D)."""
-        for dst, src in zip(self._args, args):
-            dst[:] = np.ravel(src)
-        self._eval()
-        out = []
-        for r, (shape, idx) in zip(self._res, self._scatter):
-            if idx is None:
-                a = r.copy()
-                out.append(a if shape[1] == 1 else a.reshape(shape, order="F"))
-            else:
-                d = np.zeros(shape)
-                d[idx[0], idx[1]] = r
-                out.append(d[:, 0] if shape[1] == 1 else d)
-        return tuple(out)
 
 
 # ----------------------------------------------------------------------------------------
