@@ -185,7 +185,7 @@ def solve(*, quick: bool = False) -> Result:
         from workbench.plots import so3_manifold_figure
 
         res.figures[f"stable_manifold_{name}"] = so3_manifold_figure(
-            W, f_times, attitudes={"I": np.eye(3), f"exp(pi {name}^)": R_e})
+            W, f_times, attitudes={"I": np.eye(3), "saddle": R_e})
     res.compare("cover of SO(3): exp(pi e2^) covers more than exp(pi e1^)", 1,
                 int(cover["e2"] > cover["e1"]), tolerance=0, source="paper 002 Sec. III-D")
     res.compare("cover of SO(3): exp(pi e1^) covers more than exp(pi e3^)", 1,
