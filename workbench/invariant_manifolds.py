@@ -73,6 +73,7 @@ from workbench.simulate import Method, closed_loop_function
 
 __all__ = [
     "InvariantManifold",
+    "Subspace",
     "VECTORISED_METHODS",
     "invariant_manifold",
     "stable_manifold",
