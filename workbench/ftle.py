@@ -17,6 +17,7 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
+from workbench._validate import choice
 from workbench.errors import ParameterError, SolverError
 from workbench.model import Model
 from workbench.poincare import Stepper, _cvodes_options, _positive, stabilized_field
@@ -94,7 +95,8 @@ def lyapunov_exponent(
     f = stabilized_field(model, gain=stabilization)(xs, ps)
     F = ca.integrator("tangent", "cvodes", {"x": ca.vertcat(xs, vs), "p": ps,
                                             "ode": ca.vertcat(f, ca.jtimes(f, xs, vs))},
-                      0.0, every, _cvodes_options(Stepper(stepper), rtol, atol, 1_000_000))
+                      0.0, every,
+                      _cvodes_options(choice(Stepper, stepper, "stepper"), rtol, atol, 1_000_000))
     n_int = max(1, int(round(t_final / every)))
     z, total, running, steps = np.r_[xc, v], 0.0, [], 0
     t0 = time.perf_counter()

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from workbench._validate import choice
 from workbench.errors import ParameterError, WorkbenchError
 
 __all__ = [
@@ -293,7 +294,8 @@ def sweep(
     if not callable(fn):
         raise ParameterError(f"fn must be callable; got {type(fn).__name__}")
     item_list = _check_items(items)
-    on_error, start_method = OnError(on_error), StartMethod(start_method)
+    on_error = choice(OnError, on_error, "on_error")
+    start_method = choice(StartMethod, start_method, "start_method")
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers must be a positive integer; got {workers!r}")
     if executor is not None and workers is not None:
