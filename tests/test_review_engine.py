@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 
 import casadi as ca
@@ -20,12 +21,13 @@ from workbench.eigen import eigenstructure
 from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.evaluator import DenseEvaluator, Evaluator
 from workbench.integrators import integrate, rkmk4
-from workbench.linearize import linearize
+from workbench.linearize import linearize, linearize_ambient
 from workbench.lqr import lqr
+from workbench.lyapunov import Lyapunov, SublevelSet
 from workbench.manifolds import ProductManifold, Rn
 from workbench.relative_families import trace_relative_equilibria
 from workbench.roots import RootStatus, ZeroProblem, check_count, check_positive
-from workbench.simulate import Method, simulate
+from workbench.simulate import Method, constraint_residuals, simulate
 
 
 @pytest.fixture(scope="module")
@@ -236,3 +238,86 @@ def test_dense_evaluator_is_an_evaluator_with_dense_outputs(planar):
     (J,) = ev(planar_state(planar), np.zeros(0), planar.p)
     assert_close(J, np.asarray(fx(planar_state(planar), np.zeros(0), planar.p)), atol=0.0,
                  what="dense Jacobian")
+
+
+# ----------------------------------------------------------------------------------------
+# hot paths build their casadi Functions once
+
+
+class _CountingDomain:
+    """A domain b(x, p) that counts how often it is mapped over a batch."""
+
+    def __init__(self, fn):
+        self.fn, self.maps = fn, 0
+
+    def map(self, n):
+        self.maps += 1
+        return self.fn.map(n)
+
+
+def test_sublevel_set_maps_its_domain_once_per_batch_size(rng):
+    model = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.1, -0.05, 0.2])
+    V = Lyapunov(model, lambda ctx: ca.dot(ctx["omega"], ctx["omega"]), name="kinetic")
+    xs, ps = ca.SX.sym("x", 6), ca.SX.sym("p", model.n_params)
+    domain = _CountingDomain(ca.Function("b", [xs, ps], [-xs[2]]))  # Gamma_3 > 0
+    cap = SublevelSet(V, 1.0, domain=domain)
+    X = np.array([model.manifold.random_point(rng) for _ in range(40)])
+    first = cap.contains(X)
+    assert_close(first, (np.sum(X[:, 3:] ** 2, axis=1) <= 1.0) & (X[:, 2] > 0), atol=0,
+                 what="membership")
+    for _ in range(3):
+        assert_close(cap.contains(X), first, atol=0, what="same answer from the cache")
+    cap.contains(X[:7])
+    assert domain.maps == 2  # one map per batch size, not one per call
+
+
+def _count_residual_builds(monkeypatch, factor):
+    calls = []
+    real = factor.residual
+
+    def residual(x):
+        calls.append(x)
+        return real(x)
+
+    monkeypatch.setattr(factor, "residual", residual)
+    return calls
+
+
+def test_constraint_residuals_and_jacobians_build_once_per_factor(monkeypatch, rng):
+    model = p3.planar(Jt=0.2, rho_s=0.3)  # a fresh S1 factor
+    factor = model.manifold.factor("p")
+    calls = _count_residual_builds(monkeypatch, factor)
+    X = np.array([model.manifold.random_point(rng) for _ in range(5)])
+    X[:, :2] *= np.array([1.0, 1.1, 0.9, 1.0, 2.0])[:, None]  # |p| = 1, 1.1, 0.9, 1, 2
+    for _ in range(3):
+        res = constraint_residuals(model, X)
+        assert_close(res["p"], np.abs(np.sum(X[:, :2] ** 2, axis=1) - 1.0), atol=1e-15,
+                     what="|h(p)| = ||p|^2 - 1|")
+        assert_close(res["omega_y"], np.zeros(5), atol=0, what="no constraint on R^1")
+        J = factor.constraint_jacobian(X[1, :2])
+        assert_close(J, 2 * X[1:2, :2], atol=1e-15, what="dh/dp = 2 p^T")
+    assert len(calls) == 1
+
+
+def test_linearize_ambient_evaluates_the_jacobians_once(monkeypatch):
+    model = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
+    x_e = model.state(Gamma=[0.0, 0.0, 1.0], omega=[0.0, 0.0, 0.0])
+    module = sys.modules[linearize_ambient.__module__]
+    real, calls = module._jacobians, []
+
+    def counting(model, controller):
+        fn = real(model, controller)
+
+        def call(*args):
+            calls.append(args)
+            return fn(*args)
+
+        return call
+
+    monkeypatch.setattr(module, "_jacobians", counting)
+    amb = linearize_ambient(model, x_e)
+    assert len(calls) == 1
+    lin = linearize(model, x_e)
+    assert_close(amb.A @ lin.basis, lin.basis @ lin.A, atol=1e-12,
+                 what="df/dx N = N A at an equilibrium")
+    assert_close(amb.C @ amb.basis, np.zeros((1, 5)), atol=1e-15, what="basis in ker C")

@@ -511,6 +511,41 @@ def _dh(model: Model, x_e: Vector) -> Matrix:
     return np.vstack(blocks) if blocks else np.zeros((0, man.ambient_dim))
 
 
+def _check_point(model: Model, x_e: ArrayLike, u_e: ArrayLike | None, tol: float,
+                 manifold_tol: float) -> tuple[Vector, Vector]:
+    """``x_e`` (on the manifold) and ``u_e`` validated, and ``tol`` checked."""
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    xe = model.check_state(x_e, name="x_e", tol=manifold_tol)
+    ue = _input(model, u_e)
+    if not (np.isfinite(tol) and tol > 0):
+        raise ModelError(f"tol must be positive and finite; got {tol!r}")
+    return xe, ue
+
+
+def _equilibrium_jacobians(model: Model, x_e: Vector, u_e: Vector,
+                           controller: ca.Function | None, tol: float
+                           ) -> tuple[Vector, Matrix, Matrix]:
+    """``f``, ``df/dx`` and ``df/du`` at ``(x_e, u_e)`` (one evaluation), or ModelError.
+
+    Raises ModelError if ``max |f(x_e, u_e)| > tol``: off an equilibrium ``df/dx N`` is not
+    tangent and the linearisation has no meaning.
+    """
+    jac = _jacobians(model, controller)
+    f0, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(x_e, u_e, model.p))
+    f0 = f0.ravel()
+    res = float(np.max(np.abs(f0))) if f0.size else 0.0
+    if res > tol:
+        loop = "closed-loop " if controller is not None else ""
+        raise ModelError(
+            f"x_e is not an equilibrium of the {loop}field of {model.name!r}: "
+            f"max |f(x_e, u_e)| = {res:.3g} > tol {tol:.1g} (by factor: "
+            f"{_describe_residual(model, f0)}). Linearise only at equilibria (find one "
+            f"first), or pass a larger tol."
+        )
+    return f0, Jx, Ju.reshape(model.manifold.ambient_dim, model.n_inputs)
+
+
 def _describe_residual(model: Model, r: Vector) -> str:
     man = model.manifold
     parts = []
@@ -568,29 +603,13 @@ def linearize(
         ``x_e`` is not an equilibrium (the message gives the residual by factor), or bad
         ``u_e`` / ``controller``.
     """
-    if not isinstance(model, Model):
-        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
-    xe = model.check_state(x_e, name="x_e", tol=manifold_tol)
-    ue = _input(model, u_e)
-    if not (np.isfinite(tol) and tol > 0):
-        raise ModelError(f"tol must be positive and finite; got {tol!r}")
+    xe, ue = _check_point(model, x_e, u_e, tol, manifold_tol)
     N, T = _basis(model, xe, basis, tol=1e-9)
-    jac = _jacobians(model, controller)
     t0 = time.perf_counter()
-    f0, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(xe, ue, model.p))
-    f0 = f0.ravel()
-    res = float(np.max(np.abs(f0))) if f0.size else 0.0
-    if res > tol:
-        loop = "closed-loop " if controller is not None else ""
-        raise ModelError(
-            f"x_e is not an equilibrium of the {loop}field of {model.name!r}: "
-            f"max |f(x_e, u_e)| = {res:.3g} > tol {tol:.1g} (by factor: "
-            f"{_describe_residual(model, f0)}). Linearise only at equilibria (find one "
-            f"first), or pass a larger tol."
-        )
+    f0, Jx, Ju = _equilibrium_jacobians(model, xe, ue, controller, tol)
     L = np.linalg.pinv(N)
     A = L @ Jx @ N
-    B = L @ Ju.reshape(model.manifold.ambient_dim, model.n_inputs)
+    B = L @ Ju
     seconds = time.perf_counter() - t0
     labels = tangent_labels(model)
     if basis is not None:
@@ -626,11 +645,7 @@ def linearize_ambient(
     ModelError
         ``x_e`` is not an equilibrium.
     """
-    lin = linearize(model, x_e, u_e, controller=controller, tol=tol,
-                    manifold_tol=manifold_tol)
-    jac = _jacobians(model, controller)
-    _, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(lin.x_e, lin.u_e, model.p))
-    return AmbientLinearization(
-        A=Jx, B=Ju.reshape(model.manifold.ambient_dim, model.n_inputs),
-        C=_dh(model, lin.x_e), basis=lin.basis, x_e=lin.x_e,
-    )
+    xe, ue = _check_point(model, x_e, u_e, tol, manifold_tol)
+    _, Jx, Ju = _equilibrium_jacobians(model, xe, ue, controller, tol)
+    return AmbientLinearization(A=Jx, B=Ju, C=_dh(model, xe),
+                                basis=model.manifold.tangent_basis(xe), x_e=xe)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
@@ -334,6 +334,8 @@ class SublevelSet:
     level: float
     strict: bool = False
     domain: ca.Function | None = None
+    _domain_maps: dict[tuple[int, int], tuple[Any, Any]] = field(
+        default_factory=dict, init=False, repr=False, compare=False)
 
     def contains(self, states: ArrayLike) -> np.ndarray:
         """Membership of a batch of states.
@@ -351,7 +353,16 @@ class SublevelSet:
         V = self.lyapunov.values(X)
         inside = V < self.level if self.strict else V <= self.level
         if self.domain is not None:
-            b = np.asarray(self.domain.map(X.shape[0])(X.T, model.p)).ravel()
+            # building a map costs more than evaluating it: kept per (domain, batch size),
+            # the domain held with it so that its id stays unique
+            key = (id(self.domain), X.shape[0])
+            hit = self._domain_maps.get(key)
+            if hit is None:
+                if len(self._domain_maps) >= 16:
+                    self._domain_maps.pop(next(iter(self._domain_maps)))
+                hit = (self.domain, self.domain.map(X.shape[0]))
+                self._domain_maps[key] = hit
+            b = np.asarray(hit[1](X.T, model.p)).ravel()
             inside &= b < 0
         return inside
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -250,6 +251,18 @@ def sphere_basis(q: ArrayLike) -> Matrix:
 # factors
 
 
+def _build_constraint_functions(factor: Factor) -> tuple[ca.Function, ca.Function] | None:
+    xs = ca.SX.sym("x", factor.ambient_dim)
+    h = ca.vec(ca.SX(factor.residual(xs)))
+    if h.numel() == 0:
+        return None
+    return (ca.Function("h", [xs], [h], ["x"], ["h"]),
+            ca.Function("dh", [xs], [ca.jacobian(h, xs)], ["x"], ["dh"]))
+
+
+_constraint_functions = lru_cache(maxsize=256)(_build_constraint_functions)
+
+
 class Factor(ABC):
     """A manifold factor, the level set ``{x in R^N : h(x) = 0}`` of a submersion ``h``.
 
@@ -361,14 +374,28 @@ class Factor(ABC):
     def random_point(self, rng: np.random.Generator, *, scale: float = 1.0) -> Vector:
         """A random point (velocity parts scaled by ``scale``), for tests and sampling."""
 
+    def constraint_functions(self) -> tuple[ca.Function, ca.Function] | None:
+        """``x -> vec(h(x))`` and ``x -> dh/dx`` as casadi.Functions, built once per factor.
+
+        Returns
+        -------
+        (casadi.Function, casadi.Function) or None
+            On SX symbols, cached for the factor (the 256 most recent factors); None for a
+            factor without constraints (R^n). Numeric calls take one point or a matrix of
+            points as columns.
+        """
+        try:
+            hash(self)
+        except TypeError:  # an unhashable (user) factor: built on every call
+            return _build_constraint_functions(self)
+        return _constraint_functions(self)
+
     def constraint_jacobian(self, x: ArrayLike) -> Matrix:
         """Jacobian ``dh/dx`` at a numeric point, shape ``(n_constraints, ambient_dim)``."""
-        xs = ca.SX.sym("x", self.ambient_dim)
-        h = self.residual(xs)
-        if h.numel() == 0:
+        fns = self.constraint_functions()
+        if fns is None:
             return np.zeros((0, self.ambient_dim))
-        jac = ca.Function("dh", [xs], [ca.jacobian(h, xs)])
-        return np.asarray(jac(self._numeric(x)), dtype=float)
+        return np.asarray(fns[1](self._numeric(x)), dtype=float)
 
     # derived ------------------------------------------------------------------------------
 

@@ -463,14 +463,12 @@ def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
     X = np.atleast_2d(np.asarray(x, dtype=float))
     out = {}
     for name, factor in model.manifold.factors:
-        block = X[:, model.manifold.slices[name]]
-        xs = ca.SX.sym("x", factor.ambient_dim)
-        h = ca.vec(ca.SX(factor.residual(xs)))
-        if h.numel() == 0:
+        fns = factor.constraint_functions()  # built once per factor
+        if fns is None:
             out[name] = np.zeros(len(X))
             continue
-        fn = ca.Function("residual", [xs], [h]).map(len(X))
-        out[name] = np.max(np.abs(np.asarray(fn(block.T))), axis=0).reshape(len(X))
+        block = X[:, model.manifold.slices[name]]
+        out[name] = np.max(np.abs(np.asarray(fns[0](block.T))), axis=0).reshape(len(X))
     return out
 
 
