@@ -364,16 +364,28 @@ def geometric_phase_check(
                           f"{min_loop_time} s within t_max = {t_max}", status="no loop")
     i, j, s_, u_ = hit
     t1, t2 = (i + s_) * sample_step, (j + u_) * sample_step
-    its = 0
+    its, converged, step = 0, False, np.full(2, np.inf)
     for its in range(1, 30):  # noqa: B007
         x1, x2 = state(t1), state(t2)
         B = sphere_basis(x1[gs][:3])
         r = B.T @ (x1[gs][:3] - x2[gs][:3])
         Jm = np.column_stack([B.T @ x1[gs][3:6], -B.T @ x2[gs][3:6]])
-        step = np.linalg.solve(Jm, -r)
+        try:
+            step = np.linalg.solve(Jm, -r)
+        except np.linalg.LinAlgError as exc:
+            raise SolverError(
+                f"Newton on the self-intersection times (t1, t2) = ({t1:.6g}, {t2:.6g}) met a "
+                f"singular Jacobian (the curve is tangent to itself there)", status="newton"
+            ) from exc
         t1, t2 = t1 + step[0], t2 + step[1]
         if np.max(np.abs(step)) < 1e-14:
+            converged = True
             break
+    if not converged:
+        raise SolverError(
+            f"Newton on the self-intersection times did not converge in {its} iterations "
+            f"(last step {np.max(np.abs(step)):.3g} s, tolerance 1e-14 s)", status="newton"
+        )
     x1, x2 = state(t1), state(t2)
     closure = float(np.linalg.norm(x1[gs][:3] - x2[gs][:3]))
     theta_rec, fibre = holonomy_angle(SO3.matrix(x1[ls]), SO3.matrix(x2[ls]))
