@@ -14,6 +14,12 @@ from workbench.errors import (
     SolverError,
     WorkbenchError,
 )
+from workbench.invariant_manifolds import (
+    InvariantManifold,
+    invariant_manifold,
+    stable_manifold,
+    unstable_manifold,
+)
 from workbench.linearize import LinearModel, linearize, linearize_ambient
 from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
@@ -25,6 +31,10 @@ from workbench.simulate import Method, Multistep, Trajectory, simulate
 from workbench.sweep import SweepResult, grid, sweep
 
 __all__ = [
+    "InvariantManifold",
+    "invariant_manifold",
+    "stable_manifold",
+    "unstable_manifold",
     "PoincareOrbit",
     "Section",
     "SweepResult",
