@@ -321,3 +321,19 @@ def test_linearize_ambient_evaluates_the_jacobians_once(monkeypatch):
     assert_close(amb.A @ lin.basis, lin.basis @ lin.A, atol=1e-12,
                  what="df/dx N = N A at an equilibrium")
     assert_close(amb.C @ amb.basis, np.zeros((1, 5)), atol=1e-15, what="basis in ker C")
+
+
+# ----------------------------------------------------------------------------------------
+# linearize.py split by concept; the old imports keep working
+
+
+def test_linearize_reexports_the_ambient_form_and_stays_small():
+    from workbench import ambient_linearization as amb
+    from workbench import linearize as lin_mod
+
+    for name in ("AmbientLinearization", "linearize_ambient", "closed_loop_jacobians",
+                 "EQUILIBRIUM_TOL"):
+        assert getattr(lin_mod, name) is getattr(amb, name) and name in lin_mod.__all__
+    for module in (lin_mod, amb):
+        with open(module.__file__, encoding="utf-8") as fh:
+            assert sum(1 for _ in fh) <= 600, f"{module.__name__} is past ~600 lines"
