@@ -1,0 +1,101 @@
+"""Regression tests of the numerical-extreme fixes of issue 11 (direct, fast).
+
+Each test is the smallest reproduction of a defect found at an extreme: a nearly balanced
+body whose static equilibria were reported as 9 or 22 equilibria, an ill-conditioned
+inertia whose equilibria were refused as "no zero near the guess", solver messages that
+did not say a residual was at its rounding level.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models import pendulum3d as p3
+from problems.extremes import J_CYL, RHO_HAT, frequencies, prop9, spectrum_error
+from workbench import linearize, simulate, so3_exp
+from workbench.errors import SolverError
+from workbench.manifolds import ProductManifold, Rn
+from workbench.relative_equilibria import (
+    alpha,
+    rotation_problem,
+    slice_zeros,
+    sphere_points,
+    static_equilibria,
+)
+from workbench.roots import RootStatus, newton_on_manifold
+
+Q = so3_exp([0.3, -0.5, 0.7])
+
+
+@pytest.mark.parametrize("scale", [1e-8, 1e-10, 1e-12])
+def test_static_equilibria_of_a_nearly_balanced_body_are_exact(scale):
+    # before: an absolute residual tolerance accepted attitudes ~1e-4 rad off, and the
+    # call failed with "expected two isolated static equilibria, found 9 (22)"
+    st = static_equilibria(p3.reduced(J=J_CYL, rho=scale * RHO_HAT))
+    assert np.linalg.norm(st["hanging"].x[:3] - RHO_HAT) < 1e-13
+    assert np.linalg.norm(st["inverted"].x[:3] + RHO_HAT) < 1e-13
+
+
+@pytest.mark.parametrize("cond", [1e6, 1e8])
+def test_static_equilibria_of_an_ill_conditioned_inertia_are_found(cond):
+    # rho along the axis of the smallest moment: the residual floor eps |J^-1| |m g rho|
+    # lies above 1e-12; before, the confirmation said "there is no zero near the guess"
+    J = Q @ np.diag([1.0, 0.5, 1.0 / cond]) @ Q.T
+    rho = 0.1 * Q[:, 2]
+    st = static_equilibria(p3.reduced(J=0.5 * (J + J.T), rho=rho))
+    assert np.linalg.norm(st["hanging"].x[:3] - Q[:, 2]) < 1e-13
+    assert np.linalg.norm(st["inverted"].x[:3] + Q[:, 2]) < 1e-13
+
+
+def test_newton_stagnating_at_its_rounding_level_says_so():
+    # F(y) = 1e8 (y^2 - 2): y^2 - 2 is never below ~2e-16 in double precision, so F never
+    # below ~2e-8; Newton lands on sqrt(2) and stalls there
+    def fun(y):
+        return np.array([1e8 * (y[0] ** 2 - 2.0)]), np.array([[2e8 * y[0]]])
+
+    root = newton_on_manifold(fun, ProductManifold([("y", Rn(1))]), np.array([1.0]), tol=1e-12)
+    assert root.status is RootStatus.STAGNATED
+    assert "rounding level" in root.message and "larger tol" in root.message
+    assert abs(root.x[0] - np.sqrt(2.0)) <= 2.3e-16  # the point itself is as good as it gets
+
+
+def test_lgvi_failing_at_its_rounding_level_advises_a_larger_newton_tol():
+    J = Q @ np.diag([1.0, 0.5, 1e-8]) @ Q.T
+    model = p3.full(J=0.5 * (J + J.T), rho=0.1 * Q @ np.ones(3) / np.sqrt(3.0))
+    x0 = model.state(R=np.eye(3), omega=[0.1, 0.2, 0.3])
+    t = np.linspace(0.0, 2e-3, 5)
+    with pytest.raises(SolverError, match="rounding level.*raise newton_tol") as info:
+        simulate(model, x0, t, method="lgvi", step=2.5e-6)
+    assert info.value.status == "newton_not_converged"
+    tr = simulate(model, x0, t, method="lgvi", step=2.5e-6, newton_tol=1e-11)
+    ref = simulate(model, x0, t, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(tr.x - ref.x)) / np.max(np.abs(ref.x)) < 1e-3
+
+
+def test_spectrum_at_the_largest_condition_number_meets_the_closed_form():
+    J = Q @ np.diag([1.0, 0.5, 1e-8]) @ Q.T
+    J = 0.5 * (J + J.T)
+    rho = 0.1 * Q @ np.ones(3) / np.sqrt(3.0)
+    model = p3.reduced(J=J, rho=rho)
+    rho_hat = rho / np.linalg.norm(rho)
+    w = frequencies(J, rho)
+    assert w[1] > 8e3  # the stiff mode
+    for inverted in (False, True):
+        x = model.state(Gamma=(-1 if inverted else 1) * rho_hat, omega=np.zeros(3))
+        ev = np.linalg.eigvals(linearize(model, x).A)
+        assert spectrum_error(ev, w, inverted=inverted) < 1e-8
+
+
+@pytest.mark.parametrize("i", [0, 1, 2])
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_relative_equilibria_within_1e_12_of_one_over_j_i(i, side):
+    # |k| ~ 1e6 .. 3e7 rad/s: the slice solve still resolves alpha to 1e-15
+    a = 1.0 / J_CYL[i, i] + side * 1e-12
+    gamma, k = prop9(J_CYL, np.array([-0.0140, 0.1044, 0.4989]), a)
+    problem = rotation_problem(p3.reduced(J=J_CYL, rho=[-0.0140, 0.1044, 0.4989]))
+    zeros, _ = slice_zeros(problem, k, sphere_points(32))
+    z = min(zeros, key=lambda z: np.linalg.norm(z.y[:3] - gamma))
+    mon = problem.monitors(z.y)
+    assert abs(float(alpha(mon["k"], mon["k1"])) - a) < 1e-13
+    assert np.linalg.norm(z.y[:3] - gamma) < 1e-13
