@@ -3,9 +3,10 @@
 ``workbench list`` names the problems; ``workbench run NAME [--quick] [--json PATH]`` runs
 one (or ``all``) and prints its results; ``workbench report [NAMES...] [--quick] [--html]
 [--pdf] [--out DIR]`` writes the HTML and/or PDF report; ``workbench bench [NAMES...]
-[--list]`` runs the scripts in ``benchmarks/``. Errors are one clear line on stderr with a
-non-zero exit status (2 for bad input; 1 when a problem failed or a comparison is out of
-tolerance).
+[--list]`` runs the scripts in ``benchmarks/``; ``workbench export-c NAME --out DIR``
+exports a controller as C99 (:mod:`workbench.codegen_cli`). Errors are one clear line on
+stderr with a non-zero exit status (2 for bad input; 1 when a problem failed or a
+comparison is out of tolerance).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from workbench.codegen_cli import add_export_c_parser
 from workbench.errors import WorkbenchError
 from workbench.result import Result, format_result, to_jsonable
 
@@ -234,6 +236,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="benchmarks to run (default: all; see --list)")
     p_bench.add_argument("--list", action="store_true", help="name the benchmarks and stop")
     p_bench.set_defaults(func=_bench)
+    add_export_c_parser(sub)
     return parser
 
 
