@@ -25,6 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _timing import median_time, table  # noqa: E402
 
+from models import exports  # noqa: E402
 from workbench import codegen  # noqa: E402
 from workbench.codegen import Binding, Optimization  # noqa: E402
 from workbench.model import Evaluator  # noqa: E402
@@ -64,12 +65,12 @@ def main(argv: list[str] | None = None) -> None:
     print(f"cache: {codegen.cache_root()}")
     rows = []
     for name in MAIN:
-        c = codegen.build(name)
+        c = exports.build(name)
         for binding in Binding:
             for opt in opts:
                 rows.append(row(c, binding, opt, batches))
     for name in CHAINS:
-        c = codegen.build(name)
+        c = exports.build(name)
         for opt in opts:
             rows.append(row(c, Binding.FROZEN, opt, batches))
     cols = [k for k in rows[0] if not k.startswith("_")]

@@ -21,7 +21,7 @@ from workbench.lyapunov import state_function
 from workbench.manifolds import TS2, Rn
 from workbench.model import Context, Model
 
-__all__ = ["CartGains", "cart_domain", "cart_inverted_feedback"]
+__all__ = ["CartGains", "cart_domain", "cart_inverted_feedback", "cart_inverted_law"]
 
 C2 = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # C = [e1, e2], R^2 -> R^3
 
@@ -57,22 +57,22 @@ class CartGains:
         return float(np.sqrt((1 + self.k_w) / self.k_q))
 
 
-def _cart_terms(ctx: Context, gains: CartGains) -> dict[str, Any]:
+def _cart_terms(ctx: Context, k_q: Any) -> dict[str, Any]:
     """Build the output y (24), y-dot (44) and the pieces of (21), (26) on the n = 1 chain model."""
     Cd, e3 = ca.DM(C2), ca.DM(E3)
     x, v, link = ctx["x"], ctx["v"], ctx["link1"]
     q, w = link[0:3], link[3:6]
     l1, m1 = ctx["lengths"][0], ctx["masses"][0]
     qh2 = ca.skew(q) @ ca.skew(q)
-    y = x + gains.k_q * l1 * (Cd.T @ q)
-    ydot = v - gains.k_q * l1 * (Cd.T @ ca.cross(q, w))
+    y = x + k_q * l1 * (Cd.T @ q)
+    ydot = v - k_q * l1 * (Cd.T @ ca.cross(q, w))
     return {"C": Cd, "e3": e3, "x": x, "v": v, "q": q, "w": w, "l1": l1, "m1": m1,
             "qh2": qh2, "y": y, "ydot": ydot, "w2": ca.dot(w, w)}
 
 
 def _require_cart(model: Model, who: str) -> None:
     require_model(model, who, factors={"x": Rn, "v": Rn, "link1": TS2},
-             params=("m", "masses", "lengths", "g"), inputs=2)
+                  params=("m", "masses", "lengths", "g"), inputs=2)
     if "link2" in model.manifold.names:
         raise ModelError(f"{who} is for one link (n = 1); model {model.name!r} has "
                          f"factors {model.manifold.names}")
@@ -112,20 +112,37 @@ def cart_inverted_feedback(
     who = "nonlinear cart controller (paper 003 (21), (26))"
     _require_cart(model, who)
     G = CartGains(k_y, k_ydot, k_w, k_q)
+    return state_function(model, "cart_inverted_feedback", lambda ctx: cart_inverted_law(
+        ctx, k_y=G.k_y, k_ydot=G.k_ydot, k_w=G.k_w, k_q=G.k_q))
 
-    def build(ctx: Context) -> ca.SX:
-        t = _cart_terms(ctx, G)
-        Cd, e3, q, qh2, l1, m1, g = t["C"], t["e3"], t["q"], t["qh2"], t["l1"], t["m1"], \
-            ctx["g"]
-        A = (1 + G.k_w) * ca.DM.eye(2) + G.k_q * (Cd.T @ qh2 @ Cd)
-        b = (-G.k_y * t["y"] - G.k_ydot * t["ydot"] + G.k_q * g * (Cd.T @ qh2 @ e3)
-             + G.k_q * l1 * t["w2"] * (Cd.T @ q))
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-        mu = ca.vertcat(A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]) / det
-        M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
-        return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * t["w2"] * (Cd.T @ q)
 
-    return state_function(model, "cart_inverted_feedback", build)
+def cart_inverted_law(ctx: Context, *, k_y: Any, k_ydot: Any, k_w: Any, k_q: Any) -> Any:
+    """The law (21) (with the erratum) and (26) as an expression, gains unchecked.
+
+    The one definition used by :func:`cart_inverted_feedback` (gains validated by
+    :class:`CartGains`) and by exports whose gains are run-time inputs (casadi symbols).
+    The 2x2 matrix of (26) is inverted by its adjugate over its determinant.
+
+    Parameters
+    ----------
+    ctx : Context
+        Symbols of the one-link chain on a cart (factors ``x``, ``v``, ``link1``).
+    k_y, k_ydot, k_w, k_q : casadi scalar or float
+        Gains of Prop. 5.
+
+    Returns
+    -------
+    casadi expression, shape=(2, 1)
+    """
+    t = _cart_terms(ctx, k_q)
+    Cd, e3, q, qh2, l1, m1, g = t["C"], t["e3"], t["q"], t["qh2"], t["l1"], t["m1"], ctx["g"]
+    A = (1 + k_w) * ca.DM.eye(2) + k_q * (Cd.T @ qh2 @ Cd)
+    b = (-k_y * t["y"] - k_ydot * t["ydot"] + k_q * g * (Cd.T @ qh2 @ e3)
+         + k_q * l1 * t["w2"] * (Cd.T @ q))
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    mu = ca.vertcat(A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]) / det
+    M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
+    return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * t["w2"] * (Cd.T @ q)
 
 
 def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:

@@ -30,12 +30,13 @@ the chart).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from models._checks import E3, positive_scalar, require_model, spd_matrix
-from models.cart_feedback import CartGains, cart_domain, cart_inverted_feedback
+from models.cart_feedback import CartGains, cart_domain, cart_inverted_feedback, cart_inverted_law
 from models.lyapunov_functions import (
     cart_lyapunov,
     hanging_set_level,
@@ -45,7 +46,7 @@ from workbench._types import ArrayLike
 from workbench.errors import ModelError, ParameterError
 from workbench.lyapunov import state_function
 from workbench.manifolds import S2, SO3, TS2, Rn, vee
-from workbench.model import Model
+from workbench.model import Context, Model
 
 __all__ = [
     "CartGains",
@@ -58,7 +59,11 @@ __all__ = [
     "psi_feedback",
     "saturated_velocity_feedback",
     "s2_pd",
+    "s2_pd_law",
+    "saturated_velocity_law",
     "so3_pd",
+    "so3_pd_law",
+    "cart_inverted_law",
     "E3",
 ]
 
@@ -223,12 +228,36 @@ def saturated_velocity_feedback(model: Model, P: ArrayLike, k: float) -> ca.Func
     cond = "paper 001 (34): P symmetric positive definite, k > 0"
     Pm = ca.DM(spd_matrix(P, "P", cond))
     kv = positive_scalar(k, "k", cond)
+    return psi_feedback(model, lambda w: _saturated_psi(w, Pm, kv), check_samples=0,
+                        name="saturated_velocity_feedback")
 
-    def psi(w):
-        Pw = Pm @ w
-        return kv * Pw / (1 + _norm_c1(Pw))
 
-    return psi_feedback(model, psi, check_samples=0, name="saturated_velocity_feedback")
+def _saturated_psi(w, P, k):
+    """``Psi(omega) = k P omega / (1 + |P omega|)`` of paper 001 (34)."""
+    Pw = P @ w
+    return k * Pw / (1 + _norm_c1(Pw))
+
+
+def saturated_velocity_law(ctx: Context, *, P: Any, k: Any) -> Any:
+    """The law (34) ``u = -k P omega / (1 + |P omega|)`` as an expression, gains unchecked.
+
+    The one definition used by :func:`saturated_velocity_feedback` (with validated numeric
+    gains) and by exports whose gains are run-time inputs (casadi symbols).
+
+    Parameters
+    ----------
+    ctx : Context
+        Symbols of a model with a state factor ``omega``.
+    P : casadi matrix, shape=(3, 3)
+        Gain (numeric ``DM`` or symbolic).
+    k : casadi scalar or float
+        Saturation level.
+
+    Returns
+    -------
+    casadi expression, shape=(3, 1)
+    """
+    return -_saturated_psi(ctx["omega"], P, k)
 
 
 # ----------------------------------------------------------------------------------------
@@ -270,15 +299,33 @@ def s2_pd(model: Model, q_d: ArrayLike, k_q: float, k_w: float) -> ca.Function:
     kq = positive_scalar(k_q, "k_q", cond)
     kw = positive_scalar(k_w, "k_w", cond)
 
-    def build(ctx):
-        x = ctx["q"]
-        q, w = x[0:3], x[3:6]
-        m, l_, g = ctx["m"], ctx["l"], ctx["g"]
-        return m * l_**2 * (
-            -kq * ca.cross(ca.DM(qd), q) - kw * w - (g / l_) * ca.cross(q, ca.DM(E3))
-        )
+    return state_function(model, "s2_pd",
+                          lambda ctx: s2_pd_law(ctx, q_d=ca.DM(qd), k_q=kq, k_w=kw))
 
-    return state_function(model, "s2_pd", build)
+
+def s2_pd_law(ctx: Context, *, q_d: Any, k_q: Any, k_w: Any) -> Any:
+    """The PD law of paper 002 Section II-A as an expression, gains unchecked.
+
+    ``u = m l^2 (-k_q q_d x q - k_w omega - (g/l) q x e3)``: the one definition used by
+    :func:`s2_pd` (validated numeric gains) and by exports with run-time gains.
+
+    Parameters
+    ----------
+    ctx : Context
+        Symbols of the spherical pendulum (factor ``q`` storing ``(q, omega)``).
+    q_d : casadi vector, shape=(3, 1)
+        Desired direction (numeric ``DM`` or symbolic).
+    k_q, k_w : casadi scalar or float
+        Gains.
+
+    Returns
+    -------
+    casadi expression, shape=(3, 1)
+    """
+    x = ctx["q"]
+    q, w = x[0:3], x[3:6]
+    m, l_, g = ctx["m"], ctx["l"], ctx["g"]
+    return m * l_**2 * (-k_q * ca.cross(q_d, q) - k_w * w - (g / l_) * ca.cross(q, ca.DM(E3)))
 
 
 def _diag_gain(G: ArrayLike) -> np.ndarray:
@@ -346,12 +393,35 @@ def so3_pd(
     cond = "paper 002 Sec. III-A: positive constants k_R, k_Omega"
     kR = positive_scalar(k_R, "k_R", cond)
     kW = positive_scalar(k_Omega, "k_Omega", cond)
-    Gm = ca.DM(np.diag(_diag_gain(G)))
+    Gv = ca.DM(_diag_gain(G))
+    return state_function(model, "so3_pd",
+                          lambda ctx: so3_pd_law(ctx, R_d=Rd, k_R=kR, k_Omega=kW, G=Gv))
 
-    def build(ctx):
-        R, w = SO3.matrix(ctx["R"]), ctx["omega"]
-        e_R = vee(Gm @ Rd.T @ R - R.T @ Rd @ Gm) / 2
-        gravity = ctx["m"] * ctx["g"] * ca.cross(ctx["rho"], R.T @ ca.DM(E3))
-        return -kR * e_R - kW * w - gravity
 
-    return state_function(model, "so3_pd", build)
+def so3_pd_law(ctx: Context, *, R_d: Any, k_R: Any, k_Omega: Any, G: Any) -> Any:
+    """The PD law of paper 002 Section III-A as an expression, gains unchecked.
+
+    ``u = -k_R e_R - k_Omega Omega - m g rho x R^T e3``,
+    ``e_R = vee(G R_d^T R - R^T R_d G) / 2``: the one definition used by :func:`so3_pd`
+    (validated numeric gains) and by exports with run-time gains.
+
+    Parameters
+    ----------
+    ctx : Context
+        Symbols of the full 3D pendulum (factors ``R``, ``omega``).
+    R_d : casadi matrix, shape=(3, 3)
+        Desired attitude (numeric ``DM`` or symbolic).
+    k_R, k_Omega : casadi scalar or float
+        Gains.
+    G : casadi vector, shape=(3, 1)
+        The diagonal of ``G``.
+
+    Returns
+    -------
+    casadi expression, shape=(3, 1)
+    """
+    R, w = SO3.matrix(ctx["R"]), ctx["omega"]
+    Gm = ca.diag(G)
+    e_R = vee(Gm @ R_d.T @ R - R.T @ R_d @ Gm) / 2
+    gravity = ctx["m"] * ctx["g"] * ca.cross(ctx["rho"], R.T @ ca.DM(E3))
+    return -k_R * e_R - k_Omega * w - gravity

@@ -109,7 +109,7 @@ def cart_lyapunov(model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: f
 
 
 def _cart_V(ctx: Context, G: CartGains) -> ca.SX:
-    t = _cart_terms(ctx, G)
+    t = _cart_terms(ctx, G.k_q)
     W = (-0.5 * G.k_q * t["l1"] ** 2 * t["w2"] + G.k_q * ctx["g"] * t["l1"] * (1 + t["q"][2])
          + 0.5 * ca.dot(t["v"], t["v"]))
     return 0.5 * G.k_y * ca.dot(t["y"], t["y"]) + 0.5 * ca.dot(t["ydot"], t["ydot"]) + G.k_w * W

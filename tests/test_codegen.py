@@ -11,12 +11,14 @@ import dataclasses
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import assert_close
 
+from models import exports
 from models.chain_cart import link_state
 from workbench import codegen
 from workbench.codegen import Binding, Optimization, Through
@@ -53,7 +55,7 @@ _BUILT: dict[str, codegen.ExportableController] = {}
 
 def controller(name: str) -> codegen.ExportableController:
     if name not in _BUILT:
-        _BUILT[name] = codegen.build(name)
+        _BUILT[name] = exports.build(name)
     return _BUILT[name]
 
 
@@ -225,7 +227,7 @@ def test_closed_loop_paper003_fig5_cart_compiled_reproduces_python(cache):
 
 def test_export_writes_a_self_contained_project_that_builds(tmp_path, cache):
     out = tmp_path / "s2"
-    res = codegen.export_c("s2_pd", out, binding=Binding.FROZEN, cache_dir=cache)
+    res = codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
     names = sorted(p.name for p in res.files)
     assert names == sorted(["s2_pd.c", "s2_pd.h", "main.c", "bench.c", "Makefile"])
     assert sorted(os.listdir(tmp_path)) == ["s2"]   # no temporary left behind
@@ -242,7 +244,7 @@ def test_export_writes_a_self_contained_project_that_builds(tmp_path, cache):
         assert [float(line.split("=")[1]) for line in printed.split("\n") if line] \
             == u.tolist()
     # exporting again into the existing directory replaces the files
-    again = codegen.export_c("s2_pd", out, binding=Binding.PARAMETERS, cache_dir=cache)
+    again = codegen.export_c(controller("s2_pd"), out, binding=Binding.PARAMETERS, cache_dir=cache)
     assert "S2_PD_NP 3" in (out / "s2_pd.h").read_text() and len(again.files) == 5
 
 
@@ -270,15 +272,17 @@ def test_bench_runs_and_reports_positive_times(cache):
 
 def test_unknown_controllers_are_refused_with_the_known_names():
     with pytest.raises(ModelError, match="not an exportable controller.*s2_pd"):
-        codegen.build("lqr_tracker")
+        exports.build("lqr_tracker")
     with pytest.raises(ModelError, match="chain_lqr_n<N>"):
-        codegen.build("chain_lqr")
+        exports.build("chain_lqr")
     with pytest.raises(ModelError, match="1 <= N"):
-        codegen.build("chain_lqr_n0")
+        exports.build("chain_lqr_n0")
     with pytest.raises(ModelError, match="C identifier"):
-        codegen.build("s2-pd")
-    with pytest.raises(ModelError, match="export name"):
+        exports.build("s2-pd")
+    with pytest.raises(ModelError, match="ExportableController.*models.exports.build"):
         codegen.export_c(controller("s2_pd").function, "/tmp", binding=Binding.FROZEN)
+    with pytest.raises(ModelError, match="ExportableController.*got str 's2_pd'"):
+        codegen.export_c("s2_pd", "/tmp", binding=Binding.FROZEN)  # names live in models
     with pytest.raises(ModelError, match="binding must be one of"):
         codegen.Binding("runtime")
     with pytest.raises(ModelError, match="optimization must be one of"):
@@ -292,7 +296,7 @@ def test_bad_output_directories_are_refused_and_nothing_is_written(tmp_path, cac
              (Path("/proc/workbench-export"), "not writable")]
     for out, msg in cases:
         with pytest.raises(codegen.ExportError, match=msg):
-            codegen.export_c("s2_pd", out, binding=Binding.FROZEN, cache_dir=cache)
+            codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
     assert sorted(os.listdir(tmp_path)) == ["file"]
 
 
@@ -336,6 +340,15 @@ def test_void_unused_parameters_casts_every_parameter_of_a_definition():
 # the export-c subcommand
 
 
+def test_the_engine_imports_no_concrete_model():
+    """workbench.codegen receives ExportableController entries; models/ builds them."""
+    code = ("import sys, workbench, workbench.codegen, workbench.codegen_cli, workbench.cli; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('models', 'problems')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).resolve().parents[1])
+    assert out.stdout.strip() == "[]", out.stdout
+
+
 def test_cli_lists_exports_and_reports_errors(capsys, tmp_path, monkeypatch):
     monkeypatch.setenv(codegen.CACHE_ENV, str(tmp_path / "cache"))
     assert cli_main(["export-c", "--list"]) == 0
@@ -356,3 +369,8 @@ def test_cli_lists_exports_and_reports_errors(capsys, tmp_path, monkeypatch):
     out = capsys.readouterr().out
     assert "verified on 500 seeded states" in out and "(ok" in out
     assert (tmp_path / "o" / "s2_pd.h").is_file()
+    # the same subcommand through the 'workbench' command
+    from workbench.cli import main as workbench_main
+
+    assert workbench_main(["export-c", "--list"]) == 0
+    assert capsys.readouterr().out == listed

@@ -70,6 +70,12 @@ def add_export_c_parser(subparsers: argparse._SubParsersAction) -> argparse.Argu
     return p
 
 
+def _exports():  # imported lazily: the engine does not depend on the concrete models
+    from models import exports
+
+    return exports
+
+
 def _fail(message: str, status: int) -> int:
     print(f"error: {message}", file=sys.stderr)
     return status
@@ -79,10 +85,11 @@ def run_export_c(args: argparse.Namespace) -> int:
     """Handle ``export-c``; return the exit status (0 ok, 2 bad input, 1 failure)."""
     from workbench import codegen
 
+    exports = _exports()
     if args.list:
         if args.name or args.out:
             return _fail("export-c --list takes no NAME or --out", 2)
-        for name, summary in codegen.describe():
+        for name, summary in exports.describe():
             print(f"{name:<30} {summary}")
         return 0
     if not args.name:
@@ -92,7 +99,7 @@ def run_export_c(args: argparse.Namespace) -> int:
     if args.verify < 0:
         return _fail(f"--verify must be >= 0; got {args.verify}", 2)
     try:
-        controller = codegen.build(args.name)
+        controller = exports.build(args.name)
         binding = codegen.Binding(args.binding)
         res = codegen.export_c(controller, args.out, binding=binding,
                                optimization=codegen.Optimization(args.opt), compiler=args.cc)

@@ -510,11 +510,16 @@ def test_build_report_refuses_bad_input_before_running_or_writing(tmp_path, kw, 
 @pytest.mark.parametrize("controller, binding, words", [
     ("nope", "frozen", ("'nope'", "known")),
     ("s2_pd", "bad", ("binding", "'bad'", "frozen")),
+    ("s2_pd", "name", ("ExportableController", "str", "'s2_pd'")),
 ])
 def test_export_c_writes_nothing_on_bad_input(tmp_path, controller, binding, words):
+    from models.exports import build
     from workbench.codegen.api import export_c
 
     with pytest.raises(ModelError) as info:
-        export_c(controller, tmp_path, binding=binding, cache_dir=tmp_path / "cache")
+        # the engine takes built controllers; a bare name is refused
+        c = controller if binding == "name" else build(controller)
+        export_c(c, tmp_path, binding="frozen" if binding == "name" else binding,
+                 cache_dir=tmp_path / "cache")
     assert all(w in str(info.value) for w in words), str(info.value)
     assert [p for p in _listing(tmp_path) if not p.startswith("cache")] == []

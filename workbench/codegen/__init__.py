@@ -1,19 +1,21 @@
 """Controllers of the workbench exported as self-contained C99 code, verified and timed.
 
-Typical use::
+Typical use (the papers' controllers are built by name in :mod:`models.exports`; the
+engine only receives :class:`ExportableController` entries)::
 
+    from models import exports
     from workbench import codegen
-    codegen.names()                                   # what can be exported
-    res = codegen.export_c("saturated_velocity_feedback", "out/",
+    exports.names()                                   # what can be exported
+    res = codegen.export_c(exports.build("saturated_velocity_feedback"), "out/",
                            binding=codegen.Binding.FROZEN)
-    lib = codegen.compile_controller("chain_lqr_n5", binding=codegen.Binding.PARAMETERS)
+    lib = codegen.compile_controller(exports.build("chain_lqr_n5"),
+                                     binding=codegen.Binding.PARAMETERS)
     k = lib.function()                                # casadi.external, usable in simulate
     codegen.bench_c(lib).median_ns                    # nanoseconds per call, measured in C
 
 Modules: :mod:`~workbench.codegen.spec` (what an exportable controller is, bindings),
-:mod:`~workbench.codegen.catalogue` and :mod:`~workbench.codegen.registry` (the papers'
-controllers), :mod:`~workbench.codegen.csource` (C sources), :mod:`~workbench.codegen.build`
-(compiler, cache, benchmark, export) and :mod:`~workbench.codegen.api`.
+:mod:`~workbench.codegen.csource` (C sources), :mod:`~workbench.codegen.build` (compiler,
+cache, benchmark, export) and :mod:`~workbench.codegen.api`.
 """
 
 from workbench.codegen.api import (
@@ -35,7 +37,6 @@ from workbench.codegen.build import (
     compile_sources,
 )
 from workbench.codegen.csource import CSources, generate
-from workbench.codegen.registry import build, describe, names
 from workbench.codegen.spec import Binding, Entry, ExportableController
 
 __all__ = [
@@ -53,12 +54,9 @@ __all__ = [
     "Through",
     "agreement",
     "bench_c",
-    "build",
     "cache_root",
     "compile_controller",
     "compile_sources",
-    "describe",
     "export_c",
     "generate",
-    "names",
 ]

@@ -19,24 +19,24 @@ from workbench.codegen.build import (
     export,
 )
 from workbench.codegen.csource import generate
-from workbench.codegen.registry import build
 from workbench.codegen.spec import Binding, ExportableController
 from workbench.errors import ModelError
 
 __all__ = ["ExportResult", "Through", "agreement", "compile_controller", "export_c"]
 
 
-def _controller(controller: str | ExportableController) -> ExportableController:
-    if isinstance(controller, str):
-        return build(controller)
+def _controller(controller: ExportableController) -> ExportableController:
     if not isinstance(controller, ExportableController):
-        raise ModelError(f"controller must be an export name (see workbench.codegen.names()) "
-                         f"or an ExportableController; got {type(controller).__name__}")
+        got = f"{type(controller).__name__} {controller!r}" if isinstance(controller, str) \
+            else type(controller).__name__
+        raise ModelError(f"controller must be an ExportableController (the papers' "
+                         f"controllers are built by name with models.exports.build(name)); "
+                         f"got {got}")
     return controller
 
 
 def compile_controller(
-    controller: str | ExportableController,
+    controller: ExportableController,
     *,
     binding: Binding,
     optimization: Optimization = Optimization.O2,
@@ -48,8 +48,8 @@ def compile_controller(
 
     Parameters
     ----------
-    controller : str or ExportableController
-        An export name (see :func:`workbench.codegen.names`) or a built controller.
+    controller : ExportableController
+        The controller (e.g. from :func:`models.exports.build`).
     binding : Binding
         What is frozen into the code and what is a run-time input.
     optimization : Optimization
@@ -162,7 +162,7 @@ class ExportResult:
 
 
 def export_c(
-    controller: str | ExportableController,
+    controller: ExportableController,
     out_dir: str | os.PathLike,
     *,
     binding: Binding,
@@ -178,8 +178,8 @@ def export_c(
 
     Parameters
     ----------
-    controller : str or ExportableController
-        An export name or a built controller.
+    controller : ExportableController
+        The controller (e.g. from :func:`models.exports.build`).
     out_dir : path-like
         Output directory.
     binding : Binding
@@ -198,7 +198,7 @@ def export_c(
     Raises
     ------
     ModelError
-        ``controller`` is not a controller of the workbench.
+        ``controller`` is not an :class:`ExportableController`.
     ExportError
         ``out_dir`` is not a writable directory.
     CompileError

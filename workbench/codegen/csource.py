@@ -392,7 +392,7 @@ def generate(controller: ExportableController, *, binding: Binding,
     Parameters
     ----------
     controller : ExportableController
-        From :func:`workbench.codegen.registry.build`.
+        The controller (e.g. from :func:`models.exports.build`).
     binding : Binding
         What is frozen into the code and what is a run-time input.
     with_jacobian : bool

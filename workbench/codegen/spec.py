@@ -1,17 +1,17 @@
 """What an exportable controller is: its function, its documentation, its bindings.
 
-An entry of the registry (:mod:`workbench.codegen.registry`) builds an
-:class:`ExportableController`: the workbench's own controller (a ``casadi.Function``
-``u = k(x, p)`` from :mod:`models.controllers`, or the chain's geometric LQR feedback), the
-model it controls with the parameter values of the paper's example, the default gains of
-that example, the units and meaning of every input and output entry (for the C header),
-an example state (the paper's initial condition), and a sampler of test states that
-crowds the controller's singular or saturated regions.
+An :class:`ExportableController` holds a controller (a ``casadi.Function``
+``u = k(x, p)``), the model it controls with the parameter values of an example, the
+default gains of that example, the units and meaning of every input and output entry (for
+the C header), an example state, and a sampler of test states that crowds the
+controller's singular or saturated regions. The engine knows no concrete controller: the
+papers' controllers are built by :func:`models.exports.build`.
 
-For :attr:`Binding.PARAMETERS_AND_GAINS` the gains become run-time inputs. The papers'
-laws are written once more with symbolic gains (the ``_law_*`` functions of
-:mod:`workbench.codegen.catalogue`); at the default gains they must reproduce the
-workbench's controller, which ``tests/test_codegen.py`` checks to 1e-12 on the same sampled states.
+For :attr:`Binding.PARAMETERS_AND_GAINS` the gains become run-time inputs: the entry's
+``law`` builds the same law with the gains as casadi symbols (for the papers' controllers,
+the ``*_law`` functions of :mod:`models.controllers` that their builders also use); at the
+default gains it must reproduce the controller, which ``tests/test_codegen.py`` checks to
+1e-12 on sampled states.
 """
 
 from __future__ import annotations

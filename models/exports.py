@@ -1,25 +1,36 @@
-"""The exportable controllers of the papers: models, default gains, laws, test states.
+"""The papers' controllers exportable to C: registry, default gains, test states.
 
-One builder per controller; each takes the paper's example (model parameters, gains,
-initial condition) and returns an :class:`~workbench.codegen.spec.ExportableController`.
-The laws ``_law_*`` restate the workbench's controllers with symbolic gains, for
-:attr:`~workbench.codegen.spec.Binding.PARAMETERS_AND_GAINS`; the samplers crowd each
-law's singular or saturated region. :mod:`models` is imported inside the builders only
-(the engine does not depend on the concrete models; building an entry does).
+:func:`build` turns an export name into a
+:class:`~workbench.codegen.spec.ExportableController` for :mod:`workbench.codegen` (which
+knows no concrete model): the workbench's controller from :mod:`models.controllers` (or
+the chain's geometric LQR feedback), the model with the paper's parameters, the default
+gains and the example state of the paper, and a sampler that crowds the law's singular or
+saturated region. For run-time gains (:attr:`~workbench.codegen.spec.Binding.
+PARAMETERS_AND_GAINS`) each entry's ``law`` is the same law of :mod:`models.controllers`
+(``*_law``) called with the gains as casadi symbols, so every law has one definition.
+:func:`names` and :func:`describe` list the entries (``workbench export-c --list``).
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from models import controllers, pendulum3d, spherical
+from models.chain_cart import chain_cart, link_state
 from workbench.codegen.spec import Entry, ExportableController, Law
-from workbench.manifolds import S2, SO3, so3_exp, vee
+from workbench.errors import ModelError
+from workbench.linearize import linearize, mechanical_order
+from workbench.lqr import lqr
+from workbench.manifolds import S2, SO3, so3_exp
 from workbench.model import Context
 
-__all__ = ["chain_lqr", "cart_nonlinear", "saturated_velocity_feedback", "s2_pd", "so3_pd"]
+__all__ = ["MAX_LINKS", "build", "describe", "names"]
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -69,16 +80,8 @@ def _flat_rotations(R: np.ndarray) -> np.ndarray:
 # paper 001 (34): saturated angular-velocity feedback
 
 
-def _law_saturated(ctx: Context, k: dict[str, Any]) -> Any:
-    Pw = k["P"] @ ctx["omega"]
-    s = ca.dot(Pw, Pw)
-    return -(k["k"] * Pw / (1 + ca.if_else(s > 0, ca.sqrt(s), 0)))
-
-
-def saturated_velocity_feedback(options: dict[str, Any]) -> ExportableController:
+def _saturated_export(options: dict[str, Any]) -> ExportableController:
     """Paper 001 Section 7: the full 3D pendulum and the saturated feedback (34)."""
-    from models import controllers, pendulum3d
-
     J = np.array([[30.0, 20.0, 7.0], [20.0, 40.0, 0.0], [7.0, 0.0, 50.0]])
     model = pendulum3d.full(J=J, rho=[0.0, 0.0, 0.2], m=100.0, g=10.0)
     P, k = np.diag([5.0, 10.0, 15.0]), 10.0
@@ -107,7 +110,7 @@ def saturated_velocity_feedback(options: dict[str, Any]) -> ExportableController
         gains={"P": P, "k": np.array(k)},
         gain_entries=(Entry("P", 9, "P, symmetric positive definite, row-major [-]"),
                       Entry("k", 1, "saturation level |u| <= k [N m]")),
-        law=_law_saturated,
+        law=lambda ctx, g: controllers.saturated_velocity_law(ctx, **g),
         state_entries=(
             Entry("R", 9, "attitude R (body to inertial), column-major [-]"),
             Entry("omega", 3, "angular velocity, body frame [rad/s]")),
@@ -125,18 +128,8 @@ def saturated_velocity_feedback(options: dict[str, Any]) -> ExportableController
 # paper 002: geometric PD on S^2 and SO(3)
 
 
-def _law_s2(ctx: Context, k: dict[str, Any]) -> Any:
-    x = ctx["q"]
-    q, w = x[0:3], x[3:6]
-    m, l_, g = ctx["m"], ctx["l"], ctx["g"]
-    return m * l_**2 * (-k["k_q"] * ca.cross(k["q_d"], q) - k["k_w"] * w
-                        - (g / l_) * ca.cross(q, ca.DM(E3)))
-
-
-def s2_pd(options: dict[str, Any]) -> ExportableController:
+def _s2_pd_export(options: dict[str, Any]) -> ExportableController:
     """Paper 002 Section II: the spherical pendulum and the geometric PD on S^2."""
-    from models import controllers, spherical
-
     model = spherical.spherical_pendulum(m=1.0, l=1.0, g=9.81)
     qd, kq, kw = E3.copy(), 1.0, 1.0
     a = np.deg2rad(150.0)
@@ -162,7 +155,7 @@ def s2_pd(options: dict[str, Any]) -> ExportableController:
         gain_entries=(Entry("q_d", 3, "desired direction, unit vector [-]"),
                       Entry("k_q", 1, "attitude gain [1/s^2]"),
                       Entry("k_w", 1, "angular-velocity gain [1/s]")),
-        law=_law_s2,
+        law=lambda ctx, g: controllers.s2_pd_law(ctx, **g),
         state_entries=(Entry("q", 3, "link direction, unit vector (e3 points down) [-]"),
                        Entry("omega", 3, "angular velocity, q . omega = 0 [rad/s]")),
         output=Entry("u", 3, "control moment at the pivot [N m]"),
@@ -175,18 +168,8 @@ def s2_pd(options: dict[str, Any]) -> ExportableController:
     )
 
 
-def _law_so3(ctx: Context, k: dict[str, Any]) -> Any:
-    R, w = SO3.matrix(ctx["R"]), ctx["omega"]
-    G, Rd = ca.diag(k["G"]), k["R_d"]
-    e_R = vee(G @ Rd.T @ R - R.T @ Rd @ G) / 2
-    gravity = ctx["m"] * ctx["g"] * ca.cross(ctx["rho"], R.T @ ca.DM(E3))
-    return -k["k_R"] * e_R - k["k_Omega"] * w - gravity
-
-
-def so3_pd(options: dict[str, Any]) -> ExportableController:
+def _so3_pd_export(options: dict[str, Any]) -> ExportableController:
     """Paper 002 Section III: the full 3D pendulum and the geometric PD on SO(3)."""
-    from models import controllers, pendulum3d
-
     model = pendulum3d.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3], m=1.0, g=9.81)
     Rd, G, kR, kW = np.eye(3), np.array([0.9, 1.0, 1.1]), 1.0, 1.0
 
@@ -216,7 +199,7 @@ def so3_pd(options: dict[str, Any]) -> ExportableController:
                       Entry("k_R", 1, "attitude gain [N m]"),
                       Entry("k_Omega", 1, "angular-velocity gain [N m s]"),
                       Entry("G", 3, "diagonal (g1, g2, g3) of G, positive [-]")),
-        law=_law_so3,
+        law=lambda ctx, g: controllers.so3_pd_law(ctx, **g),
         state_entries=(
             Entry("R", 9, "attitude R (body to inertial), column-major [-]"),
             Entry("omega", 3, "angular velocity Omega, body frame [rad/s]")),
@@ -236,29 +219,8 @@ def so3_pd(options: dict[str, Any]) -> ExportableController:
 # paper 003 (21), (26): nonlinear controller for the inverted pendulum on a cart (n = 1)
 
 
-def _law_cart(ctx: Context, k: dict[str, Any]) -> Any:
-    Cd, e3 = ca.DM([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]), ca.DM(E3)
-    link = ctx["link1"]
-    q, w = link[0:3], link[3:6]
-    l1, m1, g = ctx["lengths"][0], ctx["masses"][0], ctx["g"]
-    qh2 = ca.skew(q) @ ca.skew(q)
-    w2 = ca.dot(w, w)
-    y = ctx["x"] + k["k_q"] * l1 * (Cd.T @ q)
-    ydot = ctx["v"] - k["k_q"] * l1 * (Cd.T @ ca.cross(q, w))
-    A = (1 + k["k_w"]) * ca.DM.eye(2) + k["k_q"] * (Cd.T @ qh2 @ Cd)
-    b = (-k["k_y"] * y - k["k_ydot"] * ydot + k["k_q"] * g * (Cd.T @ qh2 @ e3)
-         + k["k_q"] * l1 * w2 * (Cd.T @ q))
-    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-    mu = ca.vertcat(A[1, 1] * b[0] - A[0, 1] * b[1], A[0, 0] * b[1] - A[1, 0] * b[0]) / det
-    M = (ctx["m"] + m1) * ca.DM.eye(2) + m1 * (Cd.T @ qh2 @ Cd)
-    return M @ mu - m1 * g * (Cd.T @ qh2 @ e3) - m1 * l1 * w2 * (Cd.T @ q)
-
-
-def cart_nonlinear(options: dict[str, Any]) -> ExportableController:
+def _cart_nonlinear_export(options: dict[str, Any]) -> ExportableController:
     """Paper 003 Section 5 (Fig. 5): the inverted pendulum on a cart, (21) and (26)."""
-    from models import controllers
-    from models.chain_cart import chain_cart
-
     model = chain_cart(1, m=0.5, masses=0.1, lengths=0.1, g=9.81)
     gains = {"k_y": 4.0, "k_ydot": 2.8, "k_w": 1.0, "k_q": 14.0}
     s = float(np.sqrt((1 + gains["k_w"]) / gains["k_q"]))
@@ -292,7 +254,7 @@ def cart_nonlinear(options: dict[str, Any]) -> ExportableController:
                       Entry("k_ydot", 1, "output-rate gain [1/s]"),
                       Entry("k_w", 1, "energy-shaping gain [-]"),
                       Entry("k_q", 1, "output gain on the link, k_q > 1 + k_w [-]")),
-        law=_law_cart,
+        law=lambda ctx, g: controllers.cart_inverted_law(ctx, **g),
         state_entries=(Entry("x", 2, "cart position [m]"),
                        Entry("v", 2, "cart velocity [m/s]"),
                        Entry("link1", 6, "link direction q1 (unit, e3 down) [-], then its "
@@ -320,12 +282,8 @@ def _law_chain(lin: Any) -> Law:
     return law
 
 
-def chain_lqr(options: dict[str, Any]) -> ExportableController:
+def _chain_lqr_export(options: dict[str, Any]) -> ExportableController:
     """Paper 003 Section 5 (Fig. 3): LQR feedback (19) of the chain, ``options["n"]`` links."""
-    from models.chain_cart import chain_cart, link_state
-    from workbench.linearize import linearize, mechanical_order
-    from workbench.lqr import lqr
-
     n = int(options["n"])
     model = chain_cart(n, m=0.5, masses=0.1, lengths=0.1, g=9.81)
     x_e = model.state(x=np.zeros(2), v=np.zeros(2),
@@ -379,3 +337,84 @@ def chain_lqr(options: dict[str, Any]) -> ExportableController:
                  "q_i = -e3, so a link exactly inverted is seen as hanging",
         sampler=sampler,
     )
+
+
+# ----------------------------------------------------------------------------------------
+# the registry
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class _Family:
+    pattern: str
+    summary: str
+    make: Callable[[dict[str, Any]], ExportableController]
+
+
+_REGISTRY: dict[str, _Family] = {
+    "saturated_velocity_feedback": _Family(
+        "saturated_velocity_feedback",
+        "paper 001 (34): u = -k P omega/(1 + |P omega|) on the full 3D pendulum",
+        _saturated_export),
+    "s2_pd": _Family("s2_pd", "paper 002 Sec. II-A: geometric PD on S^2 (spherical "
+                     "pendulum)", _s2_pd_export),
+    "so3_pd": _Family("so3_pd", "paper 002 Sec. III-A: geometric PD on SO(3) (full 3D "
+                      "pendulum)", _so3_pd_export),
+    "chain_lqr": _Family("chain_lqr_n<N>", "paper 003 (19): geometric LQR feedback of the "
+                         "N-link chain on a cart, any N >= 1 (e.g. chain_lqr_n5)",
+                         _chain_lqr_export),
+    "cart_nonlinear": _Family("cart_nonlinear", "paper 003 (21), (26): nonlinear inverted "
+                              "pendulum on a cart (n = 1)", _cart_nonlinear_export),
+}
+
+_CHAIN = re.compile(r"^chain_lqr_n([0-9]+)$")
+MAX_LINKS = 50
+"""Largest chain exported (the graph and the gain grow like n^2)."""
+
+
+def names() -> list[str]:
+    """Export names; a family with an option appears as its pattern (``chain_lqr_n<N>``)."""
+    return [f.pattern for f in _REGISTRY.values()]
+
+
+def describe() -> list[tuple[str, str]]:
+    """``(name or pattern, one-line summary)`` of every exportable controller."""
+    return [(f.pattern, f.summary) for f in _REGISTRY.values()]
+
+
+def build(name: str) -> ExportableController:
+    """Build the exportable controller called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A name of :func:`names`; the chain family is ``chain_lqr_n<N>`` with the number of
+        links ``N`` (1 to :data:`MAX_LINKS`), e.g. ``"chain_lqr_n5"``.
+
+    Returns
+    -------
+    ExportableController
+
+    Raises
+    ------
+    ModelError
+        If ``name`` is not a controller of the workbench (the message lists them).
+    """
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise ModelError(f"controller name must be a C identifier naming a controller of "
+                         f"the workbench ({', '.join(names())}); got {name!r}")
+    m = _CHAIN.match(name)
+    if m:
+        n = int(m.group(1))
+        if not 1 <= n <= MAX_LINKS:
+            raise ModelError(f"chain_lqr_n<N> needs 1 <= N <= {MAX_LINKS} links; got "
+                             f"N = {n} (from {name!r})")
+        return _REGISTRY["chain_lqr"].make({"n": n})
+    if name == "chain_lqr":
+        raise ModelError("chain_lqr needs the number of links in its name: chain_lqr_n<N>, "
+                         "e.g. chain_lqr_n5")
+    if name not in _REGISTRY:
+        raise ModelError(f"{name!r} is not an exportable controller of the workbench; "
+                         f"known: {', '.join(names())} (see 'workbench export-c --list')")
+    return _REGISTRY[name].make({})
