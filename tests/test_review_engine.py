@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import sys
 from dataclasses import replace
 
@@ -26,6 +27,7 @@ from workbench.linearize import linearize, linearize_ambient
 from workbench.lqr import lqr
 from workbench.lyapunov import Lyapunov, SublevelSet
 from workbench.manifolds import ProductManifold, Rn
+from workbench.model import Model, Parameter, Symbolic
 from workbench.relative_families import trace_relative_equilibria
 from workbench.roots import RootStatus, ZeroProblem, check_count, check_positive
 from workbench.simulate import Method, constraint_residuals, simulate
@@ -338,3 +340,33 @@ def test_linearize_reexports_the_ambient_form_and_stays_small():
     for module in (lin_mod, amb):
         with open(module.__file__, encoding="utf-8") as fh:
             assert sum(1 for _ in fh) <= 600, f"{module.__name__} is past ~600 lines"
+
+
+# ----------------------------------------------------------------------------------------
+# the symbol class is an enum (strings still accepted and still equal)
+
+
+def _decay(symbolic):
+    return Model(name="decay", manifold=ProductManifold([("x", Rn(2))]), n_inputs=0,
+                 parameters=[Parameter("a", (), "rate [1/s]")], values={"a": 2.0},
+                 vector_field=lambda ctx: -ctx["a"] * ctx["x"], symbolic=symbolic)
+
+
+@pytest.mark.parametrize(("given", "member", "cls", "kind"), [
+    (Symbolic.SX, Symbolic.SX, ca.SX, "SXFunction"), ("SX", Symbolic.SX, ca.SX, "SXFunction"),
+    (Symbolic.MX, Symbolic.MX, ca.MX, "MXFunction"), ("MX", Symbolic.MX, ca.MX, "MXFunction"),
+])
+def test_model_symbolic_is_a_str_enum(given, member, cls, kind):
+    model = _decay(given)
+    assert model.symbolic is member and model.symbolic == member.value and model.sym is cls
+    f = model.function("f")
+    assert f.is_a(kind) and model.function("f", frozen=True).is_a(kind)
+    assert_close(model.rhs([1.0, -3.0]), [-2.0, 6.0], atol=0, what="f = -a x")
+    record = model.build_log.as_list()[0]
+    assert json.loads(json.dumps(record))["symbolic"] == member.value
+    assert f"{model.symbolic}" == member.value
+
+
+def test_model_refuses_an_unknown_symbol_class():
+    with pytest.raises(ModelError, match=r"symbolic must be one of \['SX', 'MX'\]; got 'QX'"):
+        _decay("QX")

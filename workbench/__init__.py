@@ -23,7 +23,7 @@ from workbench.invariant_manifolds import (
 from workbench.linearize import LinearModel, linearize, linearize_ambient
 from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
-from workbench.model import BuildLog, Evaluator, Model, Parameter
+from workbench.model import BuildLog, Evaluator, Model, Parameter, Symbolic
 from workbench.phase import geometric_phase_check
 from workbench.poincare import PoincareOrbit, Section, poincare_map, turning_section
 from workbench.relative_families import at_alpha, trace_relative_equilibria
@@ -71,6 +71,7 @@ __all__ = [
     "Model",
     "ModelError",
     "Parameter",
+    "Symbolic",
     "ParameterError",
     "ProductManifold",
     "Rn",

@@ -18,17 +18,20 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike, Vector
+from workbench._validate import choice
 from workbench.errors import ModelError, ParameterError
 from workbench.evaluator import Evaluator
 from workbench.manifolds import DEFAULT_TOL, ProductManifold
 
 __all__ = [
+    "Symbolic",
     "Parameter",
     "BuildRecord",
     "BuildLog",
@@ -40,6 +43,23 @@ __all__ = [
     "finite",
     "Evaluator",
 ]
+
+
+class Symbolic(StrEnum):
+    """Symbol class of a model's graphs (a str-enum: ``Symbolic.SX == "SX"``).
+
+    Attributes
+    ----------
+    SX
+        Scalar expression graphs (``casadi.SX``): compact, fast to evaluate, export to C
+        and convert to sympy.
+    MX
+        Matrix expression graphs (``casadi.MX``): allow numeric sub-solves
+        (``casadi.solve``) inside the graph, as the chain model needs.
+    """
+
+    SX = "SX"
+    MX = "MX"
 
 
 # ----------------------------------------------------------------------------------------
@@ -258,9 +278,9 @@ class Model:
         ``vector_field(ctx) -> xdot`` as a casadi expression of shape ``(ambient_dim, 1)``.
     invariants : mapping of str to callable, optional
         ``invariant(ctx) -> scalar`` expressions conserved when ``u = 0``.
-    symbolic : {"SX", "MX"}
-        Symbol class for the graphs. MX allows numeric sub-solves (``casadi.solve``) inside
-        the graph, as the chain model needs.
+    symbolic : Symbolic or {"SX", "MX"}
+        Symbol class for the graphs (:class:`Symbolic`; the strings are accepted). MX allows
+        numeric sub-solves (``casadi.solve``) inside the graph, as the chain model needs.
     description : str
         One line saying what the model is, with the paper and equation numbers.
     equations : sequence of str
@@ -279,20 +299,19 @@ class Model:
         values: Mapping[str, ArrayLike],
         vector_field: Builder,
         invariants: Mapping[str, Builder] | None = None,
-        symbolic: str = "SX",
+        symbolic: Symbolic | str = Symbolic.SX,
         description: str = "",
         equations: Sequence[str] = (),
         input_description: str = "",
     ) -> None:
-        if symbolic not in ("SX", "MX"):
-            raise ModelError(f"symbolic must be 'SX' or 'MX'; got {symbolic!r}")
+        symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
         if not isinstance(n_inputs, (int, np.integer)) or n_inputs < 0:
             raise ModelError(f"n_inputs must be an integer >= 0; got {n_inputs!r}")
         self.name = name
         self.manifold = manifold
         self.n_inputs = int(n_inputs)
         self.parameters: tuple[Parameter, ...] = tuple(parameters)
-        self.symbolic = symbolic
+        self.symbolic: Symbolic = symbolic
         self.description = description
         self.equations = tuple(equations)
         self.input_description = input_description
@@ -368,7 +387,7 @@ class Model:
     @property
     def sym(self) -> type:
         """``casadi.SX`` or ``casadi.MX``."""
-        return ca.SX if self.symbolic == "SX" else ca.MX
+        return ca.SX if self.symbolic is Symbolic.SX else ca.MX
 
     def context(self) -> Context:
         """Fresh symbols for state, input and parameters."""
@@ -443,7 +462,8 @@ class Model:
 
         def make() -> ca.Function:
             fn = self.function(name)
-            ins = [fn.sx_in(i) if self.symbolic == "SX" else fn.mx_in(i) for i in range(fn.n_in())]
+            ins = [fn.sx_in(i) if self.symbolic is Symbolic.SX else fn.mx_in(i)
+                   for i in range(fn.n_in())]
             names = [fn.name_in(i) for i in range(fn.n_in())]
             args = [ca.DM(self.p) if n == "p" else s for n, s in zip(names, ins)]
             outs = fn.call(args)
@@ -454,7 +474,7 @@ class Model:
                 outs,
                 [n for _, n in keep],
                 [fn.name_out(i) for i in range(fn.n_out())],
-                {"cse": True} if self.symbolic == "SX" else {},
+                {"cse": True} if self.symbolic is Symbolic.SX else {},
             )
 
         return self._build(key, make)
