@@ -10,10 +10,6 @@ manifold, ``V-dot`` does not depend on how ``V`` is extended off the manifold.
 Numeric helpers evaluate ``V`` and ``V-dot`` on batches of states and measure how far a
 sampled trajectory departs from being non-increasing (:meth:`Lyapunov.monotonicity`).
 
-Sublevel sets and their certification:
-
-* :class:`SublevelSet` -- ``{x : V(x) <= c}`` (or ``< c``), optionally intersected with a
-  domain ``D = {b(x) < 0}``; membership and rejection sampling from a proposal.
 Sublevel sets: :class:`SublevelSet` is ``{x : V(x) <= c}`` (or ``< c``), optionally
 intersected with a domain ``D = {b(x) < 0}``, with membership and rejection sampling from
 a proposal; :func:`ray_extent` measures its size along tangent rays from the equilibrium.
