@@ -31,7 +31,6 @@ class Knob(str, Enum):
     STEP = "step"
 
 
-
 _ORDERS = {Method.RK: 4, Method.LGVI: 2, Method.S2_VARIATIONAL: 2, Method.RKMK4: 4}
 _FORBIDDEN = {"method", "rtol", "atol", "step", "controller"}
 
@@ -105,7 +104,6 @@ class Sweep:
         else:
             kw["step"] = value
         return kw
-
 
 
 def _energy_and_residual(traj: Trajectory, energy: str | None) -> tuple[np.ndarray | None,
