@@ -146,8 +146,7 @@ def rotation_problem(
         y, p = S.sym("y", 4), S.sym("p", model.n_params)
         u = S.sym("u", 0)
         gam, k = y[0:3], y[3]
-        x = ca.vertcat(gam, k * gam) if model.manifold.slices[attitude].start == 0 else \
-            ca.vertcat(k * gam, gam)
+        x = ca.vertcat(gam, k * gam)  # the attitude is first (_check_rigid_body)
         F = model.function("f")(x, ca.DM.zeros(model.n_inputs), p)
         xs = S.sym("x", model.manifold.ambient_dim)
         att = model.manifold.slices[attitude]
