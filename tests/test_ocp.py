@@ -1,0 +1,298 @@
+"""Optimal control on manifolds: transcriptions, manifold handlings, statuses, bad input.
+
+The checks are mathematical: the NLP's defects and terminal chart vanish at a solution,
+Gauss-Legendre collocation in ambient coordinates conserves the quadratic constraints
+|q|^2 and q.w exactly while Radau does not, the Lie group transcription keeps every node
+on the manifold, all transcriptions agree on the cost of the same local minimum, and the
+open-loop re-simulation error falls with N.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from models.chain_cart import chain_cart, link_state
+from workbench.errors import ManifoldError, ParameterError, SolverError
+from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
+from workbench.ocp import (
+    OCP,
+    Collocation,
+    Graph,
+    Guess,
+    ManifoldHandling,
+    MultipleShooting,
+    OCPStatus,
+    Scheme,
+    TargetPoint,
+    TargetSet,
+    continuation,
+    local_for,
+    multistart,
+    solve,
+    sx_function,
+)
+from workbench.ocp.local import dexpinv
+from workbench.ocp.transcription import collocation_coefficients
+
+E3 = np.array([0.0, 0.0, 1.0])
+X0 = np.r_[0.0, 0.0, 0.0, 0.0, link_state(E3)]
+XF = np.r_[0.0, 0.0, 0.0, 0.0, link_state(-E3)]
+
+
+def cart_ocp(*, u_max: float = 10.0, T=(0.5, 3.0)) -> OCP:
+    model = chain_cart(1, m=0.5, masses=0.1, lengths=0.1, g=9.81)
+    return OCP(model, x0=X0, target=TargetPoint(model.manifold, XF), u_lower=-u_max,
+               u_upper=u_max, T=T, running_cost=lambda x, u: ca.dot(u, u),
+               terminal_cost=lambda x, T: T, name="test_cart")
+
+
+@pytest.fixture(scope="module")
+def ocp() -> OCP:
+    return cart_ocp()
+
+
+@pytest.fixture(scope="module")
+def base(ocp):
+    """The N = 10 Legendre solution from the deterministic geodesic guess."""
+    return solve(ocp, Collocation(N=10))
+
+
+# --- building blocks ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_sx_function_equals_the_mx_graph(n):
+    model = chain_cart(n)
+    f, fs = model.function("f"), sx_function(model.function("f"))
+    assert fs.is_a("SXFunction")
+    rng = np.random.default_rng(n)
+    for _ in range(5):
+        x = model.manifold.random_point(rng, scale=2.0)
+        u = rng.standard_normal(2)
+        a, b = np.asarray(f(x, u, model.p)).ravel(), np.asarray(fs(x, u, model.p)).ravel()
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-10 * np.abs(a).max())
+
+
+@pytest.mark.parametrize("factor", [Rn(2), S1(), S2(), SO3(), TS2()], ids=repr)
+def test_local_coordinates_land_on_the_factor_and_integrate_the_velocity(factor):
+    rng = np.random.default_rng(7)
+    loc = local_for(factor)
+    for _ in range(5):
+        xk = factor.random_point(rng)
+        y = rng.standard_normal(loc.ydim)
+        if isinstance(factor, TS2):
+            y[3:] -= (y[3:] @ xk[:3]) * xk[:3]
+        x = np.asarray(loc.act(xk, y), float).ravel()
+        assert factor.residual_norm(x) < 1e-14
+        # log inverts act
+        assert np.allclose(np.asarray(loc.act(xk, loc.log(xk, x))).ravel(), x, atol=1e-12)
+        # d/dt act(x_k, y + t ydot) = xdot for a random tangent velocity xdot
+        xdot = factor.tangent_basis(x) @ rng.standard_normal(factor.dim)
+        yd = np.asarray(loc.ydot(xk, y, x, xdot), float).ravel()
+        eps = 1e-6
+        fd = (np.asarray(loc.act(xk, y + eps * yd)).ravel()
+              - np.asarray(loc.act(xk, y - eps * yd)).ravel()) / (2 * eps)
+        assert np.allclose(fd, xdot, atol=1e-8)
+
+
+def test_local_coordinates_symbolic_equal_numeric():
+    loc = local_for(TS2())
+    xs, ys = ca.SX.sym("x", 6), ca.SX.sym("y", 6)
+    fn = ca.Function("a", [xs, ys], [loc.act(xs, ys)])
+    rng = np.random.default_rng(3)
+    xk, y = TS2().random_point(rng), rng.standard_normal(6)
+    assert np.allclose(np.asarray(fn(xk, y)).ravel(), loc.act(xk, y), atol=1e-15)
+    assert np.all(np.isfinite(np.asarray(fn(xk, np.zeros(6)))))  # safe at y = 0
+
+
+@pytest.mark.parametrize("left", [True, False])
+def test_dexpinv_inverts_the_derivative_of_exp(left):
+    rng = np.random.default_rng(11)
+    for scale in (1e-4, 0.5, 2.5):
+        y, v = scale * rng.standard_normal(3), rng.standard_normal(3)
+        w = dexpinv(y, v, left=left)
+        eps = 1e-6
+        dE = (so3_exp(y + eps * w) - so3_exp(y - eps * w)) / (2 * eps)
+        E = so3_exp(y)
+        W = dE @ E.T if left else E.T @ dE
+        got = np.array([W[2, 1], W[0, 2], W[1, 0]])
+        assert np.allclose(got, v, atol=1e-8)
+
+
+@pytest.mark.parametrize("scheme", list(Scheme))
+@pytest.mark.parametrize("d", [1, 2, 3, 4])
+def test_collocation_coefficients_integrate_and_differentiate_polynomials(scheme, d):
+    tau, C, D, B = collocation_coefficients(d, scheme)
+    exact = 2 * d - 1 if scheme is Scheme.LEGENDRE else 2 * d - 2
+    for k in range(exact + 1):
+        assert B @ tau**k == pytest.approx(1.0 / (k + 1), abs=1e-13)
+    for k in range(d + 1):
+        assert D @ tau**k == pytest.approx(1.0, abs=1e-12)
+        assert np.allclose((tau**k) @ C, k * tau ** max(k - 1, 0) if k else 0.0, atol=1e-11)
+    if scheme is Scheme.RADAU:
+        assert tau[-1] == pytest.approx(1.0)
+
+
+# --- solving ----------------------------------------------------------------------------
+
+
+def test_collocation_solution_satisfies_dynamics_bounds_and_terminal_chart(ocp, base):
+    assert base.status is OCPStatus.SUCCESS and base.ipopt_status == "Solve_Succeeded"
+    assert base.error["constraint_violation"] < 1e-8
+    assert base.error["target_residual"] < 1e-9
+    # Gauss-Legendre conserves the quadratic invariants |q|^2 and q.w: the nodes are on
+    # TS^2 up to the NLP's own constraint tolerance
+    assert base.error["manifold_residual"] < 1e-8
+    assert np.all(np.abs(base.u) <= 10 + 1e-8)
+    assert 0.5 - 1e-8 <= base.T <= 3.0 + 1e-8
+    assert base.t[-1] == pytest.approx(base.T)
+    assert "Solve_Succeeded" in base.message and "iterations" in base.message
+
+
+def test_radau_ambient_leaves_a_residual_lie_group_does_not(ocp, base):
+    radau = solve(ocp, Collocation(N=10, scheme=Scheme.RADAU), guess=base)
+    lie = solve(ocp, Collocation(N=10), handling=ManifoldHandling.LIE_GROUP, guess=base)
+    # Radau IIA does not conserve quadratic invariants: a drift of the order of its local
+    # error (h = T/10 here is coarse)
+    assert 100 * base.error["manifold_residual"] < radau.error["manifold_residual"] < 0.1
+    assert lie.error["manifold_residual"] < 1e-8
+    for s in (radau, lie):
+        assert s.status.ok
+        assert s.objective == pytest.approx(base.objective, rel=3e-2)
+
+
+def test_shooting_agrees_with_collocation(ocp, base):
+    for handling in ManifoldHandling:
+        s = solve(ocp, MultipleShooting(N=10, steps=1), handling=handling, guess=base)
+        assert s.status.ok
+        assert s.objective == pytest.approx(base.objective, rel=3e-2)
+
+
+def test_mx_graph_gives_the_same_solution(ocp, base):
+    s = solve(ocp, Collocation(N=10), graph=Graph.MX, guess=base)
+    assert s.objective == pytest.approx(base.objective, rel=1e-7)
+    assert np.allclose(s.x, base.x, atol=1e-5)
+
+
+def test_resimulation_error_falls_with_N(ocp, base):
+    mid = solve(ocp, Collocation(N=20), guess=base)
+    fine = solve(ocp, Collocation(N=40), guess=mid)
+    e20 = mid.resimulate()["end_error"]
+    e40 = fine.resimulate()["end_error"]
+    assert fine.objective == pytest.approx(mid.objective, rel=3e-2)  # same local minimum
+    assert e40 < e20 / 4  # order 2d = 6 in h, amplified by the unstable end phase
+
+
+def test_warm_start_of_the_same_transcription_is_immediate_and_cached(ocp, base):
+    again = solve(ocp, Collocation(N=10), guess=base)
+    assert again.cost["iterations"] <= 3
+    assert again.cost["build_seconds"] == 0.0
+    assert again.objective == pytest.approx(base.objective, rel=1e-9)
+
+
+def test_continuation_in_the_bound_reuses_the_build(ocp, base):
+    last, path = continuation(ocp, Collocation(N=10),
+                              steps=[{"u_lower": -b, "u_upper": b} for b in (8.0, 6.0)],
+                              guess=base)
+    assert all(p.cost["build_seconds"] == 0.0 for p in path)
+    assert np.all(np.abs(last.u) <= 6.0 + 1e-8)
+    assert last.objective >= base.objective - 1e-6  # tighter bound, no cheaper optimum nearby
+
+
+def test_multistart_keeps_the_cheapest_converged_start(ocp):
+    best, records = multistart(ocp, Collocation(N=10), seeds=[0, 1], T_guesses=[1.2, 1.9],
+                               max_iter=150)
+    ok = [r["objective"] for r in records if r["status"] in ("SUCCESS", "ACCEPTABLE")]
+    assert ok and best.objective == pytest.approx(min(ok))
+
+
+def test_quiet_by_default(ocp, base, capfd):
+    solve(ocp, Collocation(N=10), guess=base)
+    out, err = capfd.readouterr()
+    assert out == "" and "Ipopt" not in err
+
+
+def test_geodesic_guess_lies_on_the_manifold(ocp):
+    g = Guess.geodesic(ocp, rng=np.random.default_rng(2), noise=0.2)
+    man = ocp.model.manifold
+    for s in np.linspace(0, 1, 17):
+        assert max(man.residual_norms(g.state(s)).values()) < 1e-12
+    assert np.allclose(g.state(0.0), X0) and np.allclose(g.state(1.0), XF, atol=1e-12)
+    assert np.all(np.abs(g.u) <= 10.0)
+
+
+# --- failures and bad input -------------------------------------------------------------
+
+
+def test_infeasible_problem_reports_ipopt_and_raises_by_default():
+    ocp = cart_ocp(u_max=0.1, T=0.5)
+    with pytest.raises(SolverError) as info:
+        solve(ocp, Collocation(N=10), max_iter=500)
+    err = info.value
+    assert err.status == "Infeasible_Problem_Detected"
+    assert "Infeasible_Problem_Detected" in str(err)
+    assert err.solution.status is OCPStatus.INFEASIBLE
+    assert not err.solution.status.ok
+
+
+def test_terminal_state_off_the_manifold_is_rejected_before_solving():
+    model = chain_cart(1)
+    bad = XF.copy()
+    bad[4:7] *= 1.1
+    with pytest.raises(ManifoldError, match="terminal state"):
+        TargetPoint(model.manifold, bad)
+
+
+def test_ambient_equality_terminal_condition_is_rejected_as_dependent():
+    model = chain_cart(1)
+    ambient = TargetSet(map=lambda x: x, manifold=ProductManifold([("all", Rn(10))]),
+                        value=XF, witness=XF, description="x_N = x_f (ambient)")
+    with pytest.raises(ManifoldError, match="not independent"):
+        OCP(model, x0=X0, target=ambient, u_lower=-1, u_upper=1, T=1.0)
+
+
+def test_target_set_witness_must_be_in_the_set():
+    model = chain_cart(1)
+    up = TargetSet(map=lambda x: x[4:7], manifold=ProductManifold([("q", S2())]),
+                   value=-E3, witness=X0, description="q1 = -e3")
+    with pytest.raises(ManifoldError, match="not in the target set"):
+        OCP(model, x0=X0, target=up, u_lower=-1, u_upper=1, T=1.0)
+
+
+def test_initial_state_off_the_manifold_is_rejected():
+    model = chain_cart(1)
+    bad = X0.copy()
+    bad[7:10] = [1.0, 0.0, 1.0]  # q . w != 0
+    with pytest.raises(ManifoldError, match="x0"):
+        OCP(model, x0=bad, target=TargetPoint(model.manifold, XF), u_lower=-1, u_upper=1,
+            T=1.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"u_lower": 1.0, "u_upper": -1.0}, "u_lower must not exceed"),
+     ({"u_lower": [-1, -1, -1], "u_upper": 1.0}, "u_lower must be"),
+     ({"T": (3.0, 1.0)}, "T must satisfy"),
+     ({"T": -1.0}, "T must satisfy"),
+     ({"T": "long"}, "T must")],
+)
+def test_bad_problem_data_is_rejected(kwargs, match):
+    model = chain_cart(1)
+    args = {"u_lower": -1.0, "u_upper": 1.0, "T": 1.0} | kwargs
+    with pytest.raises(ParameterError, match=match):
+        OCP(model, x0=X0, target=TargetPoint(model.manifold, XF), **args)
+
+
+def test_bad_method_and_options_are_rejected(ocp):
+    with pytest.raises(ParameterError, match="N must be"):
+        Collocation(N=0)
+    with pytest.raises(ParameterError, match="degree must be"):
+        Collocation(degree=0)
+    with pytest.raises(ParameterError, match="scheme"):
+        Collocation(scheme="radau")
+    with pytest.raises(ParameterError, match="tol"):
+        solve(ocp, Collocation(N=10), tol=-1.0)
+    with pytest.raises(ParameterError, match="rng"):
+        Guess.geodesic(ocp, noise=0.1)
