@@ -28,6 +28,7 @@ from workbench.lqr import lqr
 from workbench.lyapunov import Lyapunov, SublevelSet
 from workbench.manifolds import ProductManifold, Rn
 from workbench.model import Model, Parameter, Symbolic
+from workbench.relative_equilibria import static_equilibria
 from workbench.relative_families import trace_relative_equilibria
 from workbench.roots import RootStatus, ZeroProblem, check_count, check_positive
 from workbench.simulate import Method, constraint_residuals, simulate
@@ -370,3 +371,42 @@ def test_model_symbolic_is_a_str_enum(given, member, cls, kind):
 def test_model_refuses_an_unknown_symbol_class():
     with pytest.raises(ModelError, match=r"symbolic must be one of \['SX', 'MX'\]; got 'QX'"):
         _decay("QX")
+
+
+# ----------------------------------------------------------------------------------------
+# static_equilibria names the model's own offset parameter
+
+
+class _RenamedOffset:
+    """A builder context that reads the offset 'rho' from a parameter called 'c'."""
+
+    def __init__(self, ctx):
+        self._ctx, self.x, self.u, self.p, self.model = ctx, ctx.x, ctx.u, ctx.p, ctx.model
+
+    def __getitem__(self, name):
+        return self._ctx["c" if name == "rho" else name]
+
+
+def _balanced_body_with_offset_called_c():
+    red = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.0])
+    params = [replace(p, name="c") if p.name == "rho" else p for p in red.parameters]
+    values = {("c" if k == "rho" else k): v for k, v in red.values.items()}
+    return Model(
+        name="renamed", manifold=red.manifold, n_inputs=red.n_inputs, parameters=params,
+        values=values, vector_field=lambda ctx: red._vector_field(_RenamedOffset(ctx)),
+        invariants={k: (lambda ctx, b=b: b(_RenamedOffset(ctx)))
+                    for k, b in red._invariants.items()})
+
+
+def test_static_equilibria_quotes_the_offset_parameter_the_model_has():
+    model = _balanced_body_with_offset_called_c()
+    with pytest.raises(ParameterError, match="the body is balanced") as info:
+        static_equilibria(model)
+    assert "'rho'" not in str(info.value)  # the model has no parameter 'rho'
+    with pytest.raises(ParameterError, match=r"parameter 'c' = \[0.0, 0.0, 0.0\] makes the "
+                                             r"body balanced"):
+        static_equilibria(model, offset="c")
+    with pytest.raises(ModelError, match=r"offset must name .* \['J', 'c', 'm', 'g'\].*'rho'"):
+        static_equilibria(model, offset="rho")
+    with pytest.raises(ParameterError, match=r"parameter 'rho' = \[0.0, 0.0, 0.0\] makes"):
+        static_equilibria(p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.0]))

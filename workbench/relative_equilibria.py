@@ -269,6 +269,7 @@ def static_equilibria(
     tol: float = 1e-12,
     attitude: str = "Gamma",
     velocity: str = "omega",
+    offset: str | None = None,
 ) -> dict[str, Equilibrium]:
     """The hanging and inverted equilibria of a reduced rigid-body pendulum.
 
@@ -293,6 +294,10 @@ def static_equilibria(
         that level.
     attitude, velocity : str
         Factor names.
+    offset : str, optional
+        Name of the model's parameter holding the centre-of-mass offset, quoted with its
+        value when the body is balanced. Default: ``"rho"`` if the model has such a
+        parameter (as :func:`models.pendulum3d.reduced`), else none is quoted.
 
     Returns
     -------
@@ -304,10 +309,21 @@ def static_equilibria(
     ParameterError
         For a balanced body (centre of mass at the pivot): every attitude is then a static
         equilibrium and the hanging and inverted attitudes are undefined.
+    ModelError
+        ``offset`` is not a parameter of the model (or the model is not a reduced rigid
+        body, see :func:`rotation_problem`).
     SolverError
         If the zeros found are not exactly two isolated ones.
     """
     problem = rotation_problem(model, attitude=attitude, velocity=velocity)
+    names = [p.name for p in model.parameters]
+    if offset is not None and offset not in names:
+        raise ModelError(
+            f"offset must name the parameter of {model.name!r} holding the centre-of-mass "
+            f"offset (one of {names}), or be None; got {offset!r}"
+        )
+    if offset is None and "rho" in names:
+        offset = "rho"
     gs = sphere_points(26) if guesses is None else guesses
     scale = max(float(np.max(np.abs(problem.residual(np.append(g, 0.0)))))
                 for g in np.atleast_2d(np.asarray(gs, dtype=float)))
@@ -316,13 +332,14 @@ def static_equilibria(
     zeros, _ = slice_zeros(problem, 0.0, gs, tol=tol)
     surface = [z for z in zeros if z.local_dimension > 0]
     if surface:
-        rho = model.values.get("rho")
-        what = (f"rho = {np.asarray(rho).tolist()} " if rho is not None else "")
+        what = ("the body is balanced" if offset is None else
+                f"parameter {offset!r} = {np.asarray(model.values[offset]).tolist()} makes "
+                f"the body balanced")
         raise ParameterError(
-            f"parameter 'rho' {what}makes the body balanced: every attitude is a static "
-            f"equilibrium of {model.name!r} (the zeros with k = 0 form a set of dimension "
-            f"{surface[0].local_dimension}), so the hanging and inverted attitudes "
-            f"+-rho/|rho| are undefined; give the centre of mass an offset from the pivot"
+            f"{what}: every attitude is a static equilibrium of {model.name!r} (the zeros "
+            f"with k = 0 form a set of dimension {surface[0].local_dimension}), so the "
+            f"hanging and inverted attitudes (along +-the centre-of-mass offset) are "
+            f"undefined; give the centre of mass an offset from the pivot"
         )
     if len(zeros) != 2:
         raise SolverError(
