@@ -410,3 +410,23 @@ def test_static_equilibria_quotes_the_offset_parameter_the_model_has():
         static_equilibria(model, offset="rho")
     with pytest.raises(ParameterError, match=r"parameter 'rho' = \[0.0, 0.0, 0.0\] makes"):
         static_equilibria(p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.0]))
+
+
+# ----------------------------------------------------------------------------------------
+# lqr takes its matrices through the same checks as pbh
+
+
+def test_lqr_checks_its_system_like_pbh(planar):
+    lin = linearize(planar, planar.state(p=[0.0, -1.0], omega_y=[0.0]))
+    A = np.array([[0.0, 1.0], [2.0, 0.0]])
+    for call, match in [
+        (lambda: lqr(lin, np.eye(2), np.eye(0), B=np.ones((2, 1))), "pass B only"),
+        (lambda: lqr(A, np.eye(2), np.eye(1)), "B is required when A is given as a matrix"),
+        (lambda: lqr(A, np.eye(2), np.eye(1), B=np.ones((3, 1))), r"A \(2, 2\) and B \(3, 1\)"),
+        (lambda: lqr(A, np.eye(2), np.eye(1), B=[[np.nan], [1.0]]), "must be finite"),
+    ]:
+        with pytest.raises(ModelError, match=match):
+            call()
+    res = lqr(A, np.eye(2), np.eye(1), B=[1.0, 1.0])  # a 1-D B is one input column
+    assert np.all(res.closed_loop_eigenvalues.real < 0)
+    assert res.riccati_residual < 1e-12

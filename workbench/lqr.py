@@ -184,20 +184,16 @@ def lqr(
         Bad ``Q`` or ``R`` (shape, symmetry, definiteness), or an uncontrollable
         (unstabilisable) pair: the message names each offending mode and its left
         eigenvector.
+    ModelError
+        ``B`` given with a LinearModel or missing with a matrix, or ``A``, ``B`` not
+        finite numeric matrices of conforming shapes (the checks of :func:`pbh`).
     SolverError
         The Riccati solver failed (with its exception as status) or did not stabilise.
     """
     import control
 
     lin = system if isinstance(system, LinearModel) else None
-    if lin is not None:
-        if B is not None:
-            raise ModelError("pass B only with a bare matrix A, not with a LinearModel")
-        A, Bm = lin.A, lin.B
-    else:
-        if B is None:
-            raise ModelError("B is required when the system is given as a matrix A")
-        A, Bm, _ = _matrices(system, B)
+    A, Bm, _ = _matrices(system, B)
     n, m = A.shape[0], Bm.shape[1]
     if m == 0:
         raise ParameterError("the system has no inputs; LQR needs at least one")
