@@ -24,7 +24,7 @@ from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.evaluator import DenseEvaluator, Evaluator
 from workbench.integrators import integrate, rkmk4
 from workbench.linearize import linearize, linearize_ambient
-from workbench.lqr import lqr
+from workbench.lqr import geometric_feedback, lqr
 from workbench.lyapunov import Lyapunov, SublevelSet
 from workbench.manifolds import ProductManifold, Rn
 from workbench.model import Model, Parameter, Symbolic
@@ -430,3 +430,33 @@ def test_lqr_checks_its_system_like_pbh(planar):
     res = lqr(A, np.eye(2), np.eye(1), B=[1.0, 1.0])  # a 1-D B is one input column
     assert np.all(res.closed_loop_eigenvalues.real < 0)
     assert res.riccati_residual < 1e-12
+
+
+# ----------------------------------------------------------------------------------------
+# geometric_feedback fails clearly, with the original error chained
+
+
+class _UncallableController:
+    """Stands for a controller that no symbol class can call."""
+
+    def n_in(self):
+        return 1
+
+    def name(self):
+        return "stub"
+
+    def __call__(self, x):
+        raise RuntimeError(f"no {type(x).__name__} evaluation")
+
+
+def test_geometric_feedback_keeps_the_original_error(planar):
+    lin = linearize(planar, planar.state(p=[0.0, -1.0], omega_y=[0.0]))
+    broken = replace(lin, controller=_UncallableController())
+    with pytest.raises(ModelError, match="could not compose the controller 'stub'") as info:
+        geometric_feedback(broken, np.zeros((0, 2)))
+    msg = str(info.value)
+    assert "on SX symbols with RuntimeError: no SX evaluation" in msg
+    assert "on MX symbols with RuntimeError: no MX evaluation" in msg
+    assert isinstance(info.value.__cause__, RuntimeError)
+    law = geometric_feedback(lin, np.zeros((0, 2)))  # no controller: SX, nothing to retry
+    assert law.is_a("SXFunction") and law.nnz_out(0) == 0

@@ -273,12 +273,16 @@ def geometric_feedback(
     -------
     casadi.Function
         ``(x, p) -> u`` with ``x`` the stored state (ambient_dim,) and ``p`` the model's
-        parameters.
+        parameters; on SX symbols, or on MX if the linearisation's controller cannot be
+        called on SX symbols.
 
     Raises
     ------
     ParameterError
         ``K`` of the wrong shape or not finite.
+    ModelError
+        The linearisation's controller cannot be called on SX nor on MX symbols (both
+        failures in the message, the last one chained).
     """
     Km = np.asarray(K, dtype=float)
     if Km.shape != (lin.n_inputs, lin.dim) or not np.all(np.isfinite(Km)):
@@ -287,17 +291,20 @@ def geometric_feedback(
             f"dimension); got shape {Km.shape}"
         )
     model = lin.model
+    failures: list[tuple[str, Exception]] = []
     for S in (ca.SX, ca.MX):
         x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
-        try:
-            u = ca.DM(lin.u_e) - ca.DM(Km) @ lin.chart(x)
-            if lin.controller is not None:
+        u = ca.DM(lin.u_e) - ca.DM(Km) @ lin.chart(x)
+        if lin.controller is not None:
+            try:
                 k0 = lin.controller(x) if lin.controller.n_in() == 1 else lin.controller(x, p)
-                u = u + (k0[0] if isinstance(k0, (list, tuple)) else k0)
-        except (NotImplementedError, TypeError, RuntimeError):
-            continue  # an MX-only controller: retry with MX symbols
+            except (NotImplementedError, TypeError, RuntimeError) as exc:
+                failures.append((S.__name__, exc))
+                continue  # a controller that takes MX symbols only: compose on MX
+            u = u + (k0[0] if isinstance(k0, (list, tuple)) else k0)
         return ca.Function(name, [x, p], [u], ["x", "p"], ["u"])
-    raise ModelError(  # pragma: no cover - both symbol classes failed
-        f"could not compose the feedback law for model {model.name!r}"
-    )
-
+    raise ModelError(
+        f"could not compose the controller {lin.controller.name()!r} of the linearisation "
+        f"into the feedback law for model {model.name!r}: calling it failed "
+        + "; ".join(f"on {s_} symbols with {type(e).__name__}: {e}" for s_, e in failures)
+    ) from failures[-1][1]
