@@ -58,9 +58,9 @@ def _eval_rows(rng: np.random.Generator) -> list[dict]:
     q = np.array([0.6, -0.6, -0.53])
     q /= np.linalg.norm(q)
     cases = [
-        ("saturated (34), full", full, ctl.saturated_velocity_feedback(full, P, K_SAT),
+        ("saturated (34), full", full, ctl.saturated_velocity_feedback(full, P=P, k=K_SAT),
          full.manifold.random_point(rng)),
-        ("so3_pd, full", full, ctl.so3_pd(full, np.eye(3), 1.0, 1.0, [0.9, 1.0, 1.1]),
+        ("so3_pd, full", full, ctl.so3_pd(full, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1]),
          full.manifold.random_point(rng)),
         ("cart (21)+(26), n = 1", cart, ctl.cart_inverted_feedback(cart, **GAINS),
          np.r_[0.2, 0.1, 0.0, 0.1, q, 0.0, 0.0, 0.0]),
@@ -78,7 +78,7 @@ def _eval_rows(rng: np.random.Generator) -> list[dict]:
 
 def _simulation_rows() -> list[dict]:
     red = p3.reduced(**BODY)
-    k = ctl.saturated_velocity_feedback(red, P, K_SAT)
+    k = ctl.saturated_velocity_feedback(red, P=P, k=K_SAT)
     x0 = np.r_[np.array([0.0, 0.0141, -0.9999]) / np.linalg.norm([0.0, 0.0141, -0.9999]),
                0.0, 0.0, 0.0]
     t = np.linspace(0.0, 60.0, 601)
@@ -101,7 +101,7 @@ def _simulation_rows() -> list[dict]:
 
 def _lyapunov_row(rng: np.random.Generator) -> dict:
     red = p3.reduced(**BODY)
-    k = ctl.saturated_velocity_feedback(red, P, K_SAT)
+    k = ctl.saturated_velocity_feedback(red, P=P, k=K_SAT)
     V = ctl.velocity_feedback_lyapunov(red)
     n = 10_000
     g = rng.standard_normal((n, 3))
@@ -124,7 +124,7 @@ def _lyapunov_row(rng: np.random.Generator) -> dict:
 
 def _monte_carlo_row(rng: np.random.Generator) -> dict:
     red = p3.reduced(**BODY)
-    k = ctl.saturated_velocity_feedback(red, P, K_SAT)
+    k = ctl.saturated_velocity_feedback(red, P=P, k=K_SAT)
     n = 10
     g = rng.standard_normal((n, 3))
     X = np.c_[g / np.linalg.norm(g, axis=1, keepdims=True), rng.standard_normal((n, 3))]

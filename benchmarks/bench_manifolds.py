@@ -89,10 +89,10 @@ def main() -> None:
     n, repeat, n_sub = (200, 1, 4) if quick else (1000, 3, 10)
     sph = spherical_pendulum()
     e3 = np.array([0.0, 0.0, 1.0])
-    rows = scene("S^2 PD, (-e3, 0)", sph, np.r_[-e3, 0, 0, 0], ctl.s2_pd(sph, e3, 1.0, 1.0),
+    rows = scene("S^2 PD, (-e3, 0)", sph, np.r_[-e3, 0, 0, 0], ctl.s2_pd(sph, e3, k_q=1.0, k_w=1.0),
                  Method.S2_VARIATIONAL, n, repeat, n_sub)
     body = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
-    k = ctl.so3_pd(body, np.eye(3), 1.0, 1.0, [0.9, 1.0, 1.1])
+    k = ctl.so3_pd(body, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
     R_e = np.diag([-1.0, 1.0, -1.0])
     rows += scene("SO(3) PD, exp(pi e2^)", body, np.r_[SO3.flat(R_e), 0, 0, 0], k,
                   Method.LGVI, n, repeat, n_sub)

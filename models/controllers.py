@@ -175,7 +175,7 @@ def psi_feedback(
     return state_function(model, name, build)
 
 
-def angular_velocity_feedback(model: Model, D: ArrayLike) -> ca.Function:
+def angular_velocity_feedback(model: Model, *, D: ArrayLike) -> ca.Function:
     """Linear angular-velocity feedback ``u = -D omega``, paper 001 (14) with ``Psi = D``.
 
     Parameters
@@ -201,7 +201,7 @@ def angular_velocity_feedback(model: Model, D: ArrayLike) -> ca.Function:
     )
 
 
-def saturated_velocity_feedback(model: Model, P: ArrayLike, k: float) -> ca.Function:
+def saturated_velocity_feedback(model: Model, *, P: ArrayLike, k: float) -> ca.Function:
     """Saturated angular-velocity feedback, paper 001 (34).
 
     ``u = -k P omega / (1 + |P omega|)``, which satisfies (13) and ``|u| <= k``.
@@ -264,7 +264,7 @@ def saturated_velocity_law(ctx: Context, *, P: Any, k: Any) -> Any:
 # paper 002: geometric PD with cancellation
 
 
-def s2_pd(model: Model, q_d: ArrayLike, k_q: float, k_w: float) -> ca.Function:
+def s2_pd(model: Model, q_d: ArrayLike, *, k_q: float, k_w: float) -> ca.Function:
     """Geometric PD on S^2 with gravity cancellation, paper 002 Section II-A.
 
     ``u = m l^2 (-k_q q_d x q - k_w omega - (g/l) q x e3)``, giving the closed loop (1)-(2)
@@ -351,7 +351,7 @@ def _diag_gain(G: ArrayLike) -> np.ndarray:
 
 
 def so3_pd(
-    model: Model, R_d: ArrayLike, k_R: float, k_Omega: float, G: ArrayLike
+    model: Model, R_d: ArrayLike, *, k_R: float, k_Omega: float, G: ArrayLike
 ) -> ca.Function:
     """Geometric PD on SO(3) with gravity cancellation, paper 002 Section III-A.
 

@@ -60,7 +60,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("inverted_manifold_velocity_feedback", TITLE, quick=quick)
     model = p3.reduced(**BODY)
     res.use(model)
-    k = ctl.saturated_velocity_feedback(model, P, K_SAT)
+    k = ctl.saturated_velocity_feedback(model, P=P, k=K_SAT)
     gamma_h = BODY["rho"] / np.linalg.norm(BODY["rho"])
     x_i = model.state(Gamma=-gamma_h, omega=np.zeros(3))
     x_h = model.state(Gamma=gamma_h, omega=np.zeros(3))

@@ -80,7 +80,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("s2_pd_eigenstructure", TITLE, quick=quick)
     model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
     res.use(model)
-    k = ctl.s2_pd(model, E3, K_Q, K_W)
+    k = ctl.s2_pd(model, E3, k_q=K_Q, k_w=K_W)
     values: dict[str, Any] = {}
     cases = {"hanging": (E3, _paper_hanging(), Stability.STABLE_FOCUS, 0),
              "inverted": (-E3, _paper_inverted(), Stability.SADDLE, 2)}

@@ -72,7 +72,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("so3_pd_closed_loop", TITLE, quick=quick)
     model = p3.full(**BODY)
     res.use(model)
-    k = ctl.so3_pd(model, np.eye(3), K_R, K_OMEGA, G)
+    k = ctl.so3_pd(model, np.eye(3), k_R=K_R, k_Omega=K_OMEGA, G=G)
     tol = 1e-11
     eq = {"I": np.eye(3), "e1": flip(0), "e2": flip(1), "e3": flip(2)}
     spectra, escapes, figs = {}, {}, {}

@@ -91,7 +91,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("so3_pd_eigenstructure", TITLE, quick=quick)
     model = p3.full(**BODY)
     res.use(model)
-    k = ctl.so3_pd(model, np.eye(3), K_R, K_OMEGA, G_DIAG)
+    k = ctl.so3_pd(model, np.eye(3), k_R=K_R, k_Omega=K_OMEGA, G=G_DIAG)
     values: dict[str, Any] = {}
     for name, (table, kind, n_unst, src) in TABLES.items():
         x_e = model.state(R=ATTITUDES[name], omega=np.zeros(3))

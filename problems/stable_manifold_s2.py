@@ -126,7 +126,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("stable_manifold_s2", TITLE, quick=quick)
     model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
     res.use(model)
-    k = ctl.s2_pd(model, E3, K_Q, K_W)
+    k = ctl.s2_pd(model, E3, k_q=K_Q, k_w=K_W)
     n_points, horizon, jit = (24, 10.0, False) if quick else (100, 11.0, True)
     x_e = model.state(q=np.r_[-E3, np.zeros(3)])
     x_h = model.state(q=np.r_[E3, np.zeros(3)])

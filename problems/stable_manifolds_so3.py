@@ -134,7 +134,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("stable_manifolds_so3", TITLE, quick=quick)
     model = p3.full(**BODY)
     res.use(model)
-    k = ctl.so3_pd(model, np.eye(3), K_R, K_OMEGA, G_DIAG)
+    k = ctl.so3_pd(model, np.eye(3), k_R=K_R, k_Omega=K_OMEGA, G=G_DIAG)
     x_goal = model.state(R=np.eye(3), omega=np.zeros(3))
     test_q = quaternions(np.array([SO3.matrix(SO3().random_point(np.random.default_rng(s)))
                                    for s in range(2000 if not quick else 500)]))

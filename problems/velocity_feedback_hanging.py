@@ -76,7 +76,7 @@ def solve(*, quick: bool = False) -> Result:
     full = p3.full(**BODY)
     red = p3.reduced(**BODY)
     res.use(full, red)
-    k_full = ctl.saturated_velocity_feedback(full, P, K_SAT)
+    k_full = ctl.saturated_velocity_feedback(full, P=P, k=K_SAT)
     V = ctl.velocity_feedback_lyapunov(full)
     gamma_h = BODY["rho"] / np.linalg.norm(BODY["rho"])
 
@@ -131,7 +131,7 @@ def solve(*, quick: bool = False) -> Result:
 
     # Theorem 1: samples from N converge; Theorem 2: samples over S^2 x R^3 converge
     dist = hanging_distance(red)
-    k_red = ctl.saturated_velocity_feedback(red, P, K_SAT)
+    k_red = ctl.saturated_velocity_feedback(red, P=P, k=K_SAT)
     V_red = ctl.velocity_feedback_lyapunov(red)
     setN = SublevelSet(V_red, ctl.hanging_set_level(red))
     w_scale = np.sqrt(2 * level_N / np.linalg.eigvalsh(BODY["J"]).min())

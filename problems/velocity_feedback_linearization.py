@@ -125,11 +125,11 @@ def solve(*, quick: bool = False) -> Result:
                               "D_diagonal": D_DIAG.tolist()}
     for gname, psi0 in gains.items():
         if gname.startswith("linear"):
-            ks = {"full": ctl.angular_velocity_feedback(full, psi0),
-                  "reduced": ctl.angular_velocity_feedback(red, psi0)}
+            ks = {"full": ctl.angular_velocity_feedback(full, D=psi0),
+                  "reduced": ctl.angular_velocity_feedback(red, D=psi0)}
         else:
-            ks = {"full": ctl.saturated_velocity_feedback(full, P_SAT, K_SAT),
-                  "reduced": ctl.saturated_velocity_feedback(red, P_SAT, K_SAT)}
+            ks = {"full": ctl.saturated_velocity_feedback(full, P=P_SAT, k=K_SAT),
+                  "reduced": ctl.saturated_velocity_feedback(red, P=P_SAT, k=K_SAT)}
         D = Minv @ psi0 @ Minv.T  # paper 001 after (18): D = M^-1 Psi'(0) M^-T
         for eq, k in (("hanging", 1), ("inverted", -1)):
             R = equilibrium_attitude(rho, inverted=eq == "inverted")

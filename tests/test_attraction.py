@@ -38,7 +38,7 @@ E3 = np.array([0.0, 0.0, 1.0])
 @pytest.fixture(scope="module")
 def pend():
     model = p3.reduced(**BODY)
-    return (model, ctl.saturated_velocity_feedback(model, np.diag([5.0, 10.0, 15.0]), 10.0),
+    return (model, ctl.saturated_velocity_feedback(model, P=np.diag([5.0, 10.0, 15.0]), k=10.0),
             ctl.velocity_feedback_lyapunov(model))
 
 

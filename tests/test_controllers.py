@@ -50,7 +50,7 @@ def _u(k: ca.Function, x: np.ndarray, p: np.ndarray) -> np.ndarray:
 def test_linear_velocity_feedback_on_both_models(full, reduced, rng):
     D = np.array([[3.0, 1.0, 0.0], [1.0, 2.0, 0.5], [0.0, 0.5, 1.0]])
     for model in (full, reduced):
-        k = ctl.angular_velocity_feedback(model, D)
+        k = ctl.angular_velocity_feedback(model, D=D)
         for _ in range(5):
             x = model.manifold.random_point(rng)
             w = x[-3:]
@@ -59,7 +59,7 @@ def test_linear_velocity_feedback_on_both_models(full, reduced, rng):
 
 def test_saturated_feedback_bound_and_exact_jacobian_at_rest(reduced, rng):
     P, kk = np.diag([5.0, 10.0, 15.0]), 10.0
-    k = ctl.saturated_velocity_feedback(reduced, P, kk)
+    k = ctl.saturated_velocity_feedback(reduced, P=P, k=kk)
     for scale in (1e-3, 1.0, 1e3, 1e8):
         x = np.r_[E3, scale * rng.standard_normal(3)]
         u = _u(k, x, reduced.p)
@@ -95,21 +95,21 @@ def test_general_psi_and_its_checks(reduced):
                                np.array([[1.0, 0.5, 0], [0, 1, 0], [0, 0, 1]])])
 def test_bad_damping_gain_names_condition_13(full, D):
     with pytest.raises(ParameterError, match=r"D must be symmetric positive definite.*\(13\)"):
-        ctl.angular_velocity_feedback(full, D)
+        ctl.angular_velocity_feedback(full, D=D)
 
 
 def test_bad_saturation_gains_name_condition_34(full):
     with pytest.raises(ParameterError, match=r"P must be symmetric positive definite.*\(34\)"):
-        ctl.saturated_velocity_feedback(full, np.diag([5.0, -10.0, 15.0]), 10.0)
+        ctl.saturated_velocity_feedback(full, P=np.diag([5.0, -10.0, 15.0]), k=10.0)
     with pytest.raises(ParameterError, match=r"k must be positive.*\(34\)"):
-        ctl.saturated_velocity_feedback(full, np.eye(3), 0.0)
+        ctl.saturated_velocity_feedback(full, P=np.eye(3), k=0.0)
     with pytest.raises(ParameterError, match="3x3"):
-        ctl.saturated_velocity_feedback(full, np.eye(2), 1.0)
+        ctl.saturated_velocity_feedback(full, P=np.eye(2), k=1.0)
 
 
 def test_velocity_feedback_needs_omega_factor():
     with pytest.raises(ModelError, match="omega"):
-        ctl.angular_velocity_feedback(spherical_pendulum(), np.eye(3))
+        ctl.angular_velocity_feedback(spherical_pendulum(), D=np.eye(3))
 
 
 def test_remark_2_spectrum_of_the_hanging_equilibrium(reduced):
@@ -121,7 +121,7 @@ def test_remark_2_spectrum_of_the_hanging_equilibrium(reduced):
     m, g, r = 2.0, 9.81, 0.4
     model = p3.reduced(J=J, rho=[0, 0, r], m=m, g=g)
     D = np.diag([0.7, 1.1, 0.9])
-    k = ctl.angular_velocity_feedback(model, D)
+    k = ctl.angular_velocity_feedback(model, D=D)
     ev = eigenstructure(linearize(model, np.r_[E3, 0, 0, 0], controller=k)).eigenvalues
     d = np.diag(D) / np.diag(J)  # D of (19) is M^-1 Psi'(0) M^-T
     lam = [m * g * r / J[0, 0], m * g * r / J[1, 1]]
@@ -138,7 +138,7 @@ def test_s2_pd_closed_loop_is_paper_002_equations_1_2(rng):
     for _ in range(5):
         qd = _unit(rng.standard_normal(3))
         kq, kw = rng.uniform(0.5, 3.0, 2)
-        k = ctl.s2_pd(model, qd, kq, kw)
+        k = ctl.s2_pd(model, qd, k_q=kq, k_w=kw)
         x = model.manifold.random_point(rng)
         q, w = x[:3], x[3:]
         xdot = model.rhs(x, _u(k, x, model.p))
@@ -149,7 +149,7 @@ def test_s2_pd_closed_loop_is_paper_002_equations_1_2(rng):
 def test_s2_pd_spectra_at_hanging_and_inverted():
     """Paper 002 Sec. II-C with k_q = k_w = 1: (-1 +- sqrt(3) i)/2 twice; saddle."""
     model = spherical_pendulum()
-    k = ctl.s2_pd(model, E3, 1.0, 1.0)
+    k = ctl.s2_pd(model, E3, k_q=1.0, k_w=1.0)
     ev = eigenstructure(linearize(model, np.r_[E3, 0, 0, 0], controller=k)).eigenvalues
     ref = np.array([-0.5 + 0.5j * np.sqrt(3), -0.5 - 0.5j * np.sqrt(3)] * 2)
     assert_close(np.sort_complex(ev), np.sort_complex(ref), atol=1e-7, what="hanging")
@@ -162,11 +162,11 @@ def test_s2_pd_spectra_at_hanging_and_inverted():
 def test_s2_pd_bad_input():
     model = spherical_pendulum()
     with pytest.raises(ManifoldError, match="q_d"):
-        ctl.s2_pd(model, [0.0, 0.0, 1.01], 1.0, 1.0)
+        ctl.s2_pd(model, [0.0, 0.0, 1.01], k_q=1.0, k_w=1.0)
     with pytest.raises(ParameterError, match="k_q"):
-        ctl.s2_pd(model, E3, -1.0, 1.0)
+        ctl.s2_pd(model, E3, k_q=-1.0, k_w=1.0)
     with pytest.raises(ParameterError, match="k_w"):
-        ctl.s2_pd(model, E3, 1.0, 0.0)
+        ctl.s2_pd(model, E3, k_q=1.0, k_w=0.0)
 
 
 def _e_R(R: np.ndarray, Rd: np.ndarray, G: np.ndarray) -> np.ndarray:
@@ -181,7 +181,7 @@ def test_so3_pd_closed_loop_is_paper_002_equation_13(rng):
     model = p3.full(J=J, rho=[0.05, -0.1, 0.3], m=1.5)
     for _ in range(4):
         Rd = SO3.matrix(SO3().random_point(rng))
-        k = ctl.so3_pd(model, Rd, kR, kW, G)
+        k = ctl.so3_pd(model, Rd, k_R=kR, k_Omega=kW, G=G)
         x = model.manifold.random_point(rng)
         R, w = SO3.matrix(x[:9]), x[9:]
         xdot = model.rhs(x, _u(k, x, model.p))
@@ -197,7 +197,7 @@ def test_so3_pd_equilibria_and_spectrum_at_the_goal():
     J, G = np.diag([3.0, 2.0, 1.0]), np.array([0.9, 1.0, 1.1])
     model = p3.full(J=J, rho=[0.0, 0.0, 0.3])
     Rd = so3_exp(np.array([0.3, -1.0, 0.5]))
-    k = ctl.so3_pd(model, Rd, 1.0, 1.0, np.diag(G))
+    k = ctl.so3_pd(model, Rd, k_R=1.0, k_Omega=1.0, G=np.diag(G))
     for i in range(3):
         Re = Rd @ so3_exp(np.pi * np.eye(3)[i])
         x = np.r_[SO3.flat(Re), 0, 0, 0]
@@ -212,15 +212,17 @@ def test_so3_pd_equilibria_and_spectrum_at_the_goal():
 def test_so3_pd_bad_input():
     model = p3.full(J=np.eye(3), rho=[0, 0, 1.0])
     with pytest.raises(ManifoldError, match="R_d"):
-        ctl.so3_pd(model, np.eye(3) + 1e-3 * hat([1.0, 0, 0]) @ hat([1.0, 0, 0]), 1, 1, [1, 1, 1])
+        ctl.so3_pd(model, np.eye(3) + 1e-3 * hat([1.0, 0, 0]) @ hat([1.0, 0, 0]), k_R=1,
+                   k_Omega=1, G=[1, 1, 1])
     with pytest.raises(ParameterError, match=r"G must be diagonal"):
-        ctl.so3_pd(model, np.eye(3), 1, 1, np.ones((3, 3)))
+        ctl.so3_pd(model, np.eye(3), k_R=1, k_Omega=1, G=np.ones((3, 3)))
     with pytest.raises(ParameterError, match=r"G must have positive"):
-        ctl.so3_pd(model, np.eye(3), 1, 1, [1.0, -1.0, 1.0])
+        ctl.so3_pd(model, np.eye(3), k_R=1, k_Omega=1, G=[1.0, -1.0, 1.0])
     with pytest.raises(ParameterError, match="k_Omega"):
-        ctl.so3_pd(model, np.eye(3), 1, 0, [1, 1, 1])
+        ctl.so3_pd(model, np.eye(3), k_R=1, k_Omega=0, G=[1, 1, 1])
     with pytest.raises(ModelError, match="SO3 state factor 'R'"):
-        ctl.so3_pd(p3.reduced(J=np.eye(3), rho=[0, 0, 1.0]), np.eye(3), 1, 1, [1, 1, 1])
+        ctl.so3_pd(p3.reduced(J=np.eye(3), rho=[0, 0, 1.0]), np.eye(3), k_R=1, k_Omega=1,
+                   G=[1, 1, 1])
 
 
 # ----------------------------------------------------------------------------------------
@@ -283,8 +285,8 @@ def test_cart_controller_bad_model_and_gain():
 
 def test_controllers_are_exportable_casadi_functions(full, cart, tmp_path):
     """Every controller is a plain (x, p) -> u casadi.Function that generates C code."""
-    fns = [ctl.saturated_velocity_feedback(full, np.eye(3), 1.0),
-           ctl.so3_pd(full, np.eye(3), 1.0, 1.0, [1.0, 2.0, 3.0]),
+    fns = [ctl.saturated_velocity_feedback(full, P=np.eye(3), k=1.0),
+           ctl.so3_pd(full, np.eye(3), k_R=1.0, k_Omega=1.0, G=[1.0, 2.0, 3.0]),
            ctl.cart_inverted_feedback(cart, **GAINS)]
     for fn in fns:
         assert fn.name_in() == ["x", "p"] and fn.name_out() == ["u"]
@@ -294,3 +296,15 @@ def test_controllers_are_exportable_casadi_functions(full, cart, tmp_path):
         gen.generate(str(tmp_path) + "/")
         text = (tmp_path / f"{fn.name()}.c").read_text()
         assert f"int {fn.name()}(" in text
+
+
+def test_gains_are_keyword_only():
+    full = p3.full(J=np.eye(3), rho=[0, 0, 1.0])
+    sphere = spherical_pendulum()
+    calls = [lambda: ctl.angular_velocity_feedback(full, np.eye(3)),
+             lambda: ctl.saturated_velocity_feedback(full, np.eye(3), 1.0),
+             lambda: ctl.s2_pd(sphere, E3, 1.0, 1.0),
+             lambda: ctl.so3_pd(full, np.eye(3), 1.0, 1.0, [1.0, 1.0, 1.0])]
+    for call in calls:
+        with pytest.raises(TypeError, match="positional argument"):
+            call()

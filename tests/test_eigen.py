@@ -103,7 +103,7 @@ def test_3d_pendulum_spectra_and_ambient_directions():
 
 def test_so3_pd_classification_of_paper_002():
     model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.1, -0.2, 0.3])
-    k = so3_pd(model, np.eye(3), 1.0, 1.0, [0.9, 1.0, 1.1])
+    k = so3_pd(model, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
     results = []
     for R in (np.eye(3), so3_exp([np.pi, 0, 0]), so3_exp([0, np.pi, 0]),
               so3_exp([0, 0, np.pi])):

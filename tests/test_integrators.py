@@ -97,7 +97,7 @@ def test_lgvi_is_symmetric_backward_undoes_forward(skew_body):
 
 
 def test_lgvi_with_dissipative_feedback_is_second_order(body):
-    k = C.angular_velocity_feedback(body, np.diag([0.4, 0.3, 0.5]))
+    k = C.angular_velocity_feedback(body, D=np.diag([0.4, 0.3, 0.5]))
     steps = np.array([0.04, 0.02, 0.01])
     errs = errors_against_cvodes(body, body_state(body, 2.0), 2.0, Method.LGVI, steps,
                                  controller=k)
@@ -111,7 +111,7 @@ def test_lgvi_with_dissipative_feedback_is_second_order(body):
 
 
 def test_lgvi_with_attitude_feedback_is_second_order(body):
-    k = C.so3_pd(body, np.eye(3), 2.0, 1.0, np.diag([1.0, 2.0, 3.0]))
+    k = C.so3_pd(body, np.eye(3), k_R=2.0, k_Omega=1.0, G=np.diag([1.0, 2.0, 3.0]))
     steps = np.array([0.04, 0.02, 0.01])
     x0 = body.state(R=so3_exp([0.5, -0.4, 0.3]), omega=[0.5, -0.2, 0.1])
     errs = errors_against_cvodes(body, x0, 2.0, Method.LGVI, steps, controller=k)
@@ -168,7 +168,7 @@ def test_s2_variational_is_second_order(sphere):
 
 
 def test_s2_variational_with_pd_feedback_is_second_order(sphere):
-    k = C.s2_pd(sphere, E3, 1.0, 1.0)
+    k = C.s2_pd(sphere, E3, k_q=1.0, k_w=1.0)
     steps = np.array([0.04, 0.02, 0.01])
     errs = errors_against_cvodes(sphere, sphere_state(sphere), 2.0, Method.S2_VARIATIONAL,
                                  steps, controller=k)
@@ -250,7 +250,7 @@ def test_rkmk4_on_the_chain_keeps_every_link_on_ts2():
 
 
 def test_rkmk4_backward_and_closed_loop(sphere):
-    k = C.s2_pd(sphere, E3, 1.0, 1.0)
+    k = C.s2_pd(sphere, E3, k_q=1.0, k_w=1.0)
     x0 = sphere_state(sphere)
     t = np.linspace(0.0, 2.0, 3)
     fwd = simulate(sphere, x0, t, controller=k, method="rkmk4", step=0.005)

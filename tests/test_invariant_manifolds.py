@@ -29,14 +29,14 @@ E3 = np.array([0.0, 0.0, 1.0])
 @pytest.fixture(scope="module")
 def sphere():
     model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
-    k = ctl.s2_pd(model, E3, 1.0, 1.0)
+    k = ctl.s2_pd(model, E3, k_q=1.0, k_w=1.0)
     return model, k, np.r_[-E3, np.zeros(3)], np.r_[E3, np.zeros(3)]
 
 
 @pytest.fixture(scope="module")
 def rigid():
     model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
-    k = ctl.so3_pd(model, np.eye(3), 1.0, 1.0, [0.9, 1.0, 1.1])
+    k = ctl.so3_pd(model, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
     return model, k
 
 

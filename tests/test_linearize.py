@@ -120,7 +120,7 @@ def test_labels_and_dimensions_of_the_papers_manifolds():
 def test_s2_pd_closed_loop_matches_paper_002_6_and_7():
     model = spherical_pendulum(m=1.3, l=0.7)
     kq, kw = 1.0, 1.0
-    k = s2_pd(model, E3, kq, kw)
+    k = s2_pd(model, E3, k_q=kq, k_w=kw)
     for q_e, ref_spec in (
         (E3, [(-1 + np.sqrt(3) * 1j) / 2, (-1 - np.sqrt(3) * 1j) / 2] * 2),
         (-E3, [-(np.sqrt(5) + 1) / 2] * 2 + [(np.sqrt(5) - 1) / 2] * 2),
@@ -271,7 +271,7 @@ def test_closed_loop_agrees_with_finite_differences(rng):
     model = spherical_pendulum(m=0.8, l=1.4)
     q_d = rng.standard_normal(3)
     q_d /= np.linalg.norm(q_d)
-    k = s2_pd(model, q_d, 2.0, 0.7)
+    k = s2_pd(model, q_d, k_q=2.0, k_w=0.7)
     for q_e in (q_d, -q_d):
         x_e = model.state(q=np.r_[q_e, np.zeros(3)])
         lin = linearize(model, x_e, controller=k)

@@ -72,7 +72,7 @@ def test_geometric_feedback_linearises_to_minus_k_and_stabilises_the_nonlinear_c
 
 def test_law_for_a_closed_loop_linearisation_adds_to_the_controller():
     model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
-    k0 = angular_velocity_feedback(model, np.eye(3))
+    k0 = angular_velocity_feedback(model, D=np.eye(3))
     x_e = model.state(R=so3_exp([np.pi, 0.0, 0.0]), omega=np.zeros(3))
     lin = linearize(model, x_e, controller=k0)
     res = lqr(lin, np.eye(6), np.eye(3))

@@ -32,7 +32,7 @@ def _states(model, rng, n, w_scale=1.0):
 @pytest.mark.parametrize("which", ["full", "reduced"])
 def test_v30_derivative_is_minus_omega_psi(which, rng):
     model = getattr(p3, which)(**BODY)
-    k = ctl.saturated_velocity_feedback(model, P, K_SAT)
+    k = ctl.saturated_velocity_feedback(model, P=P, k=K_SAT)
     V = ctl.velocity_feedback_lyapunov(model)
     X = _states(model, rng, 20, w_scale=2.0)
     W = X[:, -3:]
@@ -80,7 +80,7 @@ def test_monotonicity_detects_growth_and_decay(rng):
     V = ctl.velocity_feedback_lyapunov(model)
     x0 = np.r_[np.array([0.6, 0.0, 0.8]), 0.3, -0.2, 0.1]
     t = np.linspace(0.0, 5.0, 101)
-    damped = simulate(model, x0, t, controller=ctl.angular_velocity_feedback(model, P))
+    damped = simulate(model, x0, t, controller=ctl.angular_velocity_feedback(model, D=P))
     mono = V.monotonicity(damped, tolerance=1e-9)
     assert mono.ok and mono.max_increase == 0.0 and mono.Vf < mono.V0
     # negative damping u = +P omega: V grows (dV/dt = omega^T P omega > 0)
@@ -130,6 +130,6 @@ def test_derivatives_for_two_controllers_of_the_same_name_do_not_mix():
     V = ctl.velocity_feedback_lyapunov(model)
     X = np.array([[0.0, 0.0, 1.0, 1.0, 0.0, 0.0]] * 3)
     for kk in (1.0, 5.0, 1.0):
-        k = ctl.saturated_velocity_feedback(model, np.eye(3), kk)
+        k = ctl.saturated_velocity_feedback(model, P=np.eye(3), k=kk)
         assert_close(V.derivative_values(X, k), np.full(3, -kk / 2), atol=1e-14,
                      what=f"k = {kk}: V-dot = -k |w|^2 / (1 + |w|)")

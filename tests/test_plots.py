@@ -41,7 +41,7 @@ def _close():
 @pytest.fixture(scope="module")
 def s2_manifold():
     model = spherical_pendulum()
-    k = ctl.s2_pd(model, E3, 1.0, 1.0)
+    k = ctl.s2_pd(model, E3, k_q=1.0, k_w=1.0)
     return stable_manifold(model, np.r_[-E3, 0, 0, 0], controller=k, n_points=12,
                            horizon=10.0, step=0.005, output_step=0.05)
 
@@ -122,7 +122,7 @@ def test_s2_manifold_figure_panels_and_svg_size(s2_manifold):
 
 def test_so3_manifold_figure_marks_the_attitudes():
     model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
-    k = ctl.so3_pd(model, np.eye(3), 1.0, 1.0, [0.9, 1.0, 1.1])
+    k = ctl.so3_pd(model, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
     R_e = np.diag([1.0, -1.0, -1.0])
     W = stable_manifold(model, np.r_[SO3.flat(R_e), 0, 0, 0], controller=k, n_points=6,
                         horizon=4.0, step=0.01, output_step=0.5)
@@ -133,6 +133,7 @@ def test_so3_manifold_figure_marks_the_attitudes():
     assert {"I:1", "I:2", "I:3", "saddle:1", "saddle:2", "saddle:3"} <= labels
     with pytest.raises(ModelError, match="SO3"):
         sphere = spherical_pendulum()
-        Ws = stable_manifold(sphere, np.r_[-E3, 0, 0, 0], controller=ctl.s2_pd(sphere, E3, 1, 1),
+        Ws = stable_manifold(sphere, np.r_[-E3, 0, 0, 0],
+                             controller=ctl.s2_pd(sphere, E3, k_q=1, k_w=1),
                              n_points=4, horizon=0.5, step=0.05, output_step=0.5)
         so3_manifold_figure(Ws, [0.5])

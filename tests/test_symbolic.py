@@ -58,7 +58,7 @@ def test_open_loop_full_model_is_paper_000_3_22_to_3_24():
 
 def test_spherical_pd_polynomials_of_paper_002():
     model = spherical_pendulum()
-    k = s2_pd(model, [0.0, 0.0, 1.0], 1.0, 1.0)
+    k = s2_pd(model, [0.0, 0.0, 1.0], k_q=1.0, k_w=1.0)
     hang = symbolic_linearization(model, model.state(q=[0, 0, 1.0, 0, 0, 0]), controller=k)
     inv = symbolic_linearization(model, model.state(q=[0, 0, -1.0, 0, 0, 0]), controller=k)
     assert sp.expand(hang.factored() - (s**2 + s + 1) ** 2) == 0
