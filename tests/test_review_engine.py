@@ -460,3 +460,30 @@ def test_geometric_feedback_keeps_the_original_error(planar):
     assert isinstance(info.value.__cause__, RuntimeError)
     law = geometric_feedback(lin, np.zeros((0, 2)))  # no controller: SX, nothing to retry
     assert law.is_a("SXFunction") and law.nnz_out(0) == 0
+
+
+# ----------------------------------------------------------------------------------------
+# simulate refuses knobs its method would ignore
+
+
+@pytest.mark.parametrize(("kw", "words"), [
+    ({"step": 0.1}, ["method 'cvodes' does not use step=0.1", "rtol, atol"]),
+    ({"degree": 3}, ["method 'cvodes' does not use degree=3"]),
+    ({"method": "rk", "step": 0.1, "degree": 3}, ["method 'rk' does not use degree=3"]),
+    ({"jit": True}, ["method 'cvodes' does not use jit=True"]),
+    ({"method": "collocation", "step": 0.1, "jit": True},
+     ["method 'collocation' does not use jit=True", "'lgvi'"]),
+    ({"step": 0.1, "degree": 2}, ["step=0.1", "degree=2"]),
+])
+def test_simulate_refuses_knobs_its_method_ignores(planar, kw, words):
+    with pytest.raises(ModelError) as info:
+        simulate(planar, planar_state(planar), [0.0, 1.0], **kw)
+    assert all(w in str(info.value) for w in words), str(info.value)
+
+
+def test_simulate_collocation_degree_defaults_to_four(planar):
+    x0 = planar_state(planar)
+    a = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1)
+    b = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1, degree=4)
+    assert a.options["degree"] == b.options["degree"] == 4
+    assert_close(a.final, b.final, atol=0.0, what="same method")

@@ -246,7 +246,7 @@ def simulate(
     rtol: float = 1e-10,
     atol: float = 1e-10,
     step: float | None = None,
-    degree: int = 4,
+    degree: int | None = None,
     multistep: Multistep | str = Multistep.ADAMS,
     max_steps: int = 1_000_000,
     tol: float = DEFAULT_TOL,
@@ -274,10 +274,10 @@ def simulate(
     rtol, atol : float
         Relative and absolute tolerances (CVODES only).
     step : float, optional
-        Largest step for the fixed-step methods (required for them); each output
-        interval is split into ``ceil(interval / step)`` equal steps.
-    degree : int
-        Collocation degree (Legendre points), for ``"collocation"``.
+        Largest step for the fixed-step methods (required for them, refused for CVODES);
+        each output interval is split into ``ceil(interval / step)`` equal steps.
+    degree : int, optional
+        Collocation degree (Legendre points), for ``"collocation"`` only (default 4).
     multistep : Multistep or str
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
     max_steps : int
@@ -290,7 +290,8 @@ def simulate(
     newton_max_iter : int
         Newton iterations per implicit update of those methods.
     jit : bool
-        Compile the step of a geometric method to C (SX models; ~1 s once per process).
+        Compile the step of a geometric method to C (SX models; ~1 s once per process);
+        refused for the casadi methods.
 
     Returns
     -------
@@ -301,7 +302,8 @@ def simulate(
     ModelError
         Bad input: an unknown ``method`` or ``multistep``, bad times, tolerances,
         ``max_steps``, ``step`` (the check of :func:`workbench.integrators.integrate`,
-        raised as ModelError here) or ``degree``, or a bad controller.
+        raised as ModelError here) or ``degree``, a bad controller, or ``step``,
+        ``degree`` or ``jit`` given to a method that does not use them.
     ManifoldError
         If ``x0`` is off the manifold.
     SolverError
@@ -315,6 +317,7 @@ def simulate(
         if not (isinstance(val, (int, float, np.number)) and np.isfinite(val) and val > 0):
             raise ModelError(f"{name} must be positive and finite; got {val!r}")
     max_steps = count("max_steps", max_steps, error=ModelError)
+    _check_knobs_used(method, step=step, degree=degree, jit=jit)
     x0v = model.check_state(x0, name="x0", tol=tol)
     tv = _times(t)
     horizon = abs(tv[-1] - tv[0])
@@ -340,7 +343,7 @@ def simulate(
         opts["number_of_finite_elements"] = n_fe
         options_used.update(step=dt_out / n_fe, requested_step=step)
         if method is Method.COLLOCATION:
-            degree = count("degree", degree, error=ModelError)
+            degree = count("degree", 4 if degree is None else degree, error=ModelError)
             opts.update(interpolation_order=degree, collocation_scheme="legendre")
             options_used["degree"] = int(degree)
 
@@ -407,6 +410,22 @@ def simulate(
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
     return traj
+
+
+def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
+    """Refuse knobs that the method would silently ignore."""
+    unused = []
+    if step is not None and method is Method.CVODES:
+        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol)")
+    if degree is not None and method is not Method.COLLOCATION:
+        unused.append(f"degree={degree!r} (the collocation degree)")
+    if jit and method not in GEOMETRIC_METHODS:
+        unused.append(f"jit={jit!r} (compiles the step of {[m.value for m in GEOMETRIC_METHODS]})")
+    if unused:
+        raise ModelError(
+            f"method {method.value!r} does not use {', '.join(unused)}; drop it or choose a "
+            f"method that uses it"
+        )
 
 
 def _simulate_geometric(
