@@ -25,7 +25,8 @@ import casadi as ca
 import numpy as np
 
 from workbench._types import ArrayLike
-from workbench.errors import ParameterError
+from workbench.errors import ModelError, ParameterError
+from workbench.lyapunov import as_states, state_function
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp
 from workbench.model import Context, Model, Parameter, finite, positive, spd3
 
@@ -326,6 +327,10 @@ def reconstruct(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(5.13)-(5.14): attitudes and angular velocities from reconstruction states.
 
+    ``R = exp(theta hat(e3)) R_hor`` and ``omega = omega_hor + nu Gamma``, evaluated by a
+    casadi function built from the same terms (:func:`_routh_terms`) as the model's field,
+    mapped over the states.
+
     Parameters
     ----------
     model : Model
@@ -337,18 +342,27 @@ def reconstruct(
     -------
     R : ndarray, shape=(n_times, 3, 3)
     omega : ndarray, shape=(n_times, 3)
+
+    Raises
+    ------
+    ModelError
+        ``model`` is not a reconstruction model, or ``states`` has the wrong shape or is
+        not finite.
     """
-    J, mu = model.values["J"], float(model.values["mu"])
-    Rs, ws = [], []
-    for s in np.atleast_2d(states):
-        gam, gdot, Rh, theta = s[:3], s[3:6], SO3.matrix(s[6:15]), s[15]
-        JG = J @ gam
-        gJg = gam @ JG
-        gxg = np.cross(gdot, gam)
-        b = (JG @ gxg) / gJg
-        Rs.append(so3_exp(theta * E3) @ Rh)
-        ws.append(gxg - b * gam + (mu / gJg) * gam)
-    return np.array(Rs), np.array(ws)
+    if model.manifold.names != ["Gamma", "R_hor", "theta"]:
+        raise ModelError(f"model must be a routh_reconstruction model (factors Gamma, R_hor, "
+                         f"theta); got {model.name!r} with factors {model.manifold.names}")
+    X = as_states(model, states)
+
+    def build(ctx: Context) -> ca.SX:
+        t = _routh_terms(ctx)
+        R = so3_exp(ctx["theta"] * ca.DM(E3)) @ SO3.matrix(ctx["R_hor"])
+        return ca.vertcat(ca.vec(R), t["omega_hor"] + t["nu"] * t["gam"])
+
+    fn = state_function(model, "reconstruct", build, out="R_omega")
+    out = np.asarray(fn.map(X.shape[0])(X.T, model.p)).T
+    # vec(R) is column-major: row k of out[:, :9] reshaped row-major is R^T
+    return out[:, :9].reshape(-1, 3, 3).transpose(0, 2, 1), out[:, 9:]
 
 
 # ----------------------------------------------------------------------------------------

@@ -9,7 +9,7 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from problems.pendulum3d_invariants import planar_period
-from workbench.errors import ManifoldError
+from workbench.errors import ManifoldError, ModelError
 from workbench.manifolds import SO3, TS2
 from workbench.simulate import simulate
 
@@ -102,6 +102,10 @@ def test_routh_reconstruction_gives_back_the_full_motion():
     R, w = p3.reconstruct(recon, b.x)
     assert_close(R, a.part("R"), atol=1e-7, what="R (5.13)")
     assert_close(w, a.x[:, 9:], atol=1e-7, what="omega (5.14)")
+    with pytest.raises(ModelError, match="routh_reconstruction"):
+        p3.reconstruct(full, a.x)
+    with pytest.raises(ModelError, match=r"shape \(n, 16\)"):
+        p3.reconstruct(recon, b.x[:, :15])
 
 
 def test_planar_period_matches_the_elliptic_integral():
