@@ -31,6 +31,7 @@ import numpy as np
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
+from workbench._types import ArrayLike
 from workbench.controllability import kalman_rank, pbh, pbh_second_order, second_order_form
 from workbench.eigen import eigenstructure
 from workbench.linearize import linearize
@@ -42,14 +43,35 @@ PARAMS = {"m": 0.5, "masses": 0.1, "lengths": 0.1, "g": 9.81}
 E3 = np.array([0.0, 0.0, 1.0])
 
 
-def paper_matrices(n: int, s: tuple[float, ...], *, m: float, masses: float, lengths: float,
-                   g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """M, G, B of paper 003 (16) (with the errata of papers/README.md) for equal links.
+def paper_matrices(n: int, s: tuple[float, ...], *, m: float, masses: ArrayLike,
+                   lengths: ArrayLike, g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """M, G, B of paper 003 (16) (with the errata of papers/README.md), typed from the paper.
 
     ``M_xq = [-s_i M_0i hat(e3) C]``, ``M_qq = [s_i s_j M_ij I2]`` (``M_ii I2`` on the
-    diagonal), ``G_qq = diag(s_i sum_{a >= i} m_a g l_i I2)``, ``B = [I2; 0]``.
+    diagonal), ``G_qq = diag(s_i sum_{a >= i} m_a g l_i I2)``, ``B = [I2; 0]``. The
+    independent reference for the graph's second-order form (here and in
+    tests/test_controllability.py); never used by the engine.
+
+    Parameters
+    ----------
+    n : int
+        Number of links.
+    s : tuple of float
+        The signs ``s_i`` of the equilibrium ``q_i = s_i e3``.
+    m : float
+        Cart mass.
+    masses, lengths : float or array-like, shape=(n,)
+        Link masses and lengths (a scalar for equal links).
+    g : float
+        Gravitational acceleration.
+
+    Returns
+    -------
+    M, G : ndarray, shape=(2n + 2, 2n + 2)
+    B : ndarray, shape=(2n + 2, 2)
     """
-    mi, li = np.full(n, masses), np.full(n, lengths)
+    mi = np.broadcast_to(np.asarray(masses, dtype=float), (n,))
+    li = np.broadcast_to(np.asarray(lengths, dtype=float), (n,))
     tail = [mi[i:].sum() for i in range(n)]
     e3C = np.array([[0.0, -1.0], [1.0, 0.0]])  # C^T hat(e3) C
     k = 2 * n + 2
@@ -58,12 +80,12 @@ def paper_matrices(n: int, s: tuple[float, ...], *, m: float, masses: float, len
     B[:2] = np.eye(2)
     for i in range(n):
         bi = slice(2 + 2 * i, 4 + 2 * i)
-        M[:2, bi] = -s[i] * tail[i] * li[i] * e3C
+        M[:2, bi] = -s[i] * tail[i] * li[i] * e3C  # M_xq = -s_i M_0i hat(e3) C
         M[bi, :2] = M[:2, bi].T
         for j in range(n):
             sij = 1.0 if i == j else s[i] * s[j]
             M[bi, 2 + 2 * j:4 + 2 * j] = sij * tail[max(i, j)] * li[i] * li[j] * np.eye(2)
-        G[bi, bi] = s[i] * tail[i] * g * li[i] * np.eye(2)
+        G[bi, bi] = s[i] * tail[i] * g * li[i] * np.eye(2)  # erratum: last block s_n m_n g l_n
     return M, G, B
 
 

@@ -12,6 +12,7 @@ from conftest import assert_close
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
+from problems.chain_linearization import paper_matrices as chain_paper_matrices
 from workbench.controllability import (
     kalman_rank,
     pbh,
@@ -23,26 +24,6 @@ from workbench.linearize import linearize, mechanical_order
 from workbench.manifolds import hat, so3_exp
 
 E3 = np.array([0.0, 0.0, 1.0])
-
-
-def chain_paper_matrices(n, s, *, m, masses, lengths, g):
-    """Paper 003 (16) with the errata (independent check; never used by the engine)."""
-    mi, li = np.asarray(masses, float), np.asarray(lengths, float)
-    tail = [mi[i:].sum() for i in range(n)]
-    J2 = np.array([[0.0, -1.0], [1.0, 0.0]])  # C^T hat(e3) C
-    k = 2 * n + 2
-    M, G, B = np.zeros((k, k)), np.zeros((k, k)), np.zeros((k, 2))
-    M[:2, :2] = (m + mi.sum()) * np.eye(2)
-    B[:2] = np.eye(2)
-    for i in range(n):
-        bi = slice(2 + 2 * i, 4 + 2 * i)
-        M[:2, bi] = -s[i] * tail[i] * li[i] * J2            # M_xq = -s_i M_0i hat(e3) C
-        M[bi, :2] = M[:2, bi].T
-        for j in range(n):
-            sij = 1.0 if i == j else s[i] * s[j]
-            M[bi, 2 + 2 * j:4 + 2 * j] = sij * tail[max(i, j)] * li[i] * li[j] * np.eye(2)
-        G[bi, bi] = s[i] * tail[i] * g * li[i] * np.eye(2)    # erratum: last block s_n m_n g l_n
-    return M, G, B
 
 
 def chain_equilibrium(n, s, x=(0.0, 0.0)):
