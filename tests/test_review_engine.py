@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import gc
 import importlib
 import json
 import sys
+import weakref
 from dataclasses import replace
 
 import casadi as ca
@@ -19,6 +21,7 @@ from workbench.attraction import check_convergence
 from workbench.branch import PointKind, StepControl
 from workbench.codegen import agreement, compile_sources, generate
 from workbench.continuation import continue_branch, switch_branch
+from workbench.controllability import second_order_form
 from workbench.eigen import eigenstructure
 from workbench.errors import ModelError, ParameterError, SolverError
 from workbench.evaluator import DenseEvaluator, Evaluator
@@ -487,3 +490,23 @@ def test_simulate_collocation_degree_defaults_to_four(planar):
     b = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1, degree=4)
     assert a.options["degree"] == b.options["degree"] == 4
     assert_close(a.final, b.final, atol=0.0, what="same method")
+
+
+# ----------------------------------------------------------------------------------------
+# the energy Hessian lives with the model's graphs (no unbounded module cache)
+
+
+def test_energy_hessian_is_cached_with_the_model_and_released_with_it(monkeypatch):
+    amb = importlib.import_module("workbench.ambient_linearization")
+    monkeypatch.setattr(amb, "_JAC_CACHE", {})  # linearize's bounded cache, emptied below
+    model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.5])
+    x_e = model.state(R=np.diag([1.0, -1.0, -1.0]), omega=np.zeros(3))  # hanging
+    forms = [second_order_form(model, x_e, pairs={"R": "omega"}),
+             second_order_form(model.with_parameters(m=2.0), x_e, pairs={"R": "omega"})]
+    assert_close(forms[1].G, 2.0 * forms[0].G, atol=1e-12, what="G scales with m")
+    assert model.build_log.names().count(f"{model.name}.energy_hessian") == 1
+    graphs = weakref.ref(model._graphs)
+    amb._JAC_CACHE.clear()
+    del model, forms
+    gc.collect()
+    assert graphs() is None, "a module-level cache keeps the model's graphs alive"

@@ -24,7 +24,6 @@ reported because it grows quickly with ``n`` and makes the rank decision fragile
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,7 +35,7 @@ import scipy.linalg as sla
 from workbench._types import ArrayLike, Matrix, Vector
 from workbench.errors import ModelError
 from workbench.linearize import LinearModel, linearize, mechanical_order
-from workbench.model import BuildRecord, Model
+from workbench.model import Model
 
 __all__ = [
     "ModeTest",
@@ -346,15 +345,14 @@ class SecondOrderForm:
     checks: dict[str, float] = field(default_factory=dict)
 
 
-_HESS_CACHE: dict[tuple[int, str], tuple[Any, ca.Function]] = {}
-
-
 def _energy_derivatives(model: Model, energy: str) -> ca.Function:
-    graphs = model._graphs  # noqa: SLF001 - identity of the shared graphs
-    key = (id(graphs), energy)
-    hit = _HESS_CACHE.get(key)
-    if hit is None:
-        t0 = time.perf_counter()
+    """``(x, p, lam) -> (grad E, hess E, hess (lam . h), dh/dx)``, built once per model graphs.
+
+    Cached and logged with the model's own functions (shared by
+    :meth:`Model.with_parameters`, released with the model).
+    """
+
+    def make() -> ca.Function:
         E = model.function(energy)
         S = model.sym
         x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
@@ -365,16 +363,13 @@ def _energy_derivatives(model: Model, energy: str) -> ca.Function:
         lam = S.sym("lam", h.shape[0])
         e = E(x, p)
         grad = ca.gradient(e, x)
-        fn = ca.Function(
+        return ca.Function(
             "energy_hessian", [x, p, lam],
             [grad, ca.hessian(e, x)[0], ca.hessian(ca.dot(lam, h), x)[0], ca.jacobian(h, x)],
             ["x", "p", "lam"], ["grad", "hess", "hess_lh", "dh"],
         )
-        model.build_log.add(BuildRecord(f"{model.name}.{energy}_hessian", int(fn.n_nodes()),
-                                        time.perf_counter() - t0, model.symbolic))
-        hit = (graphs, fn)
-        _HESS_CACHE[key] = hit
-    return hit[1]
+
+    return model._build(f"{energy}_hessian", make)  # noqa: SLF001 - the model's graph cache
 
 
 def second_order_form(
