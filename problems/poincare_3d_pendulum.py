@@ -206,9 +206,12 @@ def solve(*, quick: bool = False) -> Result:
         res.compare(f"{label}: wrap(theta_reconstruction - theta_(5.15)) [rad]", 0.0,
                     pc.difference, tolerance=1e-9,
                     source="Prop. 18 (5.15) vs Prop. 17 (R_hor holonomy)")
-        res.compare(f"{label}: (theta_cap - theta_other_cap) / 4 pi", round(pc.caps_differ_by),
+        # the two cones bound the two caps of the simple loop, both with the loop's sense
+        # sigma = sign of its signed solid angle, so they differ by sigma int_S2 F dA
+        sigma = float(np.sign(pc.signed_area))
+        res.compare(f"{label}: (theta_cap - theta_other_cap) / 4 pi", -sigma,
                     pc.caps_differ_by, tolerance=1e-8,
-                    source="int_S2 F dA = -4 pi (Euler number 2)")
+                    source="int_S2 F dA = -4 pi (Euler number 2), loop sense sigma")
         total = wrap_angle(pc.theta_formula + pc.dynamic_phase)
         res.compare(f"{label}: wrap(theta_full - theta_(5.15) - theta_dyn) [rad]", 0.0,
                     wrap_angle(ph["theta_full"] - total), tolerance=1e-8,
