@@ -85,6 +85,10 @@ class ModelSheet:
     field_note: str
     built: list[str]
     available: list[str]
+    heading: str = ""
+
+    def __post_init__(self) -> None:
+        self.heading = self.heading or self.name
 
 
 def _coordinates(model: Model) -> list[list[str]]:
@@ -183,9 +187,14 @@ def problem_section(run: ProblemRun, *, quick: bool) -> ProblemSection:
     res = run.result
     if res is None:
         return sec
+    seen: dict[str, int] = {}
     for m in _distinct_models(run.models):
         try:
-            sec.models.append(model_sheet(m))
+            sheet = model_sheet(m)
+            seen[m.name] = seen.get(m.name, 0) + 1
+            if seen[m.name] > 1:
+                sheet.heading = f"{m.name} (parameter set {seen[m.name]})"
+            sec.models.append(sheet)
         except Exception as exc:  # noqa: BLE001 - a sheet that fails is noted, not fatal
             sec.notes.append(f"model {m.name!r} could not be typeset: {exc}")
     sec.built = build_table(res)
@@ -239,7 +248,7 @@ def document(runs: list[ProblemRun], *, quick: bool, seconds: float,
         rows.append([
             s.name, s.status.value, f"{n_ok}/{len(comps)}", f"{s.seconds:.2f}",
             str(len(r.result.build_log)) if r.result else "-",
-            ", ".join(m.name for m in s.models) or "-",
+            ", ".join(dict.fromkeys(m.name for m in s.models)) or "-",
         ])
         status.append("ok" if s.status is Status.OK else "bad")
     n_ok = sum(st == "ok" for st in status)
