@@ -130,4 +130,5 @@ def render_pdf(doc: Document) -> bytes:
             try:
                 return _compile(work, typst_data(doc, figures, raw_math=True))
             except typst.TypstError as exc:
-                raise ReportError(f"typst failed: {exc}") from first
+                message = " ".join(str(exc).split())  # one line for the command line
+                raise ReportError(f"typst failed: {message}") from first
