@@ -48,6 +48,8 @@ class OCPStatus(Enum):
     INFEASIBLE = "the problem is locally infeasible (no point satisfies the constraints)"
     MAX_ITERATIONS = "the iteration limit was reached before convergence"
     FAILED = "Ipopt failed"
+    INACCURATE = ("Ipopt converged, but the transcribed trajectory does not follow the "
+                  "dynamics to defect_tol (local defect against CVODES on each interval)")
 
     @classmethod
     def from_ipopt(cls, status: str) -> OCPStatus:
@@ -98,7 +100,11 @@ class OCPSolution:
         ``solve_seconds``, ``iterations``, ``nlp_variables``, ``nlp_constraints``.
     error : dict
         ``constraint_violation`` (max over the NLP's constraints, from their bounds),
-        ``manifold_residual`` (max over the nodes), ``target_residual``; after
+        ``manifold_residual`` (max over the nodes), ``target_residual``,
+        ``local_defect`` (converged solves: max over the intervals of
+        ``|Phi_h(x_k, u_k) - x_(k+1)|``, the node ``x_k`` integrated over the interval
+        with its control by CVODES, rtol 1e-10: how far the transcribed trajectory is
+        from one of the model, independent of the open-loop growth of errors); after
         :meth:`resimulate`, also ``resim_end_error``, ``resim_target_residual``.
     ocp : OCP
         The problem.
@@ -127,11 +133,13 @@ class OCPSolution:
     def message(self) -> str:
         """One readable line: status, Ipopt's status, iterations, times, cost."""
         c = self.cost
+        defect = (f", local defect {self.error['local_defect']:.1e}"
+                  if "local_defect" in self.error else "")
         return (
             f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
             f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
-            f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s "
-            f"[{self.describe()}]"
+            f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s"
+            f"{defect} [{self.describe()}]"
         )
 
     def describe(self) -> str:
@@ -276,6 +284,7 @@ def solve(
     print_level: int = 0,
     ipopt_options: dict[str, Any] | None = None,
     raise_on_failure: bool = True,
+    defect_tol: float | None = None,
 ) -> OCPSolution:
     """Transcribe and solve an OCP with Ipopt (exact Hessian).
 
@@ -302,6 +311,11 @@ def solve(
         Further Ipopt options.
     raise_on_failure : bool
         Raise :class:`SolverError` unless the status is SUCCESS or ACCEPTABLE.
+    defect_tol : float, optional
+        Largest accepted ``error["local_defect"]`` of a converged solve; above it the
+        status is INACCURATE (a too coarse transcription, e.g. a long horizon on few
+        intervals, can converge to an NLP solution that is no trajectory of the model).
+        Without it the defect is only measured and reported.
 
     Returns
     -------
@@ -363,11 +377,28 @@ def solve(
         error=error, ocp=ocp, w=w, lam_x=np.asarray(sol["lam_x"], float).ravel(),
         lam_g=np.asarray(sol["lam_g"], float).ravel(),
     )
+    if status.ok:
+        out.error["local_defect"] = _local_defect(out)
+        if defect_tol is not None and not out.error["local_defect"] <= defect_tol:
+            out.status = status = OCPStatus.INACCURATE
     if raise_on_failure and not status.ok:
         err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=ipopt_status)
         err.solution = out  # type: ignore[attr-defined]
         raise err
     return out
+
+
+def _local_defect(sol: OCPSolution) -> float:
+    """Max over intervals of ``|Phi_h(x_k, u_k) - x_(k+1)|`` (CVODES, rtol 1e-10)."""
+    from workbench.ocp.stepper import Stepper
+
+    stepper = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
+    h = sol.T / len(sol.u)
+    try:
+        return max(float(np.max(np.abs(stepper.step(x, u, h) - xn)))
+                   for x, u, xn in zip(sol.x[:-1], sol.u, sol.x[1:]))
+    except SolverError:  # the nodes are not even integrable: no trajectory at all
+        return float("inf")
 
 
 def multistart(
