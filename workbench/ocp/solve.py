@@ -45,7 +45,8 @@ class OCPStatus(Enum):
 
     SUCCESS = "solved to the requested tolerance"
     ACCEPTABLE = "solved to Ipopt's acceptable tolerance only"
-    INFEASIBLE = "the problem is locally infeasible (no point satisfies the constraints)"
+    INFEASIBLE = ("locally infeasible: Ipopt stopped at a local minimum of the constraint "
+                  "violation (there may be no feasible point, or none near this guess)")
     MAX_ITERATIONS = "the iteration limit was reached before convergence"
     FAILED = "Ipopt failed"
     INACCURATE = ("Ipopt converged, but the transcribed trajectory does not follow the "
