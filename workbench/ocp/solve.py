@@ -329,6 +329,10 @@ def solve(
     """
     method = method or Collocation()
     opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
+    if defect_tol is not None and not (isinstance(defect_tol, (int, float, np.number))
+                                       and np.isfinite(defect_tol) and defect_tol > 0):
+        raise ParameterError(f"defect_tol must be a positive finite number or None; got "
+                             f"{defect_tol!r}")
     tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
     lbw, ubw = tr.bounds(ocp)
     args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg, "ubg": tr.ubg,
