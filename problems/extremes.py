@@ -18,8 +18,9 @@ principal moments beside Prop. 9 case 7(a); fast and slow motion (spin 1e3 rad/s
 the sleeping top's closed form, periods near the separatrix, horizons of 10^5 s for the
 geometric integrators); continuation near the singular values alpha = 0 and 1/J_i of
 Prop. 9; large chains (n = 20, and n = 50 when not quick) in subprocesses so that the
-peak resident memory is per case; a sample of bad inputs. The swing-up optimisation
-extremes are added when workbench.ocp lands (see the notes).
+peak resident memory is per case; the swing-up optimisation at nearly infeasible bounds
+and very short and very long horizons (Ipopt's status, and the transcription's local
+defect against CVODES); a sample of bad inputs.
 """
 
 from __future__ import annotations

@@ -63,6 +63,8 @@ from workbench.ftle import lyapunov_exponent
 from workbench.integrators import integrate, lgvi
 from workbench.lyapunov import Lyapunov, as_states
 from workbench.manifolds import sphere_basis
+from workbench.ocp import OCP, Collocation, TargetPoint
+from workbench.ocp import solve as ocp_solve_fn
 from workbench.phase import first_self_intersection, holonomy_angle, phase_density
 from workbench.poincare import poincare_map, stabilized_field, turning_section
 from workbench.relative_equilibria import rotation_problem, static_equilibria
@@ -99,6 +101,24 @@ def x_hang():
 @cache
 def lin():
     return linearize(red(), x_hang())
+
+
+@cache
+def cart():
+    return chain_cart(1, m=0.5, masses=0.1, lengths=0.1, g=9.81)
+
+
+def ocp(**kw: Any) -> Any:
+    """The swing-up OCP of the cart with keyword overrides."""
+    args = {"x0": np.r_[0, 0, 0, 0, 0, 0, 1.0, 0, 0, 0], "u_lower": -10.0, "u_upper": 10.0,
+            "T": (0.5, 3.0), "target": TargetPoint(cart().manifold,
+                                                   np.r_[0, 0, 0, 0, 0, 0, -1.0, 0, 0, 0])}
+    args.update(kw)
+    return OCP(cart(), **args)
+
+
+def ocp_solve(**kw: Any) -> Any:
+    return ocp_solve_fn(ocp(), Collocation(N=4), **kw)
 
 
 def sim(**kw: Any) -> Any:
@@ -416,6 +436,24 @@ CASES = [
          "values", "numbers", "'speed'"),
     case("work_precision-horizon", lambda: work_precision(full(), x_full(), 0.0, []), P,
          "horizon", "positive", "0"),
+    # --- optimal control
+    case("ocp-bounds-crossed", lambda: ocp(u_lower=1.0, u_upper=-1.0), P,
+         "u_lower must not exceed u_upper", "[1.0, 1.0]"),
+    case("ocp-bounds-shape", lambda: ocp(u_lower=[-1, -1, -1]), P, "u_lower", "2 entries"),
+    case("ocp-bounds-nan", lambda: ocp(u_upper=NAN), P, "u_upper", "nan"),
+    case("ocp-T-negative", lambda: ocp(T=-1.0), P, "T must satisfy", "-1.0"),
+    case("ocp-T-reversed", lambda: ocp(T=(3.0, 1.0)), P, "T must satisfy", "(3.0, 1.0)"),
+    case("ocp-T-str", lambda: ocp(T="long"), P, "T must", "'long'"),
+    case("ocp-x0-not-tangent", lambda: ocp(x0=np.r_[0, 0, 0, 0, 0, 0, 1.0, 1.0, 0, 1.0]), M,
+         "x0", "not on TS2"),
+    case("ocp-target-not-unit", lambda: TargetPoint(cart().manifold,
+                                                    np.r_[0, 0, 0, 0, 0, 0, -1.1, 0, 0, 0]),
+         M, "terminal state", "not on TS2"),
+    case("ocp-N-zero", lambda: Collocation(N=0), P, "N must be", "0"),
+    case("ocp-degree-zero", lambda: Collocation(degree=0), P, "degree must be", "0"),
+    case("ocp-tol", lambda: ocp_solve(tol=-1.0), P, "tol", "positive", "-1.0"),
+    case("ocp-defect_tol", lambda: ocp_solve(defect_tol=NAN), P, "defect_tol", "nan"),
+    case("ocp-max_iter", lambda: ocp_solve(max_iter=0), P, "max_iter", ">= 1", "0"),
     # --- reports
     case("report-out-is-a-file", lambda: check_out_dir(__file__), ReportInputError,
          "not a directory"),

@@ -17,7 +17,7 @@ from workbench.errors import ModelError, SolverError
 from workbench.report.tables import MAX_ROWS, value_tables
 
 GROUPS = ("near_balanced", "ill_conditioned", "fast_and_slow", "continuation", "large_chains",
-          "bad_input")
+          "optimisation", "bad_input")
 
 
 @pytest.fixture(scope="module")
@@ -63,6 +63,9 @@ def test_the_cases_that_must_fail_do_so_clearly(quick):
         ("ill_conditioned", "cond J = 1e+08: LQR"): "uncontrollable mode",
         ("ill_conditioned", "cond J = 1e+08: lgvi h = 2.5e-6"): "rounding level",
         ("fast_and_slow", "separatrix: theta0 = pi - 1e-06"): "separatrix",
+        ("optimisation", "|u| <= 1 N"): "Infeasible_Problem_Detected",
+        ("optimisation", "T = 0.05 s fixed (too short)"): "Infeasible_Problem_Detected",
+        ("optimisation", "T = 100 s fixed on N = 20 (too coarse)"): "INACCURATE",
     }
     for key, word in must_fail.items():
         assert rows[key]["outcome"] == CLEAR, (key, rows[key])
@@ -127,6 +130,13 @@ def test_case_runner_classifies_results_failures_and_defects():
                    "raw": DEFECT, "should fail": DEFECT, "expected": CLEAR}
     raw = cases.groups["g"][4]
     assert raw["did"].startswith("IndexError") and raw["measure"] == "undocumented exception"
+
+
+def test_converged_swing_up_follows_the_dynamics(quick):
+    rows = {r["case"]: r for r in quick.values["optimisation"]}
+    ref = rows["reference: |u| <= 10 N, T in [0.5, 3] s"]
+    assert ref["outcome"] == CORRECT and ref["error"] < 1e-4
+    assert "SUCCESS (Ipopt Solve_Succeeded" in ref["did"]
 
 
 @pytest.mark.slow
