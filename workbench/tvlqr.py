@@ -129,6 +129,8 @@ class _Flow:
 
 def _weights(W: ArrayLike, n: int, name: str, *, definite: bool) -> np.ndarray:
     M = np.asarray(W, dtype=float)
+    if not np.all(np.isfinite(M)):
+        raise ParameterError(f"{name} must be finite; got {M.tolist()}")
     if M.ndim == 0 or M.ndim == 1:
         M = np.diag(np.broadcast_to(M, (n,)).astype(float))
     if M.shape != (n, n) or not np.allclose(M, M.T, atol=1e-12 * max(1.0, np.abs(M).max())):
@@ -191,11 +193,22 @@ def tvlqr(
     t0 = time.perf_counter()
     man = model.manifold
     tv = np.asarray(t, float).ravel()
+    if tv.size < 2 or not np.all(np.isfinite(tv)) or not np.all(np.diff(tv) > 0):
+        raise ParameterError(f"t must hold at least two finite, strictly increasing sample "
+                             f"times; got {np.asarray(t).tolist()}")
     X = np.asarray(x_ref, float)
-    U = np.asarray(u_ref, float).reshape(len(tv) - 1, model.n_inputs)
+    U = np.asarray(u_ref, float)
+    if U.size != (len(tv) - 1) * model.n_inputs or not np.all(np.isfinite(U)):
+        raise ParameterError(f"u_ref must hold {len(tv) - 1} x {model.n_inputs} finite inputs "
+                             f"(one per sample interval); got shape {U.shape}"
+                             + ("" if U.size != (len(tv) - 1) * model.n_inputs
+                                else " with non-finite entries"))
+    U = U.reshape(len(tv) - 1, model.n_inputs)
     if X.shape != (len(tv), man.ambient_dim):
         raise ParameterError(f"x_ref must have shape ({len(tv)}, {man.ambient_dim}); "
                              f"got {X.shape}")
+    for k, xk in enumerate(X):
+        man.check(xk, name=f"x_ref[{k}]", tol=1e-6)  # an integrated reference: loose
     dts = np.diff(tv)
     dt = float(dts.mean())
     if not np.allclose(dts, dt, rtol=1e-9, atol=0):

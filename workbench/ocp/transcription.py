@@ -275,13 +275,20 @@ class Transcription:
         S, nx, nu = self.S, self.nx, self.nu
         ocp, loc = self.ocp, self.local
         Xk, U, h, p = S.sym("Xk", nx), S.sym("U", nu), S.sym("h"), S.sym("p", ocp.model.n_params)
-        L = ocp.running_cost
         lie = self.handling is ManifoldHandling.LIE_GROUP
         self._fopts = {"cse": True} if S is ca.SX else {}
+        # scalar helpers (SX functions; inlined in an SX graph, one node each in an MX graph)
+        xs, ys = ca.SX.sym("x", nx), ca.SX.sym("y", loc.ydim)
+        xks, xds, us = ca.SX.sym("xk", nx), ca.SX.sym("xdot", nx), ca.SX.sym("u", nu)
+        act = ca.Function("act", [xks, ys], [loc.act(xks, ys)], {"cse": True})
+        ydot_of = ca.Function("ydot", [xks, ys, xs, xds], [loc.ydot(xks, ys, xs, xds)],
+                              {"cse": True})
+        running = ocp.running_cost
+        L = None if running is None else ca.Function("L", [xs, us], [running(xs, us)])
 
         def ydot(y: Any) -> Any:
-            x = loc.act(Xk, y)
-            return loc.ydot(Xk, y, x, self.f(x, U, p)), x
+            x = act(Xk, y)
+            return ydot_of(Xk, y, x, self.f(x, U, p)), x
 
         if isinstance(self.method, Collocation):
             d = self.d
@@ -300,7 +307,7 @@ class Transcription:
                 if L is not None:
                     cost = cost + self.B[j] * h * L(x, U)
             end = sum(self.D[r] * pts[r] for r in range(d + 1))
-            x_end = loc.act(Xk, end) if lie else end
+            x_end = act(Xk, end) if lie else end
             return ca.Function("interval", [Xk, Z, U, h, p],
                                [ca.vertcat(*defects), x_end, cost], self._fopts)
         # multiple shooting
@@ -325,7 +332,7 @@ class Transcription:
         Z = S.sym("Z", 0, 1)
         res = F(x0=start, p=params)
         y_end = res["xf"]
-        x_end = loc.act(Xk, y_end) if lie else y_end
+        x_end = act(Xk, y_end) if lie else y_end
         return ca.Function("interval", [Xk, Z, U, h, p], [S.zeros(0, 1), x_end, res["qf"]],
                            self._fopts)
 
@@ -351,17 +358,32 @@ class Transcription:
             ubg.append(np.broadcast_to(np.asarray(hi, float), (n,)).copy())
             kinds.extend([kind] * n)
 
+        per, nx, d, nc = self.per, self.nx, self.d, self.ncol
+        W = ca.reshape(w[0: N * per], per, N)  # column k: (X_k, vec Z_k, U_k)
+        Xs, Us = W[0:nx, :], W[nx + d * nc: per, :]
+        Zs = ca.reshape(W[nx: nx + d * nc, :], nc, d * N) if d else S.zeros(0, N)
+        X_next = ca.horzcat(W[0:nx, 1:N], w[self.ix[N]: self.ix[N] + nx])
+        if S is ca.MX:  # one mapped call: a compact MX graph
+            defects, x_end, cost = F.map(N, "serial")(Xs, Zs, Us, h, p)
+            block = ca.vertcat(defects, X_next - x_end)
+            J = J + ca.sum2(cost)
+        else:  # SX: inline interval by interval
+            cols = []
+            for k in range(N):
+                Z = Zs[:, k * d: (k + 1) * d] if d else S.zeros(0, 1)
+                defects, x_end, cost = F(Xs[:, k], Z, Us[:, k], h, p)
+                cols.append(ca.vertcat(defects, X_next[:, k] - x_end))
+                J = J + cost
+            block = ca.horzcat(*cols)
+        nd = int(block.shape[0]) - nx
+        g.append(ca.vec(block))
+        n_block = int(block.numel())
+        lbg.append(np.zeros(n_block))
+        ubg.append(np.zeros(n_block))
+        kinds.extend((["defect"] * nd + ["continuity"] * nx) * N)
         for k in range(N):
-            Xk = w[self.ix[k]: self.ix[k] + self.nx]
-            Z = ca.reshape(w[self.ic[k]: self.ic[k] + self.d * self.ncol], self.ncol, self.d)
-            U = w[self.iu[k]: self.iu[k] + self.nu]
-            defects, x_end, cost = F(Xk, Z, U, h, p)
-            add(defects, 0.0, 0.0, "defect")
-            X_next = w[self.ix[k + 1]: self.ix[k + 1] + self.nx]
-            add(X_next - x_end, 0.0, 0.0, "continuity")
-            J = J + cost
             for c in ocp.path_constraints:
-                add(c.function(Xk, U), c.lower, c.upper, c.name)
+                add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name)
         XN = w[self.ix[N]: self.ix[N] + self.nx]
         UN = w[self.iu[N - 1]: self.iu[N - 1] + self.nu]
         for c in ocp.path_constraints:
