@@ -185,8 +185,11 @@ def tvlqr(
     Raises
     ------
     ParameterError
-        For inconsistent shapes, weights, a non-uniform grid or a target that is not an
-        equilibrium.
+        For inconsistent shapes, non-finite samples or weights, a grid that is not
+        increasing and uniform, or a target that is not an equilibrium.
+    ManifoldError
+        A reference state off the manifold by more than 1e-6 (loose: an integrated
+        trajectory).
     SolverError
         If the equilibrium's DARE has no stabilising solution.
     """
