@@ -73,6 +73,7 @@ from workbench.report import ReportInputError, build_report, check_out_dir
 from workbench.result import Result
 from workbench.sweep import grid, sweep
 from workbench.symbolic import exact_number, symbolic_linearization
+from workbench.tvlqr import tvlqr
 
 NAN, INF = float("nan"), float("inf")
 J0 = np.diag([3.0, 2.0, 1.0])
@@ -119,6 +120,15 @@ def ocp(**kw: Any) -> Any:
 
 def ocp_solve(**kw: Any) -> Any:
     return ocp_solve_fn(ocp(), Collocation(N=4), **kw)
+
+
+def tv(**kw: Any) -> Any:
+    """TVLQR of the cart at rest at the inverted equilibrium, with keyword overrides."""
+    xe = np.r_[0, 0, 0, 0, 0, 0, -1.0, 0, 0, 0]
+    args = {"t": np.linspace(0, 1, 11), "x_ref": np.tile(xe, (11, 1)),
+            "u_ref": np.zeros((10, 2)), "x_eq": xe}
+    args.update(kw)
+    return tvlqr(cart(), args.pop("t"), args.pop("x_ref"), args.pop("u_ref"), **args)
 
 
 def sim(**kw: Any) -> Any:
@@ -454,6 +464,21 @@ CASES = [
     case("ocp-tol", lambda: ocp_solve(tol=-1.0), P, "tol", "positive", "-1.0"),
     case("ocp-defect_tol", lambda: ocp_solve(defect_tol=NAN), P, "defect_tol", "nan"),
     case("ocp-max_iter", lambda: ocp_solve(max_iter=0), P, "max_iter", ">= 1", "0"),
+    case("tvlqr-t-decreasing", lambda: tv(t=np.linspace(1, 0, 11)), P,
+         "t", "strictly increasing", "1.0"),
+    case("tvlqr-t-one-sample", lambda: tv(t=[0.0], x_ref=np.zeros((1, 10)),
+                                          u_ref=np.zeros((0, 2))), P, "t", "two", "[0.0]"),
+    case("tvlqr-u-shape", lambda: tv(u_ref=np.zeros((3, 2))), P,
+         "u_ref", "10 x 2", "(3, 2)"),
+    case("tvlqr-u-nan", lambda: tv(u_ref=np.full((10, 2), NAN)), P, "u_ref", "non-finite"),
+    case("tvlqr-x-not-unit", lambda: tv(x_ref=np.tile(np.r_[0, 0, 0, 0, 0, 0, -2.0, 0, 0, 0],
+                                                      (11, 1))), M,
+         "x_ref[0]['link1']", "not on TS2"),
+    case("tvlqr-Q-nan", lambda: tv(Q=NAN), P, "Q", "finite", "nan"),
+    case("tvlqr-R-zero", lambda: tv(R=0.0), P, "R", "positive definite", "0.0"),
+    case("tvlqr-x_eq-not-equilibrium",
+         lambda: tv(x_eq=np.r_[0, 0, 0, 0, 1.0, 0, 0, 0, 0, 0]), P,
+         "x_eq", "not an equilibrium", "98.1"),
     # --- reports
     case("report-out-is-a-file", lambda: check_out_dir(__file__), ReportInputError,
          "not a directory"),
