@@ -19,7 +19,7 @@ energy (5.16).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import casadi as ca
 import numpy as np
@@ -31,6 +31,7 @@ from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_
 from workbench.model import Context, Model, Parameter, finite, positive, spd3
 
 __all__ = [
+    "phase_density",
     "full",
     "reduced",
     "routh",
@@ -497,3 +498,38 @@ def planar(*, Jt: float, rho_s: float, m: float = 1.0, g: float = 9.81) -> Model
         equations=(r"J_t\dot\omega_y = -mg\rho_s\sin\theta,\;\dot\theta = \omega_y"
                    r"\quad\text{(Prop. 7, written on } S^1)",),
     )
+
+
+def phase_density(J: ArrayLike) -> Callable[[np.ndarray], np.ndarray]:
+    """The integrand ``F`` of paper 000 (5.15) for an inertia ``J``, as a vectorised function.
+
+    ``F(Gamma) = (2 |J Gamma|^2 - tr(J) Gamma.J Gamma) / (Gamma.J Gamma)^2``, the curvature of
+    the mechanical connection (5.3); :func:`workbench.phase.geometric_phase_check` takes it
+    as ``density`` and checks it against the reconstruction.
+
+    Parameters
+    ----------
+    J : array-like, shape=(3, 3)
+        Inertia, symmetric positive definite.
+
+    Returns
+    -------
+    callable
+        ``F(gamma)`` for ``gamma`` of shape ``(..., 3)`` (unit vectors), shape ``(...)``.
+    """
+    try:
+        Jm = np.asarray(J, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}"
+                             ) from exc
+    if Jm.shape != (3, 3) or not np.all(np.isfinite(Jm)) or not np.allclose(Jm, Jm.T) \
+            or np.any(np.linalg.eigvalsh(Jm) <= 0):
+        raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}")
+    trJ = float(np.trace(Jm))
+
+    def density(gamma: np.ndarray) -> np.ndarray:
+        Jg = gamma @ Jm
+        gJg = np.sum(gamma * Jg, axis=-1)
+        return (2 * np.sum(Jg * Jg, axis=-1) - trJ * gJg) / gJg**2
+
+    return density

@@ -117,8 +117,8 @@ def phase_check(*, mu: float) -> dict[str, Any]:
     R0 = _lift_over(g0)
     recon = p3.routh_reconstruction(**BODY, mu=mu)
     x0 = np.r_[g0, gd0, SO3.flat(R0), 0.0]
-    pc = geometric_phase_check(recon, x0, J=BODY["J"], t_max=10.0, rtol=1e-12, atol=1e-12,
-                               stabilization=STABILIZATION)
+    pc = geometric_phase_check(recon, x0, density=p3.phase_density(recon.values["J"]),
+                               t_max=10.0, rtol=1e-12, atol=1e-12, stabilization=STABILIZATION)
     # the full model on TSO(3), from the reconstructed (R0, omega0) of (5.13)-(5.14)
     _, w0 = p3.reconstruct(recon, x0[None, :])
     full = p3.full(**BODY)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from models import pendulum3d as p3
+from models.pendulum3d import phase_density
 from workbench.errors import ParameterError
 from workbench.manifolds import SO3, so3_exp
 from workbench.phase import (
@@ -13,7 +14,6 @@ from workbench.phase import (
     first_self_intersection,
     geometric_phase_check,
     holonomy_angle,
-    phase_density,
     wrap_angle,
 )
 
@@ -111,7 +111,8 @@ def _start(gamma0, gamma_dot0):
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 def test_formula_matches_reconstruction_on_a_loop(mu):
     model = p3.routh_reconstruction(J=J, rho=RHO, mu=mu)
-    pc = geometric_phase_check(model, _start([0.8, 0.2, 0.3], [0.0, 3.0, 1.0]), J=J,
+    pc = geometric_phase_check(model, _start([0.8, 0.2, 0.3], [0.0, 3.0, 1.0]),
+                               density=phase_density(J),
                                t_max=10.0)
     assert pc.closure < 1e-10 and pc.fibre_residual < 1e-9
     assert abs(pc.difference) < 1e-9
@@ -126,7 +127,7 @@ def test_lift_must_lie_over_gamma():
     x0 = _start([0.8, 0.2, 0.3], [0.0, 3.0, 1.0])
     x0[6:15] = SO3.flat(np.eye(3))
     with pytest.raises(ParameterError, match="R0"):
-        geometric_phase_check(model, x0, J=J, t_max=5.0)
+        geometric_phase_check(model, x0, density=phase_density(J), t_max=5.0)
 
 
 def test_bad_inputs():

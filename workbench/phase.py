@@ -1,4 +1,8 @@
-"""Geometric phase of the 3D pendulum: reconstruction against the curvature integral.
+"""Geometric phase of an S^1 reduction about e3: reconstruction against a curvature integral.
+
+The curvature density is the model's (for the 3D pendulum, paper 000 (5.15), in
+:func:`models.pendulum3d.phase_density`); the engine integrates it over surfaces bounded
+by reduced curves and compares with the holonomy of the reconstruction.
 
 For ``mu = 0`` the rotation about the vertical accumulated by the pendulum along a closed
 curve ``Gamma(t)`` of the reduced attitude is the holonomy of the mechanical connection
@@ -49,7 +53,6 @@ from workbench.model import Evaluator, Model
 from workbench.poincare import Stepper, _cvodes_options, _positive, _rk_flow, stabilized_field
 
 __all__ = [
-    "phase_density",
     "cone_integral",
     "holonomy_angle",
     "wrap_angle",
@@ -59,37 +62,6 @@ __all__ = [
 ]
 
 E3 = np.array([0.0, 0.0, 1.0])
-
-
-def phase_density(J: ArrayLike) -> Callable[[np.ndarray], np.ndarray]:
-    """The integrand ``F`` of (5.15) for an inertia ``J``, as a vectorised function.
-
-    Parameters
-    ----------
-    J : array-like, shape=(3, 3)
-        Inertia, symmetric positive definite.
-
-    Returns
-    -------
-    callable
-        ``F(gamma)`` for ``gamma`` of shape ``(..., 3)`` (unit vectors), shape ``(...)``.
-    """
-    try:
-        Jm = np.asarray(J, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}"
-                             ) from exc
-    if Jm.shape != (3, 3) or not np.all(np.isfinite(Jm)) or not np.allclose(Jm, Jm.T) \
-            or np.any(np.linalg.eigvalsh(Jm) <= 0):
-        raise ParameterError(f"J must be a symmetric positive-definite 3x3 matrix; got {J!r}")
-    trJ = float(np.trace(Jm))
-
-    def density(gamma: np.ndarray) -> np.ndarray:
-        Jg = gamma @ Jm
-        gJg = np.sum(gamma * Jg, axis=-1)
-        return (2 * np.sum(Jg * Jg, axis=-1) - trJ * gJg) / gJg**2
-
-    return density
 
 
 def cone_integral(
@@ -285,7 +257,8 @@ class PhaseCheck:
 
 
 def geometric_phase_check(
-    model: Model, x0: ArrayLike, *, J: ArrayLike, t_max: float, sample_step: float = 0.01,
+    model: Model, x0: ArrayLike, *, density: Callable[[np.ndarray], np.ndarray],
+    t_max: float, sample_step: float = 0.01,
     min_loop_time: float = 0.5, rtol: float = 1e-12, atol: float = 1e-12,
     stabilization: float = 10.0, panels: int = 64, nodes: int = 8, radial_nodes: int = 48,
     refine_substeps: int = 16, factor: str = "Gamma", lift: str = "R_hor", phase: str =
@@ -301,8 +274,10 @@ def geometric_phase_check(
         factor ``phase`` (the dynamic phase).
     x0 : array-like
         Initial state.
-    J : array-like, shape=(3, 3)
-        The inertia defining the connection (the model's).
+    density : callable
+        The curvature ``F(gamma)`` of the mechanical connection, vectorised over
+        ``gamma`` of shape ``(..., 3)`` (for the 3D pendulum: paper 000 (5.15),
+        :func:`models.pendulum3d.phase_density` of the model's ``J``).
     t_max : float
         Longest orbit searched for a loop [s].
     sample_step : float
@@ -338,7 +313,8 @@ def geometric_phase_check(
         raise ParameterError(
             f"x0: the lift {lift!r} must lie over {factor!r} (R^T e3 = Gamma); got "
             f"|R^T e3 - Gamma| = {off:.3g} (choose R0 with R0^T e3 = Gamma0)")
-    density = phase_density(J)
+    if not callable(density):
+        raise ParameterError(f"density must be a callable F(gamma); got {type(density).__name__}")
     S = model.sym
     xs, ps, tau = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("t")
     fld = stabilized_field(model, gain=stabilization)

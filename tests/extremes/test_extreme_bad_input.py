@@ -28,6 +28,7 @@ import pytest
 from models import controllers as C
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
+from models.pendulum3d import phase_density
 from models.spherical import spherical_pendulum
 from workbench import (
     S1,
@@ -65,7 +66,7 @@ from workbench.lyapunov import Lyapunov, as_states
 from workbench.manifolds import sphere_basis
 from workbench.ocp import OCP, Collocation, TargetPoint
 from workbench.ocp import solve as ocp_solve_fn
-from workbench.phase import first_self_intersection, holonomy_angle, phase_density
+from workbench.phase import first_self_intersection, holonomy_angle
 from workbench.poincare import poincare_map, stabilized_field, turning_section
 from workbench.relative_equilibria import rotation_problem, static_equilibria
 from workbench.relative_families import at_alpha, trace_relative_equilibria
