@@ -164,13 +164,16 @@ def solve(*, quick: bool = False) -> Result:
                               guess=best, height=height_reduced)
         rows += [solution_row(s, height=height_full) | {"model": "full"}
                  for s in effort["_full"].values()]
-    for r in rows:
-        res.compare(f"{r['transcription']}: cost vs reduced N = 60", best.objective,
-                    r["objective"], tolerance=5e-2, relative=True, source="same local minimum")
+    for r in rows:  # coarser transcriptions are listed, not held to the N = 60 cost
+        if r.get("N", 60) >= 60:
+            res.compare(f"{r['transcription']}: cost vs reduced N = 60", best.objective,
+                        r["objective"], tolerance=5e-2, relative=True,
+                        source="same local minimum")
     with res.timed("TVLQR (reduced) + closed loop"):
         ctrl = tvlqr_along(best, x_eq=red.target.point, substeps=1, Q=Q_LQR, R=R_LQR)
         mc = monte_carlo(ctrl, red.x0, n=20, scale=PERTURBATION, seed=0,
-                         hold=1.0 if quick else 3.0, tol=CLOSED_LOOP_TOL)
+                         hold=1.0 if quick else 3.0, tol=CLOSED_LOOP_TOL,
+                         u_bounds=(red.u_lower, red.u_upper))
     res.compare("TVLQR success rate from 20 perturbed starts (reduced model)", 1.0,
                 mc["success_rate"], tolerance=0.1, source="closed loop reaches Gamma = -e3")
     res.values = {

@@ -137,9 +137,11 @@ def solve(*, quick: bool = False) -> Result:
         for method, handling in cases:
             rows += speed_accuracy(ocp, [method], [handling], guess=best, height=height)
     res.values["speed_accuracy"] = rows
-    for r in rows:
-        res.compare(f"{r['transcription']}: cost vs best N=40", best.objective, r["objective"],
-                    tolerance=5e-2, relative=True, source="same local minimum")
+    for r in rows:  # coarser transcriptions are listed, not held to the N = 40 cost
+        if r["N"] >= 40:
+            res.compare(f"{r['transcription']}: cost vs best N=40", best.objective,
+                        r["objective"], tolerance=5e-2, relative=True,
+                        source="same local minimum")
 
     with res.timed("harder case |u| <= 2"):
         hard_ocp = ocp.with_bounds(u_lower=-U_MAX_HARD, u_upper=U_MAX_HARD)
@@ -168,7 +170,8 @@ def solve(*, quick: bool = False) -> Result:
     with res.timed("TVLQR design + closed loop"):
         ctrl = tvlqr_along(best, x_eq=ocp.target.point, substeps=1, Q=Q_LQR, R=R_LQR)
         mc = monte_carlo(ctrl, ocp.x0, n=20, scale=PERTURBATION, seed=0,
-                         hold=1.5 if quick else 3.0, tol=CLOSED_LOOP_TOL)
+                         hold=1.5 if quick else 3.0, tol=CLOSED_LOOP_TOL,
+                         u_bounds=(ocp.u_lower, ocp.u_upper))
     res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"}
     res.values["tvlqr"].update(ctrl.info, design=ctrl.cost, sample_period=ctrl.dt,
                                Q=Q_LQR.tolist(), R=R_LQR)

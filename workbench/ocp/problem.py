@@ -206,22 +206,40 @@ class TargetSet(Target):
 
 @dataclass(frozen=True)
 class PathConstraint:
-    """``lower <= c(x, u) <= upper`` at every node of the transcription.
+    """``lower <= c(x, u) <= upper`` at the nodes of the transcription.
 
     Parameters
     ----------
     function : callable
-        ``c(x, u)``, casadi expression (vector) of the symbolic state and input.
+        ``c(x, u)``, casadi expression (vector) of the symbolic state and input (at node
+        ``k`` the control of interval ``k``; at the last node that of the last interval).
     lower, upper : float or array-like
         Bounds (``-inf``/``inf`` for one-sided).
     name : str
         For messages and results.
+    nodes : str
+        ``"all"`` (default), ``"first"`` or ``"last"``. A condition on the first node only
+        can fix a gauge: the spherical cart swing-up is invariant under rotations about the
+        vertical, so its optima come in circles and the reduced Hessian is singular there;
+        ``u_y = 0`` on the first interval picks one optimum of each circle.
     """
 
     function: CostFn
     lower: Any = -np.inf
     upper: Any = np.inf
     name: str = "path constraint"
+    nodes: str = "all"
+
+    def __post_init__(self) -> None:
+        if self.nodes not in ("all", "first", "last"):
+            raise ParameterError(
+                f"nodes must be 'all', 'first' or 'last'; got {self.nodes!r}"
+            )
+
+    def applies(self, k: int, N: int) -> bool:
+        """Whether the constraint holds at node ``k`` of ``0 .. N``."""
+        return (self.nodes == "all" or (self.nodes == "first" and k == 0)
+                or (self.nodes == "last" and k == N))
 
 
 @dataclass

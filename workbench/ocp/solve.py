@@ -397,7 +397,10 @@ def _local_defect(sol: OCPSolution) -> float:
     """Max over intervals of ``|Phi_h(x_k, u_k) - x_(k+1)|`` (CVODES, rtol 1e-10)."""
     from workbench.ocp.stepper import Stepper
 
-    stepper = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
+    key = ("local_defect_stepper", 1e-10)  # one CVODES build per problem, not per solve
+    if key not in sol.ocp._cache:
+        sol.ocp._cache[key] = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
+    stepper = sol.ocp._cache[key]
     h = sol.T / len(sol.u)
     try:
         return max(float(np.max(np.abs(stepper.step(x, u, h) - xn)))

@@ -15,7 +15,7 @@ from workbench.ocp.guess import Guess
 from workbench.ocp.problem import OCP
 from workbench.ocp.solve import OCPSolution, solve
 from workbench.ocp.stepper import Stepper
-from workbench.ocp.transcription import Collocation, ManifoldHandling, Method
+from workbench.ocp.transcription import Collocation, ManifoldHandling, Method, Transcription
 from workbench.tvlqr import TVLQR, closed_loop, perturbed_starts
 
 __all__ = ["swings", "speed_accuracy", "monte_carlo", "solution_row", "plot_swingup",
@@ -26,7 +26,8 @@ def transcription_builds(ocp: OCP) -> list[dict[str, Any]]:
     """Every transcription built for ``ocp`` (and problems sharing its cache): time, size."""
     return [{"transcription": tr.describe(), "build_seconds": tr.build_seconds,
              "nlp_graph_nodes": tr.n_nodes, "nlp_variables": tr.nw,
-             "nlp_constraints": tr.ng} for tr in ocp._cache.values()]
+             "nlp_constraints": tr.ng} for tr in ocp._cache.values()
+            if isinstance(tr, Transcription)]
 
 
 def swings(height: np.ndarray, *, tol: float = 1e-3) -> dict[str, Any]:
@@ -153,6 +154,8 @@ def monte_carlo(controller: TVLQR, x0: np.ndarray, *, n: int, scale: Any, seed: 
         "seed": seed,
         "hold_seconds": hold,
         "tol": tol,
+        "saturated_at": None if u_bounds is None else [np.asarray(b, float).tolist()
+                                                       for b in u_bounds],
     }
 
 

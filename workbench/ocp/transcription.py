@@ -383,11 +383,13 @@ class Transcription:
         kinds.extend((["defect"] * nd + ["continuity"] * nx) * N)
         for k in range(N):
             for c in ocp.path_constraints:
-                add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name)
+                if c.applies(k, N):
+                    add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name)
         XN = w[self.ix[N]: self.ix[N] + self.nx]
         UN = w[self.iu[N - 1]: self.iu[N - 1] + self.nu]
         for c in ocp.path_constraints:
-            add(c.function(XN, UN), c.lower, c.upper, c.name)
+            if c.applies(N, N):
+                add(c.function(XN, UN), c.lower, c.upper, c.name)
         add(ocp.target.equations(XN), 0.0, 0.0, "terminal")
         for e in ocp.target.domain(XN):
             add(e, 0.0, np.inf, "terminal chart domain")

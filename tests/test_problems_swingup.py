@@ -1,0 +1,110 @@
+"""The swing-up problems: their OCPs, the symmetries and reductions they rely on.
+
+Fast tests check the mathematics the problems use (the target sets, the equivalence of the
+full and reduced 3D pendulum transcriptions, the rotation symmetry of the chain and its
+gauge, the classification of swings); the problems themselves run in the slow tests.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from problems import swingup_3d_pendulum as p3d
+from problems import swingup_double_spherical_cart as dbl
+from problems import swingup_spherical_cart as cart
+from workbench.manifolds import SO3
+from workbench.ocp import Collocation, Guess, ManifoldHandling, solve
+from workbench.ocp.stepper import Stepper
+from workbench.ocp.study import swings
+
+
+def test_swing_classification():
+    t = np.linspace(0, 1, 200)
+    assert swings(t)["kind"] == "direct"
+    pumped = -np.cos(3 * np.pi * t) * t  # rises while oscillating
+    info = swings(pumped)
+    assert info["kind"] == "pumping" and info["swings"] >= 1
+
+
+def test_cart_problem_is_well_posed():
+    ocp = cart.problem()
+    assert ocp.model.manifold.dim == 8
+    assert ocp.free_time and ocp.T_range == (0.5, 3.0)
+    x = ocp.target.point
+    assert ocp.target.distance(x) == 0.0
+    assert ocp.target.distance(ocp.x0) == pytest.approx(0.0)  # the chart's antipode ...
+    assert ocp.target.domain(x) and all(  # ... is excluded by the domain inequality
+        float(e) < 0 for e in ocp.target.domain(ocp.x0))
+
+
+def test_full_target_set_is_the_circle_of_inverted_rotations():
+    red, full = p3d.problems("effort")
+    for a in np.linspace(0.0, 2 * np.pi, 7):
+        c, s = np.cos(a), np.sin(a)
+        Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        x = np.r_[SO3.flat(Rz @ np.diag([1.0, -1.0, -1.0])), 0.0, 0.0, 0.0]
+        assert full.target.distance(x) < 1e-15
+    hanging = np.r_[SO3.flat(np.eye(3)), 0.0, 0.0, 0.0]
+    assert all(float(e) < 0 for e in full.target.domain(hanging))
+
+
+def test_lift_integrates_the_attitude_kinematics():
+    red, full = p3d.problems("effort")
+    st = Stepper(red.model, rtol=1e-12, atol=1e-12)
+    x, X, U = red.x0, [red.x0], np.tile([0.3, -0.2, 0.1], (40, 1))
+    for u in U:
+        x = st.step(x, u, 0.01)
+        X.append(x)
+    X = np.array(X)
+    g = Guess.from_samples(red, np.linspace(0, 0.4, 41), X, U)
+    sol = type("S", (), {"x": X, "u": U, "t": np.linspace(0, 0.4, 41), "T": 0.4})()
+    lifted = p3d.lift(sol, full)
+    gam = np.array([SO3.matrix(r[:9]).T @ p3d.E3 for r in lifted.x])
+    assert np.max(np.abs(gam - X[:, 0:3])) < 1e-4  # second order in h = 0.01
+    assert g.T == pytest.approx(0.4)
+
+
+def test_full_and_reduced_transcriptions_are_equivalent():
+    """Gamma = R^T e3 is linear in R: ambient Legendre collocation commutes with it."""
+    red, full = p3d.problems("time")
+    red = red.with_bounds(u_lower=-3.0, u_upper=3.0, T=(0.5, 5.0))
+    full = full.with_bounds(u_lower=-3.0, u_upper=3.0, T=(0.5, 5.0))
+    s_red = solve(red, Collocation(N=20), guess=Guess.geodesic(red, T=1.5))
+    s_full = solve(full, Collocation(N=20), guess=p3d.lift(s_red, full))
+    assert s_full.objective == pytest.approx(s_red.objective, rel=1e-7)
+    gam = np.array([SO3.matrix(r[:9]).T @ p3d.E3 for r in s_full.x])
+    assert np.allclose(gam, s_red.x[:, 0:3], atol=1e-6)
+    lie = solve(full, Collocation(N=20), handling=ManifoldHandling.LIE_GROUP, guess=s_full)
+    assert lie.objective == pytest.approx(s_red.objective, rel=2e-2)
+
+
+def test_chain_is_equivariant_under_rotations_about_the_vertical():
+    """The symmetry behind the gauge: f(Q x, Q u) = Q f(x, u) for Q about e3."""
+    ocp = dbl.problem()
+    model = ocp.model
+    rng = np.random.default_rng(5)
+    x = model.manifold.random_point(rng, scale=1.0)
+    u = rng.standard_normal(2)
+    a = 0.7
+    xr, ur = dbl.rotate_about_vertical(x[None, :], u[None, :], a)
+    fr, _ = dbl.rotate_about_vertical(model.rhs(x, u)[None, :], u[None, :], a)
+    assert np.allclose(model.rhs(xr[0], ur[0]), fr[0], atol=1e-10)
+
+
+def test_lifted_double_guess_is_on_the_manifold_and_gauged():
+    ocp = dbl.problem()
+    sur = dbl.surrogate()
+    g = Guess.geodesic(sur, T=1.5, rng=np.random.default_rng(0), noise=0.2)
+    fake = type("S", (), {"x": g.x, "u": g.u, "t": g.s * 1.5, "T": 1.5})()
+    lifted = dbl.lift(fake, ocp)
+    for s in np.linspace(0, 1, 9):
+        assert max(ocp.model.manifold.residual_norms(lifted.state(s)).values()) < 1e-12
+    assert abs(lifted.u[0, 1]) < 1e-12
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("module", [cart, p3d, dbl], ids=lambda m: m.__name__)
+def test_problem_runs_in_quick_mode(module):
+    res = module.solve(quick=True)
+    assert res.ok, [c.as_dict() for c in res.comparisons if not c.ok]
