@@ -15,6 +15,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ import numpy as np
 
 from workbench.model import Model
 
-__all__ = ["Comparison", "Result", "to_jsonable", "format_result"]
+__all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -101,6 +102,14 @@ class Comparison:
         )
 
 
+class ResultStatus(Enum):
+    """Outcome of a problem's comparisons; the value is a readable message."""
+
+    OK = "every comparison within its tolerance"
+    OUT_OF_TOLERANCE = "some comparisons out of tolerance"
+    NO_COMPARISONS = "no reference values to compare with"
+
+
 @dataclass
 class Result:
     """What a problem's ``solve`` returns.
@@ -174,6 +183,18 @@ class Result:
     def __post_init__(self) -> None:
         self._used: list[Model] = []
 
+    @property
+    def used_models(self) -> tuple[Model, ...]:
+        """The models declared with :meth:`use`, in order (for reports: equations, builds)."""
+        return tuple(self._used)
+
+    @property
+    def status(self) -> ResultStatus:
+        """:class:`ResultStatus` of the comparisons (``status.value`` reads as a message)."""
+        if not self.comparisons:
+            return ResultStatus.NO_COMPARISONS
+        return ResultStatus.OK if self.ok else ResultStatus.OUT_OF_TOLERANCE
+
     def finish(self) -> Result:
         """Collect the build logs of the used models (each function once); return self."""
         seen: set[int] = set()
@@ -200,6 +221,7 @@ class Result:
                 "title": self.title,
                 "quick": self.quick,
                 "ok": self.ok,
+                "status": self.status.name,
                 "values": self.values,
                 "comparisons": [c.as_dict() for c in self.comparisons],
                 "figures": sorted(self.figures),
@@ -257,10 +279,7 @@ def format_result(result: Result, *, max_values: int = 40) -> str:
             lines.append(f"    {r['function']:<44} {r['n_nodes']:>7} nodes  {ms:8.1f} ms")
     for note in result.notes:
         lines.append(f"  note: {note}")
-    status = (
-        "all comparisons within tolerance" if result.ok else "SOME COMPARISONS OUT OF TOLERANCE"
-    )
-    lines.append(f"  status: {status}")
+    lines.append(f"  status: {result.status.value}")
     return "\n".join(lines)
 
 

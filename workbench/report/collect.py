@@ -77,13 +77,9 @@ class ProblemRun:
 
 
 def models_of(result: Result) -> list[Model]:
-    """The Model objects a result declared with ``Result.use`` (deduplicated, in order).
-
-    ``Result`` keeps them in its private ``_used`` list; this is the one place the report
-    reads it.
-    """
+    """The Model objects a result declared with ``Result.use`` (deduplicated, in order)."""
     out: list[Model] = []
-    for m in getattr(result, "_used", []):
+    for m in result.used_models:
         if not any(m is o for o in out):
             out.append(m)
     return out
