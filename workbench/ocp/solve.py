@@ -418,6 +418,7 @@ def multistart(
     T_guesses: Sequence[float] | None = None,
     refine_with: Sequence[Method] = (),
     describe: Callable[[OCPSolution], dict[str, Any]] | None = None,
+    ipopt_variants: Sequence[dict[str, Any]] = ({},),
     **solve_options: Any,
 ) -> tuple[OCPSolution, list[dict[str, Any]]]:
     """Solve from seeded geodesic guesses (random great circles, control noise); keep the best.
@@ -441,6 +442,10 @@ def multistart(
     describe : callable, optional
         ``describe(solution) -> dict`` of further fields for each converged start's record
         (e.g. a classification of the local minimum).
+    ipopt_variants : sequence of dict
+        Ipopt options cycled over the starts (e.g. ``{"mu_oracle": "probing"}``): on a
+        rugged landscape the barrier strategy decides which minimum a start falls into as
+        much as the guess does. The refinements use the default options.
     **solve_options
         Passed to :func:`solve` (``raise_on_failure`` is forced off for the starts).
 
@@ -463,13 +468,24 @@ def multistart(
         rng = np.random.default_rng(seed)
         T = None if not T_guesses else T_guesses[i % len(T_guesses)]
         g = Guess.geodesic(ocp, T=T, rng=rng, noise=noise)
-        s, path = coarse_to_fine(ocp, [method or Collocation(), *refine_with], guess=g,
-                                 raise_on_failure=False, **solve_options)
+        variant = dict(ipopt_variants[i % len(ipopt_variants)]) if ipopt_variants else {}
+        first_options = dict(solve_options)
+        if variant:
+            first_options["ipopt_options"] = {**(solve_options.get("ipopt_options") or {}),
+                                              **variant}
+        first = solve(ocp, method or Collocation(), guess=g, raise_on_failure=False,
+                      **first_options)
+        s, path = first, [first]
+        if first.status.ok and refine_with:
+            s, rest = coarse_to_fine(ocp, list(refine_with), guess=first,
+                                     raise_on_failure=False, **solve_options)
+            path += rest
         records.append({
             "seed": int(seed), "status": s.status.name, "objective": s.objective, "T": s.T,
             "iterations": [p.cost["iterations"] for p in path],
             "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
             "coarse_objective": path[0].objective,
+            "ipopt_variant": variant,
         })
         if describe is not None and s.status.ok:
             records[-1].update(describe(s))
