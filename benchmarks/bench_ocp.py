@@ -133,7 +133,7 @@ def main() -> None:
     ocp2, sur = dbl.problem(), dbl.surrogate()
     single, _ = multistart(sur, Collocation(N=10), seeds=[2], T_guesses=dbl.T_GUESSES[2:3],
                            refine_with=[Collocation(N=20), Collocation(N=40)], max_iter=150)
-    variants = [(Graph.MX, L)] + ([] if quick else [(Graph.MX, A)])
+    variants = [(Graph.MX, L)] + ([] if quick else [(Graph.MX, A), (Graph.SX, L)])
     rows += scene("double cart n=2, N=40", ocp2, [Collocation(N=40)],
                   dbl.lift(single, ocp2), variants, (Graph.MX, L), repeat, 5.0, max_iter=300)
 

@@ -169,7 +169,7 @@ def solve(*, quick: bool = False) -> Result:
         rows = []
         for method, handling in cases:
             rows += speed_accuracy(ocp, [method], [handling], guess=best, height=height,
-                                   graph=Graph.MX, max_iter=300)
+                                   graph=Graph.MX, max_iter=200)
         if not quick:
             rows += speed_accuracy(ocp, [Collocation(N=40)], [ManifoldHandling.AMBIENT],
                                    guess=best, height=height, graph=Graph.SX, max_iter=300)

@@ -11,17 +11,9 @@ from workbench.ocp.expand import sx_function
 from workbench.ocp.guess import Guess
 from workbench.ocp.local import ProductLocal, local_for
 from workbench.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
-from workbench.ocp.solve import (
-    OCPSolution,
-    OCPStatus,
-    coarse_to_fine,
-    continuation,
-    multistart,
-    refine,
-    solve,
-    transcribe,
-)
+from workbench.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
 from workbench.ocp.stepper import Stepper
+from workbench.ocp.strategies import coarse_to_fine, continuation, multistart, refine
 from workbench.ocp.transcription import (
     Collocation,
     Graph,
