@@ -177,7 +177,7 @@ def solve(*, quick: bool = False) -> Result:
                     | {"N": 80, "handling": lie.value, "degree": 3})
     res.values["speed_accuracy"] = rows
     for r in rows:
-        if r["N"] >= 80:
+        if r["N"] >= 80 and r["status"] in ("SUCCESS", "ACCEPTABLE"):
             res.compare(f"{r['transcription']}: cost vs N = 80 (Lie)", best.objective,
                         r["objective"], tolerance=2e-2, relative=True,
                         source="same local minimum")
