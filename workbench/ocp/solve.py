@@ -298,7 +298,9 @@ def solve(
         ``SX`` (scalar graph, fastest) or ``MX``.
     guess : Guess or OCPSolution, optional
         Initial guess; a solution of the *same* transcription also warm-starts the
-        multipliers. Default: :meth:`Guess.geodesic` (deterministic great circles).
+        multipliers. Default: :meth:`Guess.geodesic` (deterministic great circles). The
+        guess vector is moved into the variable bounds before the solve (as Ipopt would);
+        the problem's data are never changed.
     tol : float
         Ipopt's tolerance.
     max_iter : int
