@@ -24,13 +24,37 @@ from workbench.linearize import LinearModel, linearize, linearize_ambient
 from workbench.lqr import LQRResult, geometric_feedback, lqr
 from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
 from workbench.model import BuildLog, Evaluator, Model, Parameter, Symbolic
+from workbench.ocp import (
+    OCP,
+    Collocation,
+    ManifoldHandling,
+    MultipleShooting,
+    OCPSolution,
+    OCPStatus,
+    TargetPoint,
+    TargetSet,
+)
+from workbench.ocp import solve as solve_ocp
 from workbench.phase import geometric_phase_check
 from workbench.poincare import PoincareOrbit, Section, poincare_map, turning_section
 from workbench.relative_families import at_alpha, trace_relative_equilibria
 from workbench.simulate import Method, Multistep, Trajectory, simulate
 from workbench.sweep import SweepResult, grid, sweep
+from workbench.tvlqr import TVLQR, tvlqr, tvlqr_along
 
 __all__ = [
+    "OCP",
+    "Collocation",
+    "ManifoldHandling",
+    "MultipleShooting",
+    "OCPSolution",
+    "OCPStatus",
+    "TVLQR",
+    "TargetPoint",
+    "TargetSet",
+    "solve_ocp",
+    "tvlqr",
+    "tvlqr_along",
     "InvariantManifold",
     "invariant_manifold",
     "stable_manifold",
