@@ -48,7 +48,7 @@ def test_nothing_is_built_until_asked_and_builds_are_logged_once():
     model.function("f")
     assert model.build_log.names() == ["pendulum3d_full.f"]
     rec = model.build_log.records[0]
-    assert rec.n_nodes > 0 and rec.seconds >= 0
+    assert rec.n_nodes == model.function("f").n_nodes()  # the log describes the cached graph
     model.function("energy")
     assert model.build_log.names() == ["pendulum3d_full.f", "pendulum3d_full.energy"]
 

@@ -94,7 +94,8 @@ class OCPSolution:
     graph : Graph
         SX or MX.
     cost : dict
-        ``build_seconds`` (0 when the transcription was cached), ``first_build_seconds``,
+        ``build_seconds`` (0 when the transcription was cached), ``transcription_cached``
+        (whether this solve reused an earlier build), ``first_build_seconds``,
         ``solve_seconds``, ``iterations``, ``nlp_variables``, ``nlp_constraints``.
     error : dict
         ``constraint_violation`` (max over the NLP's constraints, from their bounds),
@@ -361,6 +362,7 @@ def solve(
     man = ocp.model.manifold
     cost = {
         "build_seconds": tr.build_seconds if built else 0.0,
+        "transcription_cached": not built,
         "first_build_seconds": tr.build_seconds,
         "solve_seconds": seconds,
         "solve_cpu_seconds": cpu,
