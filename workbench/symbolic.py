@@ -55,6 +55,7 @@ _BINARY: dict[int, Callable[[Any, Any], Any]] = {
     ca.OP_MUL: lambda a, b: a * b, ca.OP_DIV: lambda a, b: a / b,
     ca.OP_POW: lambda a, b: a**b, ca.OP_CONSTPOW: lambda a, b: a**b,
     ca.OP_ATAN2: sp.atan2, ca.OP_HYPOT: lambda a, b: sp.sqrt(a**2 + b**2),
+    ca.OP_FMIN: sp.Min, ca.OP_FMAX: sp.Max,
 }
 
 

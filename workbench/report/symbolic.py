@@ -19,7 +19,6 @@ Nothing is built here: the vector field is read only if the problem already buil
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -28,7 +27,9 @@ import numpy as np
 import sympy as sp
 from sympy.printing.mathml import mathml
 
+from workbench.errors import ModelError
 from workbench.model import Model
+from workbench.symbolic import casadi_to_sympy as _graph_to_sympy
 
 __all__ = [
     "SymbolicError",
@@ -62,41 +63,6 @@ class SymbolicError(ValueError):
     """A casadi graph holds an operation that has no sympy counterpart here."""
 
 
-_UNARY: dict[int, Callable[[Any], Any]] = {
-    ca.OP_NEG: lambda a: -a,
-    ca.OP_SQ: lambda a: a**2,
-    ca.OP_TWICE: lambda a: 2 * a,
-    ca.OP_SQRT: sp.sqrt,
-    ca.OP_INV: lambda a: 1 / a,
-    ca.OP_SIN: sp.sin,
-    ca.OP_COS: sp.cos,
-    ca.OP_TAN: sp.tan,
-    ca.OP_ASIN: sp.asin,
-    ca.OP_ACOS: sp.acos,
-    ca.OP_ATAN: sp.atan,
-    ca.OP_EXP: sp.exp,
-    ca.OP_LOG: sp.log,
-    ca.OP_FABS: sp.Abs,
-    ca.OP_SIGN: sp.sign,
-    ca.OP_SINH: sp.sinh,
-    ca.OP_COSH: sp.cosh,
-    ca.OP_TANH: sp.tanh,
-    ca.OP_ASSIGN: lambda a: a,
-}
-_BINARY: dict[int, Callable[[Any, Any], Any]] = {
-    ca.OP_ADD: lambda a, b: a + b,
-    ca.OP_SUB: lambda a, b: a - b,
-    ca.OP_MUL: lambda a, b: a * b,
-    ca.OP_DIV: lambda a, b: a / b,
-    ca.OP_POW: lambda a, b: a**b,
-    ca.OP_CONSTPOW: lambda a, b: a**b,
-    ca.OP_ATAN2: sp.atan2,
-    ca.OP_FMIN: sp.Min,
-    ca.OP_FMAX: sp.Max,
-    ca.OP_HYPOT: lambda a, b: sp.sqrt(a**2 + b**2),
-}
-
-
 def _number(value: float) -> sp.Expr:
     if float(value).is_integer() and abs(value) < 1e15:
         return sp.Integer(int(value))
@@ -125,31 +91,10 @@ def casadi_to_sympy(fn: ca.Function, inputs: list[list[sp.Expr]]) -> list[list[s
     SymbolicError
         If ``fn`` is not an SX function or holds an unsupported operation.
     """
-    if not fn.is_a("SXFunction"):
-        raise SymbolicError(f"{fn.name()} is not an SX function")
-    for k, arg in enumerate(inputs):
-        if len(arg) != fn.nnz_in(k):
-            raise SymbolicError(
-                f"input {k} of {fn.name()} has {fn.nnz_in(k)} nonzeros; got {len(arg)}"
-            )
-    work: dict[int, sp.Expr] = {}
-    out = [[sp.Integer(0)] * fn.nnz_out(k) for k in range(fn.n_out())]
-    for k in range(fn.n_instructions()):
-        op = fn.instruction_id(k)
-        ins, outs = fn.instruction_input(k), fn.instruction_output(k)
-        if op == ca.OP_INPUT:
-            work[outs[0]] = inputs[ins[0]][ins[1]]
-        elif op == ca.OP_OUTPUT:
-            out[outs[0]][outs[1]] = work[ins[0]]
-        elif op == ca.OP_CONST:
-            work[outs[0]] = _number(fn.instruction_constant(k))
-        elif op in _UNARY:
-            work[outs[0]] = _UNARY[op](work[ins[0]])
-        elif op in _BINARY:
-            work[outs[0]] = _BINARY[op](work[ins[0]], work[ins[1]])
-        else:
-            raise SymbolicError(f"casadi operation {op} of {fn.name()} has no sympy form here")
-    return out
+    try:
+        return _graph_to_sympy(fn, inputs)
+    except ModelError as exc:  # the engine's reader; the report keeps its own error type
+        raise SymbolicError(str(exc)) from exc
 
 
 def state_symbols(model: Model) -> list[sp.Symbol]:
