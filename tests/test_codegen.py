@@ -354,7 +354,7 @@ def test_cli_lists_exports_and_reports_errors(capsys, tmp_path, monkeypatch):
     assert cli_main(["export-c", "--list"]) == 0
     listed = capsys.readouterr().out
     for name in ("saturated_velocity_feedback", "s2_pd", "so3_pd", "chain_lqr_n<N>",
-                 "cart_nonlinear"):
+                 "cart_nonlinear", "swingup_tvlqr_cart"):
         assert name in listed
     assert cli_main(["export-c", "nope", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
@@ -374,3 +374,56 @@ def test_cli_lists_exports_and_reports_errors(capsys, tmp_path, monkeypatch):
 
     assert workbench_main(["export-c", "--list"]) == 0
     assert capsys.readouterr().out == listed
+
+
+# ----------------------------------------------------------------------------------------
+# the time-varying LQR tracker of the swing-up: a table lookup (x, t) -> u
+
+
+def _table_reference(tg, X, U, G, C, lo, hi, x, t):
+    """The law of workbench/tvlqr.py on a table: sample k held on [t_k, t_k+1)."""
+    k = int(np.clip(np.searchsorted(tg, t, side="right") - 1, 0, len(tg) - 1))
+    return np.clip(U[k] - G[k] @ (C[k] @ (x - X[k])), lo, hi)
+
+
+def test_tvlqr_table_law_on_a_synthetic_table():
+    rng = np.random.default_rng(3)
+    K, nx, nu, d = 5, 4, 2, 3
+    tg = np.arange(K + 1) * 0.1  # t_K = 0.5 holds the equilibrium row
+    X, U = rng.normal(size=(K + 1, nx)), rng.normal(size=(K + 1, nu))
+    G, C = rng.normal(size=(K + 1, nu, d)), rng.normal(size=(K + 1, d, nx))
+    f = exports.tvlqr_table_law(tg, X, U, G, C, u_lower=-2.0, u_upper=2.0)
+    ts = np.concatenate([tg, np.nextafter(tg, -np.inf), np.nextafter(tg, np.inf),
+                         [-1.0, -1e-300, 0.25, 10.0, 1e300]])
+    xs = rng.normal(size=(ts.size, nx)) * 2
+    u = np.asarray(f.map(ts.size)(xs.T, ts[None, :])).T
+    ref = np.array([_table_reference(tg, X, U, G, C, -2, 2, x, t) for x, t in zip(xs, ts)])
+    assert np.max(np.abs(u - ref) / np.maximum(np.abs(ref).max(axis=1, keepdims=True),
+                                               1e-300)) <= TOL
+    assert np.any(np.abs(ref) == 2.0)  # the saturation is exercised
+    # before t_0: the first sample; from t_K on: the equilibrium row; on t_k: sample k
+    x0 = np.zeros(nx)
+    for t, k in ((-1.0, 0), (tg[2], 2), (np.nextafter(tg[2], 0), 1), (tg[-1], K), (9.0, K)):
+        assert_close(np.asarray(f(x0, t)).ravel(), np.clip(U[k] + G[k] @ (C[k] @ X[k]), -2, 2),
+                     atol=1e-14, what=f"t = {t!r}")
+    with pytest.raises(ModelError):
+        exports.tvlqr_table_law(tg, X[:-1], U, G, C)
+
+
+@pytest.mark.slow
+def test_swingup_tvlqr_compiled_agrees_with_casadi_and_workbench_tvlqr(cache):
+    c = controller("swingup_tvlqr_cart")
+    Z = c.sample_states(N_STATES, seed=0)
+    # the sampler puts t on the grid, one ulp around it, before t_0 and after the horizon
+    assert np.sum(Z[:, -1] < 0) >= 500
+    compiled = codegen.compile_controller(c, binding=Binding.FROZEN, cache_dir=cache)
+    for through in Through:
+        dev = codegen.agreement(c, compiled, Z, binding=Binding.FROZEN, through=through)
+        assert dev.max() <= TOL, f"{through.value}: {dev.max():.3g}"
+    u = np.asarray(c.function_for(Binding.FROZEN).map(N_STATES)(Z.T)).T
+    ref = np.array([c.reference(z[:-1], z[-1]) for z in Z])
+    rel = np.max(np.abs(u - ref), axis=1) / np.max(np.abs(ref), axis=1)
+    assert rel.max() <= TOL, rel.max()
+    assert np.all(np.isfinite(compiled.run_example()))
+    with pytest.raises(ModelError):
+        c.function_for(Binding.PARAMETERS)
