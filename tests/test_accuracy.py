@@ -60,7 +60,10 @@ def test_errors_fall_with_the_knob_and_orders_match_theory(wp):
 
 def test_runs_measure_energy_constraint_and_cost(wp):
     for r in wp.runs:
-        assert r.ok and r.wall_seconds > 0 and r.constraint_residual >= 0
+        # the cost is recorded (a count where the method keeps one), not judged: speed is
+        # measured in benchmarks/
+        assert r.ok and np.isfinite(r.wall_seconds) and r.constraint_residual >= 0
+        assert r.steps is None or r.steps > 0
         assert r.energy_error is not None and r.energy_error > 0
     geo = [r for r in wp.runs if r.label in ("s2_variational", "rkmk4")]
     assert max(r.constraint_residual for r in geo) < 1e-13
