@@ -25,6 +25,7 @@ import numpy as np
 
 from workbench._types import ArrayLike, Matrix, Vector
 from workbench.errors import ModelError
+from workbench.feedback import feedback_function
 from workbench.model import BuildRecord, Model
 
 __all__ = [
@@ -75,26 +76,7 @@ def closed_loop_jacobians(model: Model, controller: ca.Function | None) -> ca.Fu
 
 
 def _check_controller(model: Model, controller: Any) -> None:
-    if not isinstance(controller, ca.Function):
-        raise ModelError(
-            f"controller must be a casadi.Function u = k(x) or k(x, p); got "
-            f"{type(controller).__name__}"
-        )
-    n = model.manifold.ambient_dim
-    if controller.n_in() not in (1, 2) or controller.size1_in(0) != n:
-        raise ModelError(
-            f"controller must take the state ({n} entries) and optionally the parameters; got "
-            f"inputs of sizes {[controller.size1_in(i) for i in range(controller.n_in())]}"
-        )
-    if controller.n_in() == 2 and controller.nnz_in(1) != model.n_params:
-        raise ModelError(
-            f"controller's second input must be the model's parameters ({model.n_params}); "
-            f"got {controller.nnz_in(1)} entries"
-        )
-    if controller.nnz_out(0) != model.n_inputs:
-        raise ModelError(
-            f"controller must return {model.n_inputs} inputs; got {controller.nnz_out(0)}"
-        )
+    feedback_function(model, controller)  # raises ModelError for a controller that does not fit
 
 
 _JAC_CACHE: dict[tuple[int, int], tuple[Any, Any, ca.Function]] = {}

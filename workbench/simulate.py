@@ -22,6 +22,7 @@ import numpy as np
 from workbench._types import ArrayLike
 from workbench._validate import choice, count
 from workbench.errors import ModelError, SolverError
+from workbench.feedback import feedback_function
 from workbench.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -212,27 +213,7 @@ def closed_loop_function(model: Model, controller: ca.Function | None) -> ca.Fun
     f = model.function("f")
     S = model.sym
     x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
-    if controller is None:
-        u = S.zeros(model.n_inputs)
-    else:
-        if not isinstance(controller, ca.Function):
-            raise ModelError(
-                f"controller must be a casadi.Function u = k(x) or k(x, p); got "
-                f"{type(controller).__name__}"
-            )
-        if controller.size1_in(0) != model.manifold.ambient_dim or controller.n_in() > 2:
-            raise ModelError(
-                f"controller must take the state ({model.manifold.ambient_dim} entries) and "
-                f"optionally the parameters; got inputs of sizes "
-                f"{[controller.size1_in(i) for i in range(controller.n_in())]}"
-            )
-        if controller.nnz_out(0) != model.n_inputs:
-            raise ModelError(
-                f"controller must return {model.n_inputs} inputs; got "
-                f"{controller.nnz_out(0)}"
-            )
-        args = [x] if controller.n_in() == 1 else [x, p]
-        u = controller(*args)
+    u = feedback_function(model, controller)(x, p)
     return ca.Function("closed_loop", [x, p], [f(x, u, p), u], ["x", "p"], ["xdot", "u"])
 
 

@@ -32,6 +32,9 @@ import numpy as np
 from workbench._types import ArrayLike
 from workbench._validate import count, positive
 from workbench.errors import ModelError, ParameterError, SolverError, WorkbenchError
+from workbench.feedback import (
+    feedback_function,  # re-exported: the integrators' users import it here
+)
 from workbench.model import Evaluator, Model
 
 __all__ = [
@@ -145,51 +148,6 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
             f"got {newton_tol!r}"
         )
     return tol, count("newton_max_iter", newton_max_iter)
-
-
-def feedback_function(model: Model, controller: ca.Function | None) -> ca.Function:
-    """``(x, p) -> u`` in the model's symbol class: the controller, or ``u = 0``.
-
-    Parameters
-    ----------
-    model : Model
-        The plant.
-    controller : casadi.Function or None
-        ``u = k(x)`` or ``u = k(x, p)``, output of size ``model.n_inputs``.
-
-    Returns
-    -------
-    casadi.Function
-
-    Raises
-    ------
-    ModelError
-        If the controller's inputs or output do not fit the model.
-    """
-    S = model.sym
-    x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
-    if controller is None:
-        u = S.zeros(model.n_inputs)
-    else:
-        if not isinstance(controller, ca.Function):
-            raise ModelError(
-                f"controller must be a casadi.Function u = k(x) or k(x, p); got "
-                f"{type(controller).__name__}"
-            )
-        if controller.n_in() not in (1, 2) or \
-                controller.nnz_in(0) != model.manifold.ambient_dim or \
-                (controller.n_in() == 2 and controller.nnz_in(1) != model.n_params):
-            raise ModelError(
-                f"controller must take the state ({model.manifold.ambient_dim} entries) and "
-                f"optionally the parameters ({model.n_params}); got inputs of sizes "
-                f"{[controller.nnz_in(i) for i in range(controller.n_in())]}"
-            )
-        if controller.nnz_out(0) != model.n_inputs:
-            raise ModelError(
-                f"controller must return {model.n_inputs} inputs; got {controller.nnz_out(0)}"
-            )
-        u = controller(x) if controller.n_in() == 1 else controller(x, p)
-    return ca.Function("feedback", [x, p], [ca.vec(u)], ["x", "p"], ["u"])
 
 
 def controller_key(controller: ca.Function | None) -> str:
