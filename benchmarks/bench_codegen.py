@@ -28,7 +28,7 @@ from _timing import median_time, table  # noqa: E402
 from models import exports  # noqa: E402
 from workbench import codegen  # noqa: E402
 from workbench.codegen import Binding, Optimization  # noqa: E402
-from workbench.model import Evaluator  # noqa: E402
+from workbench.core import Evaluator
 
 MAIN = ["saturated_velocity_feedback", "s2_pd", "so3_pd", "cart_nonlinear", "chain_lqr_n5"]
 CHAINS = ["chain_lqr_n1", "chain_lqr_n2", "chain_lqr_n10"]

@@ -3,7 +3,7 @@
 Medians of repeated runs, each against a baseline measured in the same run:
 
 * one controller evaluation ``u = k(x, p)`` against one evaluation of the plant's field
-  ``f(x, u, p)`` (both through the buffered :class:`~workbench.model.Evaluator`): what a
+  ``f(x, u, p)`` (both through the buffered :class:`~workbench.core._model.Evaluator`): what a
   feedback law costs relative to the model it drives;
 * a closed-loop simulation against the open-loop simulation of the same model, horizon
   and tolerances (how much the controller adds to integration);
@@ -36,14 +36,9 @@ from _timing import median_time, table  # noqa: E402
 from models import controllers as ctl  # noqa: E402
 from models import pendulum3d as p3  # noqa: E402
 from models.chain_cart import chain_cart  # noqa: E402
-from workbench.attraction import (  # noqa: E402
-    Constraint,
-    check_convergence,
-    level_in_domain,
-    optimize_lyapunov,
-)
-from workbench.model import Evaluator  # noqa: E402
-from workbench.simulate import simulate  # noqa: E402
+from workbench.control import Constraint, check_convergence, level_in_domain, optimize_lyapunov
+from workbench.core import Evaluator
+from workbench.simulation import simulate
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 BODY = {"J": J7, "rho": np.array([0.0, 0.0, 0.2]), "m": 100.0, "g": 10.0}

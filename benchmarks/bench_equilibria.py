@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _timing import median_time, table  # noqa: E402
 
 from models import pendulum3d as p3  # noqa: E402
-from workbench.branch import StepControl  # noqa: E402
-from workbench.relative_equilibria import rotation_problem, slice_zeros  # noqa: E402
-from workbench.relative_families import trace_relative_equilibria  # noqa: E402
+from models.relative_equilibria import rotation_problem, slice_zeros  # noqa: E402
+from models.relative_families import trace_relative_equilibria  # noqa: E402
+from workbench.equilibria import StepControl
 
 BODY = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.0140, 0.1044, 0.4989]),
         "m": 1.0, "g": 9.81}

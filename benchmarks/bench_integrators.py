@@ -25,7 +25,7 @@ from _timing import table  # noqa: E402
 from models import pendulum3d as p3  # noqa: E402
 from models.spherical import spherical_pendulum  # noqa: E402
 from problems.work_precision import BODY, C_CHAOTIC, chain_cart, chain_initial_state  # noqa: E402
-from workbench.simulate import simulate  # noqa: E402
+from workbench.simulation import simulate
 
 
 def per_step(model, x0, t, kw, repeat: int) -> float:

@@ -36,10 +36,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _timing import median_time, table  # noqa: E402
 
 from models.chain_cart import chain_cart, link_state  # noqa: E402
-from workbench.controllability import kalman_rank, pbh  # noqa: E402
-from workbench.linearize import linearize, mechanical_order  # noqa: E402
-from workbench.lqr import lqr  # noqa: E402
-from workbench.model import Evaluator  # noqa: E402
+from workbench.core import Evaluator
+from workbench.linear import kalman_rank, linearize, lqr, mechanical_order, pbh
 
 E3 = np.array([0.0, 0.0, 1.0])
 

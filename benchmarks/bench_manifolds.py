@@ -2,10 +2,10 @@
 
 Scenes: the inverted spherical pendulum under PD (paper 002 Sec. II, step 0.002 s, the
 paper's) and the saddle exp(pi e2^) of PD on SO(3) (Sec. III, step 0.002 s). For each, the
-vectorised growth (workbench.invariant_manifolds: all points per casadi call) with the
+vectorised growth (workbench.global_dynamics._invariant_manifolds: all points per casadi call) with the
 geometric method of the paper and with RKMK4, compiled (jit), on 1 and 2 threads, and the
 first one in casadi's virtual machine. Baseline, same run: the same method and step run
-point by point through workbench.simulate (compiled), measured on a subset and scaled to
+point by point through workbench.simulation._simulate (compiled), measured on a subset and scaled to
 1000 points. Printed: median wall seconds of the stepping (and of the whole call, with
 linearisation, seeds, diagnostics), microseconds per point-step, and the ratio to the
 baseline. Compilation is done before timing.
@@ -29,9 +29,9 @@ from _timing import table  # noqa: E402
 from models import controllers as ctl  # noqa: E402
 from models import pendulum3d as p3  # noqa: E402
 from models.spherical import spherical_pendulum  # noqa: E402
-from workbench.invariant_manifolds import stable_manifold  # noqa: E402
-from workbench.manifolds import SO3  # noqa: E402
-from workbench.simulate import Method, simulate  # noqa: E402
+from workbench.core.manifolds import SO3  # noqa: E402
+from workbench.global_dynamics import stable_manifold
+from workbench.simulation import Method, simulate
 
 HORIZON, STEP, OUTPUT = 10.0, 0.002, 0.05
 

@@ -23,8 +23,8 @@ from _timing import median_time, table  # noqa: E402
 
 from models import pendulum3d as p3  # noqa: E402
 from models.chain_cart import chain_cart  # noqa: E402
-from workbench.model import Evaluator  # noqa: E402
-from workbench.simulate import simulate  # noqa: E402
+from workbench.core import Evaluator
+from workbench.simulation import simulate
 
 
 def chain_rows(ns=(1, 2, 5, 10, 20)) -> list[dict]:

@@ -8,7 +8,7 @@ median over repeats of:
 
 * ``cold``: one solve at the target N from the scene's deterministic guess;
 * ``cascade``: the same guess solved at coarse N and refined to the target N (the sum of
-  the solve times: the strategy :func:`workbench.ocp.coarse_to_fine`);
+  the solve times: the strategy :func:`workbench.control.ocp.coarse_to_fine`);
 * ``warm``: a re-solve from the converged primal-dual solution (continuation steps).
 
 with the iterations, the cost reached and the status, and the ratio of each median to the
@@ -36,7 +36,7 @@ from _timing import table  # noqa: E402
 from problems import swingup_3d_pendulum as p3d  # noqa: E402
 from problems import swingup_double_spherical_cart as dbl  # noqa: E402
 from problems import swingup_spherical_cart as cart  # noqa: E402
-from workbench.ocp import (  # noqa: E402
+from workbench.control.ocp import (  # noqa: E402
     Collocation,
     Graph,
     Guess,

@@ -2,7 +2,7 @@
 
 Target: under 60 s on 2 cores. Measured in one run:
 
-1. the workbench sweep (``workbench.sweep`` over a 2-process pool, ``poincare_map`` on the
+1. the workbench sweep (``workbench.simulation._sweep`` over a 2-process pool, ``poincare_map`` on the
    Routh model, CVODES Adams + RK4-refined crossings), 5 levels x N crossings, wall time;
 2. single-core per-crossing cost, workbench against the baseline, on the same 5 levels x
    M crossings, median of R repeats: the baseline is scipy ``solve_ivp`` (DOP853, same
@@ -26,8 +26,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from models import pendulum3d as p3
-from workbench.poincare import poincare_map, turning_section
-from workbench.sweep import InlineExecutor, grid, sweep
+from workbench.global_dynamics import poincare_map, turning_section
+from workbench.simulation import InlineExecutor, grid, sweep
 
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": np.array([0.0, 0.0, 0.3]), "m": 1.0,
         "g": 9.81}

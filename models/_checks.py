@@ -1,17 +1,17 @@
 """Validation shared by the papers' feedback laws and Lyapunov functions (private).
 
 Gains are checked against the papers' conditions and models against what a law needs;
-failures raise :class:`~workbench.errors.ParameterError` or
-:class:`~workbench.errors.ModelError` naming the argument, the condition and the value.
+failures raise :class:`~workbench.core.errors.ParameterError` or
+:class:`~workbench.core.errors.ModelError` naming the argument, the condition and the value.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from workbench._types import ArrayLike
-from workbench.errors import ModelError, ParameterError
-from workbench.model import Model, spd3
+from workbench.core import Model, spd3
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.types import ArrayLike
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -16,10 +16,10 @@ import casadi as ca
 import numpy as np
 
 from models._checks import E3, positive_scalar, require_model
-from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import state_function
-from workbench.manifolds import TS2, Rn
-from workbench.model import Context, Model
+from workbench.control import state_function
+from workbench.core import Context, Model
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import TS2, Rn
 
 __all__ = ["CartGains", "cart_domain", "cart_inverted_feedback", "cart_inverted_law"]
 

@@ -21,10 +21,10 @@ from collections.abc import Sequence
 import casadi as ca
 import numpy as np
 
-from workbench._types import ArrayLike
-from workbench.errors import ParameterError
-from workbench.manifolds import TS2, ProductManifold, Rn
-from workbench.model import Context, Model, Parameter, positive
+from workbench.core import Context, Model, Parameter, positive
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import TS2, ProductManifold, Rn
+from workbench.core.types import ArrayLike
 
 __all__ = ["chain_cart", "link_state", "E3", "C"]
 

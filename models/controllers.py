@@ -2,7 +2,7 @@
 
 Every function here returns a ``casadi.Function`` with inputs ``x`` (the model's stored
 ambient state) and ``p`` (the model's parameter vector, :attr:`Model.p`) and output ``u``,
-so a controller can be put in the loop by :func:`workbench.simulate.simulate`, linearised
+so a controller can be put in the loop by :func:`workbench.simulation._simulate.simulate`, linearised
 by automatic differentiation together with the model, and exported to C. Gains are
 constants of the graph (validated here against the papers' conditions); model parameters
 used for cancellation (``m``, ``g``, ``l``, ``rho``) are read from ``p``, so the
@@ -19,11 +19,11 @@ controller always cancels the model it is evaluated with.
   :class:`CartGains`; :func:`cart_domain` is the domain D of (43).
 
 The cart laws live in :mod:`models.cart_feedback`. Lyapunov functions
-(:class:`~workbench.lyapunov.Lyapunov`, derivatives from the graph) live in
+(:class:`~workbench.control._lyapunov.Lyapunov`, derivatives from the graph) live in
 :mod:`models.lyapunov_functions`: :func:`velocity_feedback_lyapunov` (paper 001 (30);
 :func:`hanging_set_level` gives the levels of H_eps (29) and N (33)) and
 :func:`cart_lyapunov` (paper 003 (25)). All are re-exported here. The chain
-feedback (19) of paper 003 is :func:`workbench.lqr.geometric_feedback` (LQR gains through
+feedback (19) of paper 003 is :func:`workbench.linear._lqr.geometric_feedback` (LQR gains through
 the chart).
 """
 
@@ -42,11 +42,11 @@ from models.lyapunov_functions import (
     hanging_set_level,
     velocity_feedback_lyapunov,
 )
-from workbench._types import ArrayLike
-from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import state_function
-from workbench.manifolds import S2, SO3, TS2, Rn, vee
-from workbench.model import Context, Model
+from workbench.control import state_function
+from workbench.core import Context, Model
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import S2, SO3, TS2, Rn, vee
+from workbench.core.types import ArrayLike
 
 __all__ = [
     "CartGains",

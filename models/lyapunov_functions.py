@@ -2,7 +2,7 @@
 
 :func:`velocity_feedback_lyapunov` (paper 001 (30)) with :func:`hanging_set_level` (the
 levels of H_eps (29) and N (33)), and :func:`cart_lyapunov` (paper 003 (25)). Each is a
-:class:`~workbench.lyapunov.Lyapunov`; all are re-exported by :mod:`models.controllers`.
+:class:`~workbench.control._lyapunov.Lyapunov`; all are re-exported by :mod:`models.controllers`.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import numpy as np
 
 from models._checks import E3, require_model
 from models.cart_feedback import CartGains, _cart_terms, _require_cart
-from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import Lyapunov, state_function
-from workbench.manifolds import SO3, Rn
-from workbench.model import Context, Model
+from workbench.control import Lyapunov, state_function
+from workbench.core import Context, Model
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import SO3, Rn
 
 __all__ = ["cart_lyapunov", "hanging_set_level", "velocity_feedback_lyapunov"]
 

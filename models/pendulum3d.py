@@ -24,11 +24,11 @@ from collections.abc import Callable, Mapping
 import casadi as ca
 import numpy as np
 
-from workbench._types import ArrayLike
-from workbench.errors import ModelError, ParameterError
-from workbench.lyapunov import as_states, state_function
-from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp
-from workbench.model import Context, Model, Parameter, finite, positive, spd3
+from workbench.control import as_states, state_function
+from workbench.core import Context, Model, Parameter, finite, positive, spd3
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp
+from workbench.core.types import ArrayLike
 
 __all__ = [
     "phase_density",
@@ -504,7 +504,7 @@ def phase_density(J: ArrayLike) -> Callable[[np.ndarray], np.ndarray]:
     """The integrand ``F`` of paper 000 (5.15) for an inertia ``J``, as a vectorised function.
 
     ``F(Gamma) = (2 |J Gamma|^2 - tr(J) Gamma.J Gamma) / (Gamma.J Gamma)^2``, the curvature of
-    the mechanical connection (5.3); :func:`workbench.phase.geometric_phase_check` takes it
+    the mechanical connection (5.3); :func:`workbench.global_dynamics._phase.geometric_phase_check` takes it
     as ``density`` and checks it against the reconstruction.
 
     Parameters

@@ -18,8 +18,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from workbench.manifolds import TS2, ProductManifold
-from workbench.model import Context, Model, Parameter, positive
+from workbench.core import Context, Model, Parameter, positive
+from workbench.core.manifolds import TS2, ProductManifold
 
 __all__ = ["spherical_pendulum", "E3"]
 

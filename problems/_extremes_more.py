@@ -19,9 +19,9 @@ from scipy.special import ellipkm1
 
 from models import pendulum3d as p3
 from problems.extremes import J_CYL, MG, RHO_CYL, Cases, Check, prop9
-from workbench.errors import SolverError
-from workbench.manifolds import SO3, so3_exp
-from workbench.result import Result
+from workbench.core.errors import SolverError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.study import Result
 
 ROOT = Path(__file__).resolve().parent.parent
 E3 = np.array([0.0, 0.0, 1.0])
@@ -48,7 +48,7 @@ def _richardson(model: Any, x0: np.ndarray, t: np.ndarray, method: str, step: fl
 def fast_and_slow(cases: Cases, res: Result, *, quick: bool) -> None:
     """Spin 1e3 rad/s (sleeping top), periods near the separatrix, 10^5 s horizons."""
     from workbench import simulate
-    from workbench.accuracy import Sweep, long_time
+    from workbench.simulation.accuracy import Sweep, long_time
 
     group = "fast_and_slow"
     # the sleeping top: J = diag(Jt, Jt, Ja), rho on the axis, hanging, omega = s e3;
@@ -96,7 +96,7 @@ def fast_and_slow(cases: Cases, res: Result, *, quick: bool) -> None:
     # the bottom (Gamma_1 = 0, transversal) located by poincare_map; near the separatrix
     # dT/dE = 4 / (lambda m g rs d^2), so an energy error dE moves T by that much, and the
     # orbit may cross the separatrix once dE reaches m g rs d^2 / 2
-    from workbench.poincare import Section, poincare_map
+    from workbench.global_dynamics import Section, poincare_map
 
     lam = np.sqrt(MG * rs / Jt)
     bottom = Section("bottom", _gamma_1, description="Gamma_1 = 0 (pendulum at the bottom)")
@@ -170,9 +170,7 @@ def fast_and_slow(cases: Cases, res: Result, *, quick: bool) -> None:
 
 def continuation(cases: Cases, res: Result, *, quick: bool) -> None:
     """Relative equilibria at alpha within 1e-12 of 0 (branches) and of 1/J_i (slices)."""
-    from workbench.branch import StepControl
-    from workbench.continuation import continue_branch
-    from workbench.relative_equilibria import (
+    from models.relative_equilibria import (
         alpha,
         limit_at_infinity,
         rotation_problem,
@@ -180,7 +178,8 @@ def continuation(cases: Cases, res: Result, *, quick: bool) -> None:
         sphere_points,
         static_equilibria,
     )
-    from workbench.relative_families import RelativeEquilibria, at_alpha
+    from models.relative_families import RelativeEquilibria, at_alpha
+    from workbench.equilibria import StepControl, continue_branch
 
     group = "continuation"
     model = p3.reduced(J=J_CYL, rho=RHO_CYL)
@@ -266,7 +265,7 @@ def chain_case(n: int, horizon: float) -> dict[str, Any]:
 
     from models.chain_cart import chain_cart, link_state
     from workbench import lqr, pbh, simulate
-    from workbench.linearize import linearize, mechanical_order
+    from workbench.linear import linearize, mechanical_order
 
     stages: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -359,7 +358,7 @@ def optimisation(cases: Cases, res: Result, *, quick: bool) -> None:
     Failures carry Ipopt's status.
     """
     from problems.swingup_spherical_cart import problem
-    from workbench.ocp import Collocation, continuation, solve
+    from workbench.control.ocp import Collocation, continuation, solve
 
     group = "optimisation"
     tol = 1e-2

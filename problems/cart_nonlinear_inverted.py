@@ -24,17 +24,18 @@ import numpy as np
 
 from models import controllers as ctl
 from models.chain_cart import chain_cart
-from workbench.attraction import (
+from workbench.control import (
     Constraint,
+    SublevelSet,
     check_convergence,
     estimate_basin,
     level_in_domain,
     optimize_lyapunov,
+    ray_extent,
 )
-from workbench.lyapunov import SublevelSet, ray_extent
-from workbench.model import Model
-from workbench.result import Result
-from workbench.simulate import simulate
+from workbench.core import Model
+from workbench.simulation import simulate
+from workbench.study import Result
 
 TITLE = "Nonlinear control of the inverted spherical pendulum on a cart; certified DOA (paper 003)"
 
@@ -216,6 +217,6 @@ def _figure(tr, Vt):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

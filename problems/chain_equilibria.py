@@ -4,7 +4,7 @@ The model of paper 003 (12)-(13) (models.chain_cart with the Section 5 values m 
 m_i = 0.1, l_i = 0.1, g = 9.81), n = 1..6. The structure of Section 3.1 names the
 candidates: every link vertical, q_i = s_i e3. For every sign pattern s the guess is the
 candidate *perturbed* (seeded: every link rotated by about 0.05 rad, angular velocities,
-cart position and velocity of the same size), and workbench.equilibria.enumerate_equilibria
+cart position and velocity of the same size), and workbench.equilibria._equilibria.enumerate_equilibria
 runs Newton on the manifold (the retraction keeps each q_i on S^2 and each omega_i tangent)
 from each guess. Measured for every n: the number of distinct equilibria (2^n), that each
 solve converged to the equilibrium of its own sign pattern, the residual |f| and the
@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 
 from models.chain_cart import chain_cart, link_state
+from models.relative_equilibria import stability_label
+from workbench.core.manifolds import so3_exp
 from workbench.equilibria import RootStatus, enumerate_equilibria, find_equilibrium
-from workbench.manifolds import so3_exp
-from workbench.relative_equilibria import stability_label
-from workbench.result import Result
+from workbench.study import Result
 
 TITLE = "Chain pendulum on a cart: the 2^n equilibria by Newton on the manifold, n = 1..6 " \
         "(paper 003 Sec. 3.1)"
@@ -177,6 +177,6 @@ def _figure(histories: dict[int, list[list[float]]]):  # noqa: ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -6,11 +6,11 @@ q_i = s_i e3 (3.1), for n = 1..5 (2 + 4 + 8 + 16 + 32 = 62 equilibria; quick: n 
 In the model's tangent coordinates a link's (v, eta) are (C^T xi_i, C^T delta omega_i)
 (sphere_basis(+-e3) = [e1, e2]); at rest delta omega_i = xi_i-dot ((38)), so eta is the
 rate of v and the order [delta x; x_q; delta x-dot; x_q-dot] of (16) is a permutation
-(workbench.linearize.mechanical_order with pairs {"x": "v"}).
+(workbench.linear._linearize.mechanical_order with pairs {"x": "v"}).
 
 Measured at every equilibrium, with the paper's formulas evaluated in code as reference:
 M, G, B from the graph (the energy's Riemannian Hessian and the linearised field,
-workbench.controllability.second_order_form) against (16) with the errata; the first-order
+workbench.linear._controllability.second_order_form) against (16) with the errata; the first-order
 A, B against [[0, I], [-M^-1 G, 0]], [0; M^-1 B]; the spectrum (hanging: purely
 imaginary; each of the other 2^n - 1: an unstable eigenvalue, after (16)); controllability
 by the first-order PBH test, the second-order test (40) and the reduced test (18) (all
@@ -31,11 +31,16 @@ import numpy as np
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
-from workbench._types import ArrayLike
-from workbench.controllability import kalman_rank, pbh, pbh_second_order, second_order_form
-from workbench.eigen import eigenstructure
-from workbench.linearize import linearize
-from workbench.result import Result
+from workbench.core.types import ArrayLike
+from workbench.linear import (
+    eigenstructure,
+    kalman_rank,
+    linearize,
+    pbh,
+    pbh_second_order,
+    second_order_form,
+)
+from workbench.study import Result
 
 TITLE = "Chain pendulum on a cart: (16) from the graph at all 2^n equilibria, PBH (paper 003)"
 
@@ -214,6 +219,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

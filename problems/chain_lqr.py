@@ -4,9 +4,9 @@ The chain of Section 5 (n = 5, m = 0.5, m_i = 0.1, l_i = 0.1, g = 9.81) is linea
 the graph at the hanging equilibrium s = (1, 1, 1, 1, 1) and at the partially folded
 s = (-1, -1, -1, 1, 1); LQR gains for Q = diag[8 I2, I_2n, 8 I2, I_2n], R = I2 in the
 paper's order [delta x; x_q; delta x-dot; x_q-dot] (a permutation of the tangent
-coordinates, workbench.linearize.mechanical_order) are computed (workbench.lqr), and each
+coordinates, workbench.linear._linearize.mechanical_order) are computed (workbench.linear._lqr), and each
 gain is turned into the geometric feedback (19) on the full state through the chart
-(C^T (s_i e3 x q_i), C^T omega_i) (workbench.lqr.geometric_feedback).
+(C^T (s_i e3 x q_i), C^T omega_i) (workbench.linear._lqr.geometric_feedback).
 
 Measured: the Riccati residual and the closed-loop spectra; the linearisation of the
 nonlinear law in the loop against A - B K; the nonlinear closed loops from the printed
@@ -24,11 +24,9 @@ from typing import Any
 import numpy as np
 
 from models.chain_cart import chain_cart, link_state
-from workbench.eigen import eigenstructure
-from workbench.linearize import linearize, mechanical_order
-from workbench.lqr import lqr
-from workbench.result import Result
-from workbench.simulate import simulate
+from workbench.linear import eigenstructure, linearize, lqr, mechanical_order
+from workbench.simulation import simulate
+from workbench.study import Result
 
 TITLE = "LQR for the 5-link chain on a cart: gains, spectra, nonlinear closed loops (paper 003)"
 
@@ -184,6 +182,6 @@ def _figure(data):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

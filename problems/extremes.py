@@ -5,7 +5,7 @@ workbench did, the outcome, the error estimate and the cost. The outcome is
 
 * ``correct``: the result carries an error (against a closed form, a reference run, or the
   method's own estimate) at or below the stated tolerance;
-* ``clear failure``: a documented exception (:class:`~workbench.errors.WorkbenchError`)
+* ``clear failure``: a documented exception (:class:`~workbench.core.errors.WorkbenchError`)
   whose message says what failed, or, for a case that returns a count of failures, that
   count turned into such a message by this problem.
 
@@ -36,9 +36,9 @@ import numpy as np
 from scipy.linalg import eigh
 
 from models import pendulum3d as p3
-from workbench.errors import SolverError, WorkbenchError
-from workbench.manifolds import hat, so3_exp
-from workbench.result import Result
+from workbench.core.errors import SolverError, WorkbenchError
+from workbench.core.manifolds import hat, so3_exp
+from workbench.study import Result
 
 TITLE = ("Numerical extremes: near balance, ill-conditioned inertia, fast and slow motion, "
          "singular continuation, large chains, bad input (issue 11)")
@@ -157,8 +157,8 @@ def prop9(J: np.ndarray, rho: np.ndarray, a: float, m: float = 1.0) -> tuple[np.
 
 def near_balanced(cases: Cases, res: Result, scales: list[float]) -> None:
     """Equilibria, spectra (3.22)-(3.28) and LQR for rho = s * rho_hat of the cylinder."""
+    from models.relative_equilibria import static_equilibria
     from workbench import linearize, lqr
-    from workbench.relative_equilibria import static_equilibria
 
     group = "near_balanced"
     for s in scales:
@@ -194,7 +194,7 @@ def near_balanced(cases: Cases, res: Result, scales: list[float]) -> None:
                                 relative=True, source="paper 000 (3.22)-(3.28)")
                 else:  # balanced: A is nilpotent, every eigenvalue 0
                     errs.append(float(np.abs(ev).max()))
-                from workbench.eigen import eigenstructure
+                from workbench.linear import eigenstructure
 
                 kinds.append(eigenstructure(lin).stability.value)
             return Check(f"linearize (full, dim 6) at hanging/inverted: {kinds[0]} / "
@@ -222,8 +222,8 @@ def near_balanced(cases: Cases, res: Result, scales: list[float]) -> None:
 
 def ill_conditioned(cases: Cases, res: Result, conds: list[float], *, quick: bool) -> None:
     """cond(J) up to 1e8 (rotated principal axes); nearly equal moments beside case 7(a)."""
+    from models.relative_equilibria import static_equilibria
     from workbench import linearize, lqr, simulate
-    from workbench.relative_equilibria import static_equilibria
 
     group = "ill_conditioned"
     Q = so3_exp([0.3, -0.5, 0.7])
@@ -337,8 +337,8 @@ def ill_conditioned(cases: Cases, res: Result, conds: list[float], *, quick: boo
 
 def nearly_equal(cases: Cases, res: Result) -> None:
     """J1 - J2 in {0, 1e-12, 1e-8}, rho = (0, 0, rho3): Prop. 9 case 7(a) and its neighbours."""
+    from models.relative_equilibria import rotation_problem, slice_zeros, sphere_points
     from workbench import linearize
-    from workbench.relative_equilibria import rotation_problem, slice_zeros, sphere_points
 
     group = "ill_conditioned"
     k = 5.0
@@ -438,6 +438,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -11,7 +11,7 @@ equilibrium except for (0, Gamma_i), so M_i meets N only there (Remark 5).
 Computed: a slice of M_i, the piece F^-t(B_delta), 0 <= t <= T, grown backward from a
 sphere of B_delta (delta = 1e-6) in the 3-dimensional stable eigenspace with the
 Lie-group RKMK4 method (all points per casadi call). Measured: the stable and unstable
-dimensions (Lemma 3-4); no computed state lies in N (membership by workbench.lyapunov's
+dimensions (Lemma 3-4); no computed state lies in N (membership by workbench.control._lyapunov's
 sublevel set of (30) at the level of models.controllers.hanging_set_level), with the
 margin V - 2 m g |rho| and the margin divided by the squared distance (12) to the
 equilibrium (bounded away from 0: the manifold touches the boundary of N only at the
@@ -27,13 +27,11 @@ import numpy as np
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.eigen import Subspace
-from workbench.invariant_manifolds import invariant_manifold
-from workbench.lyapunov import SublevelSet
-from workbench.manifold_seeds import distances
-from workbench.manifold_validation import validate
-from workbench.result import Result
-from workbench.simulate import Method
+from workbench.control import SublevelSet
+from workbench.global_dynamics import distances, invariant_manifold, validate
+from workbench.linear import Subspace
+from workbench.simulation import Method
+from workbench.study import Result
 
 TITLE = "A slice of the stable manifold M_i of the inverted equilibrium avoids N (paper 001)"
 
@@ -135,7 +133,7 @@ def _figure(W, margin, quick):  # noqa: ANN001, ANN202
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from workbench.plots import mark_directions, sphere_axes, sphere_curves
+    from workbench.study import mark_directions, sphere_axes, sphere_curves
 
     fig = plt.figure(figsize=(10, 4.2))
     ax = sphere_axes(fig, 121, elev=10)
@@ -156,6 +154,6 @@ def _figure(W, margin, quick):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

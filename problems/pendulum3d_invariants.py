@@ -16,9 +16,9 @@ import numpy as np
 from scipy.special import ellipk
 
 from models import pendulum3d as p3
-from workbench.manifolds import SO3
-from workbench.result import Result
-from workbench.simulate import simulate
+from workbench.core.manifolds import SO3
+from workbench.simulation import simulate
+from workbench.study import Result
 
 TITLE = "3D pendulum invariants; full, Lagrange-Poincare and Routh models agree (paper 000)"
 
@@ -180,6 +180,6 @@ def _figure(tr, gamma):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -3,7 +3,7 @@
 The body of paper 001 Section 7 (J = [[30, 20, 7], [20, 40, 0], [7, 0, 50]], m = 100,
 rho = (0, 0, 0.2), g = 10; J is not diagonal, so the simultaneous diagonalisation of
 (3.21) is not trivial) and the body of paper 000 Section 5.6 (J = diag(0.13, 0.28, 0.17),
-rho = (0, 0, 0.3), m = 1, g = 9.81) are linearised from the graph (workbench.linearize)
+rho = (0, 0, 0.3), m = 1, g = 9.81) are linearised from the graph (workbench.linear._linearize)
 at a hanging and an inverted equilibrium of three models: the full model on TSO(3)
 (dimension 6), the Lagrange-Poincare reduced model on S^2 x R^3 (5) and the Lagrange-Routh
 model on TS^2 with mu = 0 (4).
@@ -26,10 +26,9 @@ import numpy as np
 import scipy.linalg as sla
 
 from models import pendulum3d as p3
-from workbench.eigen import eigenstructure
-from workbench.linearize import linearize
-from workbench.manifolds import hat, so3_exp
-from workbench.result import Result
+from workbench.core.manifolds import hat, so3_exp
+from workbench.linear import eigenstructure, linearize
+from workbench.study import Result
 
 TITLE = "3D pendulum linearised at hanging and inverted: full, reduced, Routh (paper 000)"
 
@@ -161,6 +160,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

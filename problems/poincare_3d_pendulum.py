@@ -4,7 +4,7 @@
 rho = (0, 0, 0.3), g = 9.81) starts at R0 = I, omega0 = c (1, 1, 1); its Lagrange-Routh
 orbit on TS^2 (momentum mu = 0.17 c) is cut by the section P = {e3 . Gamma-dot = 0,
 e3 . (Gamma x Gamma-dot) > 0} at the energy E(c) = 0.29 c^2 - 2.943 (5.16). The five
-values of c, one orbit each, run through :func:`workbench.sweep.sweep` in a process pool:
+values of c, one orbit each, run through :func:`workbench.simulation._sweep.sweep` in a process pool:
 
 =====  ========  ==========================================================================
 c      E [J]     what the map shows (measured by the finite-time Lyapunov exponent)
@@ -21,7 +21,7 @@ c      E [J]     what the map shows (measured by the finite-time Lyapunov expone
 (The onset of chaos lies between c = 2 and 2.5, the return to regularity between 6 and 7.)
 Each orbit is integrated with CVODES (Adams) on the constraint-stabilised field (the
 Routh field's ambient extension drifts off TS^2 exponentially on chaotic orbits, see
-:mod:`workbench.poincare`); every crossing is refined to an event residual below 1e-11
+:mod:`workbench.global_dynamics._poincare`); every crossing is refined to an event residual below 1e-11
 and carries its energy error. Independent check: the first crossings of the regular
 orbit agree with those located on the Lagrange-Poincare model on S^2 x R^3 with the same
 section written in (Gamma, omega) (Gamma-dot = Gamma x omega).
@@ -40,14 +40,20 @@ import casadi as ca
 import numpy as np
 
 from models import pendulum3d as p3
-from workbench.ftle import lyapunov_exponent
-from workbench.manifolds import SO3, so3_exp
-from workbench.model import Context
-from workbench.phase import geometric_phase_check, holonomy_angle, wrap_angle
-from workbench.poincare import PoincareOrbit, Section, poincare_map, turning_section
-from workbench.result import Result
-from workbench.simulate import simulate
-from workbench.sweep import grid, sweep
+from workbench.core import Context
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.global_dynamics import (
+    PoincareOrbit,
+    Section,
+    geometric_phase_check,
+    holonomy_angle,
+    lyapunov_exponent,
+    poincare_map,
+    turning_section,
+    wrap_angle,
+)
+from workbench.simulation import grid, simulate, sweep
+from workbench.study import Result
 
 TITLE = "Poincare maps of the 3D pendulum from regular to chaotic and back; geometric phase"
 
@@ -274,6 +280,6 @@ def _figure(orbits: list[PoincareOrbit], cs: list[float], ftles: list[float]):  
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -2,7 +2,7 @@
 
 The Lagrange-Poincare reduced model (4.3)-(4.4) of the elliptic cylinder
 (J = diag(0.4486, 0.3943, 0.0772), rho = (-0.0140, 0.1044, 0.4989), m = 1, g = 9.81).
-Its equilibria are found from the model graph alone (workbench.relative_equilibria): the
+Its equilibria are found from the model graph alone (models.relative_equilibria): the
 hanging and inverted equilibria by Newton on the sphere; the families of relative
 equilibria omega = k Gamma by pseudo-arclength continuation of the zeros of
 f((Gamma, k Gamma), 0) on S^2 x R, from the static equilibria in both directions of k and
@@ -30,18 +30,18 @@ from typing import Any
 import numpy as np
 
 from models import pendulum3d as p3
-from workbench.continuation import Branch, EndReason, PointKind, StepControl
-from workbench.errors import ParameterError
-from workbench.relative_equilibria import (
+from models.relative_equilibria import (
     alpha,
     limit_at_infinity,
     slice_zeros,
     sphere_points,
     static_equilibria,
 )
-from workbench.relative_families import RelativeEquilibria, trace_relative_equilibria
-from workbench.result import Result
-from workbench.roots import DenseEvaluator
+from models.relative_families import RelativeEquilibria, trace_relative_equilibria
+from workbench.core import DenseEvaluator
+from workbench.core.errors import ParameterError
+from workbench.equilibria import Branch, EndReason, PointKind, StepControl
+from workbench.study import Result
 
 TITLE = ("Relative equilibria of the 3D pendulum: hanging, inverted, (4.10) and the families "
          "L1-L4 by continuation (paper 000 Sec. 4.3, Prop. 9, 20)")
@@ -449,6 +449,6 @@ def _figure(atlas: RelativeEquilibria, names: list[str], J: np.ndarray):  # noqa
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

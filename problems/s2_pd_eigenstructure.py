@@ -29,9 +29,8 @@ import scipy.linalg as sla
 
 from models import controllers as ctl
 from models.spherical import spherical_pendulum
-from workbench.eigen import Stability, Subspace, eigenstructure
-from workbench.linearize import linearize, linearize_ambient
-from workbench.result import Result
+from workbench.linear import Stability, Subspace, eigenstructure, linearize, linearize_ambient
+from workbench.study import Result
 
 TITLE = "Geometric PD on S^2: eigenvalues, eigenvectors, stable subspace (paper 002 Sec. II)"
 
@@ -140,6 +139,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -7,7 +7,7 @@ do not enter the closed loop (rho = (0.05, -0.1, 0.3) is taken to exercise the
 cancellation).
 
 Measured: the closed-loop field vanishes at (I, 0) and at (exp(pi e_i^), 0); the spectra
-of the closed-loop linearisations (from the graph, workbench.linearize) against the
+of the closed-loop linearisations (from the graph, workbench.linear._linearize) against the
 paper's values (Sec. III-C and (17)-(19)) and their unstable dimensions 0, 3, 2, 1;
 generic initial attitudes (seeded) converge to (I, 0); from a small random perturbation
 of each saddle the trajectory leaves along the unstable subspace of the linearisation
@@ -22,12 +22,11 @@ import numpy as np
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.attraction import check_convergence
-from workbench.eigen import eigenstructure
-from workbench.linearize import linearize
-from workbench.manifolds import SO3
-from workbench.result import Result
-from workbench.simulate import simulate
+from workbench.control import check_convergence
+from workbench.core.manifolds import SO3
+from workbench.linear import eigenstructure, linearize
+from workbench.simulation import simulate
+from workbench.study import Result
 
 TITLE = "Geometric PD on SO(3): convergence to (I, 0), escape from the three saddles (paper 002)"
 
@@ -167,6 +166,6 @@ def _figure(figs):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -26,10 +26,9 @@ import scipy.linalg as sla
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.eigen import Stability, eigenstructure
-from workbench.linearize import linearize
-from workbench.manifolds import so3_exp
-from workbench.result import Result
+from workbench.core.manifolds import so3_exp
+from workbench.linear import Stability, eigenstructure, linearize
+from workbench.study import Result
 
 TITLE = "Geometric PD on SO(3): eigenvalue tables and saddle structure (paper 002 Sec. III)"
 
@@ -139,6 +138,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

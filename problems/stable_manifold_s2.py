@@ -5,7 +5,7 @@ II-A (q_d = e3, k_q = k_omega = 1) has the saddle (-e3, 0) with a 2-dimensional 
 manifold. It is grown from 100 points on B_delta (delta = 1e-6 in the distance (12)) in
 the stable eigenspace, integrated backward with the variational integrator on S^2 (step
 0.002 s, as in Section II-D), all points in one vectorised casadi call per output step
-(workbench.invariant_manifolds).
+(workbench.global_dynamics._invariant_manifolds).
 
 Measured, without pictures: each trajectory lies on a great circle (largest distance of
 its points to the best-fitting plane through the origin, and the angle of omega to that
@@ -29,12 +29,10 @@ import numpy as np
 
 from models import controllers as ctl
 from models.spherical import spherical_pendulum
-from workbench.eigen import Subspace
-from workbench.invariant_manifolds import invariant_manifold
-from workbench.manifold_seeds import distances
-from workbench.manifold_validation import compare_per_point, validate
-from workbench.result import Result
-from workbench.simulate import Method
+from workbench.global_dynamics import compare_per_point, distances, invariant_manifold, validate
+from workbench.linear import Subspace
+from workbench.simulation import Method
+from workbench.study import Result
 
 TITLE = "Stable manifold of the inverted spherical pendulum under PD (paper 002 Fig. 1)"
 
@@ -198,7 +196,7 @@ def solve(*, quick: bool = False) -> Result:
         ref = compare_per_point(W, indices=idx, method=Method.CVODES)
         W4 = invariant_manifold(model, x_e, method=Method.RKMK4, **grow)
     res.compare("vectorised vs per-point simulate, same method: max |dx|", 0.0, same["worst"],
-                tolerance=1e-9, source="workbench.simulate (S2_VARIATIONAL)")
+                tolerance=1e-9, source="workbench.simulation._simulate (S2_VARIATIONAL)")
     dev4 = float(np.max(np.abs(W4.x - W.x) / (1 + np.abs(W.x))))
     res.values = {
         "gains": {"k_q": K_Q, "k_omega": K_W}, "delta": DELTA, "n_points": n_points,
@@ -225,7 +223,7 @@ def solve(*, quick: bool = False) -> Result:
         "forward from them the error component along the unstable directions grows like "
         "exp(0.618 t), which bounds how close they come to the saddle (d_min) and makes them "
         "leave again later: d_min / d_start is the measure, not the final distance.")
-    from workbench.plots import s2_manifold_figure
+    from workbench.study import s2_manifold_figure
 
     res.figures["stable_manifold_fig1"] = s2_manifold_figure(
         W, list(FIG1_TIMES) + ([] if quick else [11.0]), ncols=3 if not quick else 2,
@@ -252,6 +250,6 @@ def _unstable(res: Result, model: Any, k: Any, x_e: np.ndarray, x_h: np.ndarray,
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

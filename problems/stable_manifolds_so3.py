@@ -38,12 +38,16 @@ from scipy.spatial.transform import Rotation
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.eigen import Subspace
-from workbench.invariant_manifolds import InvariantManifold, invariant_manifold
-from workbench.manifold_validation import compare_per_point, validate
-from workbench.manifolds import SO3, so3_log
-from workbench.result import Result
-from workbench.simulate import Method
+from workbench.core.manifolds import SO3, so3_log
+from workbench.global_dynamics import (
+    InvariantManifold,
+    compare_per_point,
+    invariant_manifold,
+    validate,
+)
+from workbench.linear import Subspace
+from workbench.simulation import Method
+from workbench.study import Result
 
 TITLE = "Stable manifolds of the three saddles of PD on SO(3) (paper 002 Figs. 2, 4, 5)"
 
@@ -174,7 +178,7 @@ def solve(*, quick: bool = False) -> Result:
             same = compare_per_point(W, indices=[0, n_points // 2])
             ref = compare_per_point(W, indices=[0, n_points // 2], method=Method.CVODES)
         res.compare(f"{name}: vectorised vs per-point LGVI, max |dx|", 0.0, same["worst"],
-                    tolerance=1e-8, source="workbench.simulate (LGVI)")
+                    tolerance=1e-8, source="workbench.simulation._simulate (LGVI)")
         values[name] = {"manifold": W.summary(), "observations": obs,
                         "stopped": int(np.sum(np.isfinite(W.stop_time))),
                         "stop_time_quantiles_of_stopped": np.quantile(
@@ -182,7 +186,7 @@ def solve(*, quick: bool = False) -> Result:
                         if np.isfinite(W.stop_time).any() else [],
                         "validation": val.summary(), "per_point_same_method": same,
                         "per_point_cvodes": ref, "cover_fraction_0.4rad": cover[name]}
-        from workbench.plots import so3_manifold_figure
+        from workbench.study import so3_manifold_figure
 
         res.figures[f"stable_manifold_{name}"] = so3_manifold_figure(
             W, f_times, attitudes={"I": np.eye(3), "saddle": R_e})
@@ -240,6 +244,6 @@ def _check_observations(res: Result, name: str, obs: dict[str, Any]) -> None:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

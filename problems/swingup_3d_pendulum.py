@@ -26,8 +26,8 @@ import casadi as ca
 import numpy as np
 
 from models import pendulum3d as p3
-from workbench.manifolds import S2, SO3, ProductManifold, Rn, so3_exp
-from workbench.ocp import (
+from workbench.control import tvlqr_along
+from workbench.control.ocp import (
     OCP,
     Collocation,
     Guess,
@@ -37,8 +37,8 @@ from workbench.ocp import (
     TargetSet,
     multistart,
 )
-from workbench.ocp import solve as solve_ocp
-from workbench.ocp.study import (
+from workbench.control.ocp import solve as solve_ocp
+from workbench.control.ocp.study import (
     monte_carlo,
     plot_swingup,
     solution_row,
@@ -46,8 +46,8 @@ from workbench.ocp.study import (
     swings,
     transcription_builds,
 )
-from workbench.result import Result
-from workbench.tvlqr import tvlqr_along
+from workbench.core.manifolds import S2, SO3, ProductManifold, Rn, so3_exp
+from workbench.study import Result
 
 TITLE = "Optimal swing-up of the 3D pendulum, |u_i| <= 0.5 N m, full and reduced models + TVLQR"
 
@@ -224,6 +224,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

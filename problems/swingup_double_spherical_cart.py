@@ -26,7 +26,8 @@ import casadi as ca
 import numpy as np
 
 from models.chain_cart import chain_cart, link_state
-from workbench.ocp import (
+from workbench.control import tvlqr_along
+from workbench.control.ocp import (
     OCP,
     Collocation,
     Graph,
@@ -37,8 +38,8 @@ from workbench.ocp import (
     TargetPoint,
     multistart,
 )
-from workbench.ocp import solve as solve_ocp
-from workbench.ocp.study import (
+from workbench.control.ocp import solve as solve_ocp
+from workbench.control.ocp.study import (
     monte_carlo,
     plot_swingup,
     solution_row,
@@ -46,8 +47,7 @@ from workbench.ocp.study import (
     swings,
     transcription_builds,
 )
-from workbench.result import Result
-from workbench.tvlqr import tvlqr_along
+from workbench.study import Result
 
 TITLE = "Optimal swing-up of the double spherical pendulum on a cart (paper 003, n = 2) + TVLQR"
 
@@ -205,6 +205,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -23,7 +23,8 @@ import casadi as ca
 import numpy as np
 
 from models.chain_cart import chain_cart, link_state
-from workbench.ocp import (
+from workbench.control import tvlqr_along
+from workbench.control.ocp import (
     OCP,
     Collocation,
     Guess,
@@ -35,7 +36,7 @@ from workbench.ocp import (
     continuation,
     multistart,
 )
-from workbench.ocp.study import (
+from workbench.control.ocp.study import (
     monte_carlo,
     plot_swingup,
     solution_row,
@@ -43,8 +44,7 @@ from workbench.ocp.study import (
     swings,
     transcription_builds,
 )
-from workbench.result import Result
-from workbench.tvlqr import tvlqr_along
+from workbench.study import Result
 
 TITLE = "Optimal swing-up of the spherical pendulum on a cart (paper 003, n = 1) + TVLQR"
 
@@ -203,6 +203,6 @@ def _minima(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

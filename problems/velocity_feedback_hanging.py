@@ -23,12 +23,11 @@ import numpy as np
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.attraction import check_convergence
-from workbench.lyapunov import SublevelSet
-from workbench.manifolds import SO3
-from workbench.model import Model
-from workbench.result import Result
-from workbench.simulate import simulate
+from workbench.control import SublevelSet, check_convergence
+from workbench.core import Model
+from workbench.core.manifolds import SO3
+from workbench.simulation import simulate
+from workbench.study import Result
 
 TITLE = "Saturated velocity feedback stabilises the hanging manifold; almost-global (paper 001)"
 
@@ -208,6 +207,6 @@ def _figure(t, w, theta, unorm, V):  # noqa: ANN001, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

@@ -2,7 +2,7 @@
 
 The 3D pendulum of paper 001 Section 7 (J = [[30, 20, 7], [20, 40, 0], [7, 0, 50]],
 m = 100, rho = (0, 0, 0.2), g = 10) with u = -Psi(omega) (14), linearised from the graph
-with the controller composed in (workbench.linearize, controller=), at the hanging and the
+with the controller composed in (workbench.linear._linearize, controller=), at the hanging and the
 inverted equilibrium, on TSO(3) (dimension 6) and on S^2 x R^3 (dimension 5, (16)).
 
 1. Linear feedback Psi(omega) = M D M^T omega with D = diag(d1, d2, d3), so that the
@@ -21,7 +21,7 @@ inverted equilibrium, on TSO(3) (dimension 6) and on S^2 x R^3 (dimension 5, (16
    is a hyperbolic saddle with a 3-dimensional stable subspace, the tangent of M_i).
 3. Remarks 2-3 derived symbolically: for J = diag(J1, J2, J3), rho = rho e3 and
    u = -diag(k1, k2, k3) omega, the closed-loop characteristic polynomial is read from the
-   reduced model's graph into sympy (workbench.symbolic), factored and printed, and
+   reduced model's graph into sympy (workbench.linear.symbolic), factored and printed, and
    checked to equal (s^2 + (k1/J1) s +- m g rho/J1)(s^2 + (k2/J2) s +- m g rho/J2)
    (s + k3/J3) (d_i = k_i / J_i and m g l_i = m g rho / J_i for this body).
 """
@@ -40,10 +40,9 @@ from problems.pendulum3d_linearization import (
     equilibrium_attitude,
     simultaneous_diagonalisation,
 )
-from workbench.eigen import eigenstructure
-from workbench.linearize import linearize
-from workbench.result import Result
-from workbench.symbolic import symbolic_linearization
+from workbench.linear import eigenstructure, linearize
+from workbench.linear.symbolic import symbolic_linearization
+from workbench.study import Result
 
 TITLE = "Angular-velocity feedback: closed-loop spectra at hanging and inverted (paper 001)"
 
@@ -73,7 +72,7 @@ def _signs(ev: np.ndarray, tol: float) -> dict[str, int]:
 
 
 def _symbolic_remark(res: Result) -> dict[str, str]:
-    """Remarks 2-3 derived in sympy from the reduced model's graph (workbench.symbolic).
+    """Remarks 2-3 derived in sympy from the reduced model's graph (workbench.linear.symbolic).
 
     With J = diag(J1, J2, J3) and rho = rho e3 (so M = diag(sqrt(J_i)), D = diag(k_i / J_i),
     m g l_i = m g rho / J_i) and u = -diag(k1, k2, k3) omega, the characteristic polynomial
@@ -187,6 +186,6 @@ def solve(*, quick: bool = False) -> Result:
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)

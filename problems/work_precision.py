@@ -2,7 +2,7 @@
 
 Two scenes, each integrated with casadi's cvodes (rtol 1e-3 .. 1e-12), casadi's RK4 and
 Legendre collocation at several steps, and the workbench's geometric integrators
-(:mod:`workbench.integrators`) at several steps:
+(:mod:`workbench.simulation.integrators`) at several steps:
 
 * the 3D pendulum on TSO(3), body of paper 000 Section 5.6 (m = 1, J = diag(0.13, 0.28,
   0.17), rho = (0, 0, 0.3), R0 = I, omega0 = c (1, 1, 1)) at the chaotic energy level
@@ -29,10 +29,10 @@ import numpy as np
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
-from workbench.accuracy import Sweep, long_time, work_precision
-from workbench.model import Model
-from workbench.result import Result
-from workbench.simulate import Method, simulate
+from workbench.core import Model
+from workbench.simulation import Method, simulate
+from workbench.simulation.accuracy import Sweep, long_time, work_precision
+from workbench.study import Result
 
 TITLE = "Work-precision of casadi and geometric integrators; bounded energy of variational ones"
 
@@ -299,7 +299,7 @@ def _orders_figure(*wps):  # noqa: ANN002, ANN202
 
 
 if __name__ == "__main__":
-    from workbench.cli import run_script
+    from workbench.study import run_script
 
     run_script(solve)
 

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from models.spherical import spherical_pendulum
-from workbench.accuracy import (
+from workbench.core.errors import ModelError, ParameterError
+from workbench.simulation._simulate import Method
+from workbench.simulation.accuracy import (
     Cost,
     Knob,
     Run,
@@ -18,8 +20,6 @@ from workbench.accuracy import (
     long_time,
     work_precision,
 )
-from workbench.errors import ModelError, ParameterError
-from workbench.simulate import Method
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,7 @@ from models import controllers as ctl
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from tests.conftest import assert_close
-from workbench.attraction import (
+from workbench.control._attraction import (
     Constraint,
     check_convergence,
     clopper_pearson,
@@ -25,8 +25,8 @@ from workbench.attraction import (
     level_in_domain,
     optimize_lyapunov,
 )
-from workbench.errors import ParameterError, SolverError
-from workbench.lyapunov import SublevelSet, ray_extent
+from workbench.control._lyapunov import SublevelSet, ray_extent
+from workbench.core.errors import ParameterError, SolverError
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 BODY = {"J": J7, "rho": np.array([0.0, 0.0, 0.2]), "m": 100.0, "g": 10.0}

@@ -8,9 +8,9 @@ import pytest
 from conftest import assert_close
 
 from models.chain_cart import chain_cart, link_state
-from workbench.errors import ParameterError
-from workbench.manifolds import sphere_basis
-from workbench.simulate import simulate
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import sphere_basis
+from workbench.simulation._simulate import simulate
 
 
 def _random_state(model, rng, n, speed=1.0):

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-import problems
-from workbench import cli
+from workbench.app import cli
+from workbench.app import registry as problems
 
 
 def call(capsys, *argv: str) -> tuple[int, str, str]:
@@ -77,7 +77,7 @@ def test_unwritable_output_is_one_line_and_writes_nothing(capsys, tmp_path):
 
 
 def test_entry_point_exit_status_and_one_line():
-    proc = subprocess.run([sys.executable, "-m", "workbench.cli", "report", "nope"],
+    proc = subprocess.run([sys.executable, "-m", "workbench.app.cli", "report", "nope"],
                           capture_output=True, text=True, timeout=120, check=False)
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "unknown problem(s) 'nope'" in proc.stderr

@@ -18,15 +18,15 @@ import numpy as np
 import pytest
 from conftest import assert_close
 
-from models import exports
 from models.chain_cart import link_state
 from workbench import codegen
+from workbench.app import catalogue as exports
+from workbench.app.export_cli import main as cli_main
 from workbench.codegen import Binding, Optimization, Through
 from workbench.codegen.csource import void_unused_parameters
-from workbench.codegen_cli import main as cli_main
-from workbench.errors import ModelError
-from workbench.manifolds import SO3, so3_exp
-from workbench.simulate import simulate
+from workbench.core.errors import ModelError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.simulation._simulate import simulate
 
 N_STATES = 10_000
 TOL = 1e-12
@@ -279,7 +279,7 @@ def test_unknown_controllers_are_refused_with_the_known_names():
         exports.build("chain_lqr_n0")
     with pytest.raises(ModelError, match="C identifier"):
         exports.build("s2-pd")
-    with pytest.raises(ModelError, match="ExportableController.*models.exports.build"):
+    with pytest.raises(ModelError, match="ExportableController.*workbench.app.catalogue.build"):
         codegen.export_c(controller("s2_pd").function, "/tmp", binding=Binding.FROZEN)
     with pytest.raises(ModelError, match="ExportableController.*got str 's2_pd'"):
         codegen.export_c("s2_pd", "/tmp", binding=Binding.FROZEN)  # names live in models
@@ -342,7 +342,7 @@ def test_void_unused_parameters_casts_every_parameter_of_a_definition():
 
 def test_the_engine_imports_no_concrete_model():
     """workbench.codegen receives ExportableController entries; models/ builds them."""
-    code = ("import sys, workbench, workbench.codegen, workbench.codegen_cli, workbench.cli; "
+    code = ("import sys, workbench, workbench.codegen, workbench.app.export_cli, workbench.app.cli; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('models', 'problems')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=Path(__file__).resolve().parents[1])
@@ -370,7 +370,7 @@ def test_cli_lists_exports_and_reports_errors(capsys, tmp_path, monkeypatch):
     assert "verified on 500 seeded states" in out and "(ok" in out
     assert (tmp_path / "o" / "s2_pd.h").is_file()
     # the same subcommand through the 'workbench' command
-    from workbench.cli import main as workbench_main
+    from workbench.app.cli import main as workbench_main
 
     assert workbench_main(["export-c", "--list"]) == 0
     assert capsys.readouterr().out == listed

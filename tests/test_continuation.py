@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 from conftest import assert_close
 
-from workbench.branch import EndReason, PointKind, StepControl
-from workbench.continuation import (
+from workbench.core.errors import ManifoldError, ParameterError, SolverError
+from workbench.core.manifolds import S2, ProductManifold, Rn
+from workbench.equilibria._branch import EndReason, PointKind, StepControl
+from workbench.equilibria._continuation import (
     continue_branch,
     correct_point,
     locate_on_branch,
     switch_branch,
 )
-from workbench.errors import ManifoldError, ParameterError, SolverError
-from workbench.manifolds import S2, ProductManifold, Rn
-from workbench.roots import ZeroProblem
+from workbench.equilibria._roots import ZeroProblem
 
 
 def plane_problem(expr_of, monitors=None, n=2) -> ZeroProblem:

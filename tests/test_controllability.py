@@ -13,15 +13,15 @@ from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
 from problems.chain_linearization import paper_matrices as chain_paper_matrices
-from workbench.controllability import (
+from workbench.core.errors import ModelError
+from workbench.core.manifolds import hat, so3_exp
+from workbench.linear._controllability import (
     kalman_rank,
     pbh,
     pbh_second_order,
     second_order_form,
 )
-from workbench.errors import ModelError
-from workbench.linearize import linearize, mechanical_order
-from workbench.manifolds import hat, so3_exp
+from workbench.linear._linearize import linearize, mechanical_order
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -16,10 +16,10 @@ from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from models.spherical import spherical_pendulum
 from tests.conftest import assert_close
-from workbench.eigen import eigenstructure
-from workbench.errors import ManifoldError, ModelError, ParameterError
-from workbench.linearize import linearize
-from workbench.manifolds import SO3, hat, so3_exp
+from workbench.core.errors import ManifoldError, ModelError, ParameterError
+from workbench.core.manifolds import SO3, hat, so3_exp
+from workbench.linear._eigen import eigenstructure
+from workbench.linear._linearize import linearize
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 E3 = np.array([0.0, 0.0, 1.0])

@@ -8,10 +8,10 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.controllers import so3_pd
-from workbench.eigen import Stability, Subspace, default_tol, eigenstructure
-from workbench.errors import ModelError
-from workbench.linearize import linearize
-from workbench.manifolds import so3_exp
+from workbench.core.errors import ModelError
+from workbench.core.manifolds import so3_exp
+from workbench.linear._eigen import Stability, Subspace, default_tol, eigenstructure
+from workbench.linear._linearize import linearize
 
 
 def _similar(rng, D):

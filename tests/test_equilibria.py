@@ -9,10 +9,10 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
-from workbench.equilibria import enumerate_equilibria, find_equilibrium
-from workbench.errors import ManifoldError, ModelError, ParameterError, SolverError
-from workbench.manifolds import SO3, so3_exp
-from workbench.roots import DenseEvaluator, RootStatus, ZeroProblem
+from workbench.core.errors import ManifoldError, ModelError, ParameterError, SolverError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.equilibria._equilibria import enumerate_equilibria, find_equilibrium
+from workbench.equilibria._roots import DenseEvaluator, RootStatus, ZeroProblem
 
 J = np.diag([0.4486, 0.3943, 0.0772])
 RHO = np.array([-0.0140, 0.1044, 0.4989])

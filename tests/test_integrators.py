@@ -12,10 +12,10 @@ from models import controllers as C
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
-from workbench.errors import ModelError, ParameterError, SolverError
-from workbench.integrators import integrate, lgvi, rkmk4, s2_variational
-from workbench.manifolds import SO3, so3_exp
-from workbench.simulate import Method, simulate
+from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.simulation._simulate import Method, simulate
+from workbench.simulation.integrators import integrate, lgvi, rkmk4, s2_variational
 
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": np.array([0.0, 0.0, 0.3]), "m": 1.0,
         "g": 9.81}

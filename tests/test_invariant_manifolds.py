@@ -9,19 +9,23 @@ from models import controllers as ctl
 from models import pendulum3d as p3
 from models.spherical import spherical_pendulum
 from tests.conftest import assert_close
-from workbench.eigen import Subspace
-from workbench.errors import ManifoldError, ModelError, ParameterError, SolverError
-from workbench.invariant_manifolds import invariant_manifold, stable_manifold, unstable_manifold
-from workbench.manifold_seeds import (
+from workbench.core.errors import ManifoldError, ModelError, ParameterError, SolverError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.global_dynamics._invariant_manifolds import (
+    invariant_manifold,
+    stable_manifold,
+    unstable_manifold,
+)
+from workbench.global_dynamics._manifold_validation import compare_per_point, validate
+from workbench.global_dynamics._seeds import (
     ball_points,
     direction_spread,
     distances,
     equilibrium_distance,
     sphere_directions,
 )
-from workbench.manifold_validation import compare_per_point, validate
-from workbench.manifolds import SO3, so3_exp
-from workbench.simulate import Method, simulate
+from workbench.linear._eigen import Subspace
+from workbench.simulation._simulate import Method, simulate
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -15,14 +15,14 @@ from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.controllers import s2_pd
 from models.spherical import spherical_pendulum
-from workbench.errors import ManifoldError, ModelError
-from workbench.linearize import (
+from workbench.core.errors import ManifoldError, ModelError
+from workbench.core.manifolds import SO3, hat, so3_exp
+from workbench.linear._linearize import (
     linearize,
     linearize_ambient,
     mechanical_order,
     tangent_labels,
 )
-from workbench.manifolds import SO3, hat, so3_exp
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -10,11 +10,11 @@ from conftest import assert_close
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.controllers import angular_velocity_feedback
-from workbench.errors import ParameterError
-from workbench.linearize import linearize, mechanical_order
-from workbench.lqr import Requirement, geometric_feedback, lqr
-from workbench.manifolds import so3_exp
-from workbench.simulate import simulate
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import so3_exp
+from workbench.linear._linearize import linearize, mechanical_order
+from workbench.linear._lqr import Requirement, geometric_feedback, lqr
+from workbench.simulation._simulate import simulate
 
 E3 = np.array([0.0, 0.0, 1.0])
 

@@ -15,9 +15,9 @@ from models import controllers as ctl
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from tests.conftest import assert_close
-from workbench.errors import ModelError, SolverError
-from workbench.lyapunov import Lyapunov, SublevelSet, as_states
-from workbench.simulate import simulate
+from workbench.control._lyapunov import Lyapunov, SublevelSet, as_states
+from workbench.core.errors import ModelError, SolverError
+from workbench.simulation._simulate import simulate
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 BODY = {"J": J7, "rho": np.array([0.1, -0.05, 0.2]), "m": 100.0, "g": 10.0}

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from conftest import assert_close
 
-from workbench.errors import ManifoldError
-from workbench.manifolds import (
+from workbench.core.errors import ManifoldError
+from workbench.core.manifolds import (
     S1,
     S2,
     SO3,

@@ -7,8 +7,8 @@ import pytest
 from conftest import assert_close
 
 from models import pendulum3d as p3
-from workbench.errors import ModelError, ParameterError
-from workbench.model import Evaluator
+from workbench.core._model import Evaluator
+from workbench.core.errors import ModelError, ParameterError
 
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": [0.0, 0.0, 0.3]}
 

@@ -14,9 +14,7 @@ import numpy as np
 import pytest
 
 from models.chain_cart import chain_cart, link_state
-from workbench.errors import ManifoldError, ParameterError, SolverError
-from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
-from workbench.ocp import (
+from workbench.control.ocp import (
     OCP,
     Collocation,
     Graph,
@@ -33,8 +31,10 @@ from workbench.ocp import (
     solve,
     sx_function,
 )
-from workbench.ocp.local import dexpinv
-from workbench.ocp.transcription import collocation_coefficients
+from workbench.control.ocp.local import dexpinv
+from workbench.control.ocp.transcription import collocation_coefficients
+from workbench.core.errors import ManifoldError, ParameterError, SolverError
+from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
 
 E3 = np.array([0.0, 0.0, 1.0])
 X0 = np.r_[0.0, 0.0, 0.0, 0.0, link_state(E3)]

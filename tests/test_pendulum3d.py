@@ -9,9 +9,9 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from problems.pendulum3d_invariants import planar_period
-from workbench.errors import ManifoldError, ModelError
-from workbench.manifolds import SO3, TS2
-from workbench.simulate import simulate
+from workbench.core.errors import ManifoldError, ModelError
+from workbench.core.manifolds import SO3, TS2
+from workbench.simulation._simulate import simulate
 
 J_DIAG = np.diag([0.13, 0.28, 0.17])
 J_FULL = np.array([[0.30, 0.02, -0.01], [0.02, 0.22, 0.03], [-0.01, 0.03, 0.18]])

@@ -7,9 +7,9 @@ import pytest
 
 from models import pendulum3d as p3
 from models.pendulum3d import phase_density
-from workbench.errors import ParameterError
-from workbench.manifolds import SO3, so3_exp
-from workbench.phase import (
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import SO3, so3_exp
+from workbench.global_dynamics._phase import (
     cone_integral,
     first_self_intersection,
     geometric_phase_check,

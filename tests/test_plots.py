@@ -16,10 +16,10 @@ from models import controllers as ctl  # noqa: E402
 from models import pendulum3d as p3  # noqa: E402
 from models.spherical import spherical_pendulum  # noqa: E402
 from tests.conftest import assert_close  # noqa: E402
-from workbench.errors import ModelError, ParameterError  # noqa: E402
-from workbench.invariant_manifolds import stable_manifold  # noqa: E402
-from workbench.manifolds import SO3, so3_exp  # noqa: E402
-from workbench.plots import (  # noqa: E402
+from workbench.core.errors import ModelError, ParameterError  # noqa: E402
+from workbench.core.manifolds import SO3, so3_exp  # noqa: E402
+from workbench.global_dynamics._invariant_manifolds import stable_manifold  # noqa: E402
+from workbench.study._plots import (  # noqa: E402
     body_axis_curves,
     decimate,
     mark_directions,

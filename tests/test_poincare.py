@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from models import pendulum3d as p3
-from workbench.errors import ModelError, ParameterError, SolverError
-from workbench.ftle import lyapunov_exponent
-from workbench.manifolds import S1, ProductManifold, Rn
-from workbench.model import Model
-from workbench.poincare import (
+from workbench.core._model import Model
+from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.manifolds import S1, ProductManifold, Rn
+from workbench.global_dynamics._ftle import lyapunov_exponent
+from workbench.global_dynamics._poincare import (
     Direction,
     OrbitStatus,
     Section,
@@ -45,7 +45,7 @@ def _osc_energy(ctx):
 
 
 def oscillator(w: float) -> Model:
-    from workbench.model import Parameter, positive
+    from workbench.core._model import Parameter, positive
 
     return Model(name="oscillator", manifold=ProductManifold([("q", Rn(2))]), n_inputs=0,
                  parameters=[Parameter("w", (), "frequency", positive)], values={"w": w},
@@ -197,7 +197,7 @@ def test_bad_options_raise():
         poincare_map(model, x0, sec, n_crossings=1, t_max=1.0, invariant="momentum")
     with pytest.raises(ModelError, match="Section"):
         poincare_map(model, x0, "P", n_crossings=1, t_max=1.0)
-    from workbench.errors import ManifoldError
+    from workbench.core.errors import ManifoldError
 
     with pytest.raises(ManifoldError):
         poincare_map(model, x0 * 1.1, sec, n_crossings=1, t_max=1.0)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from problems import load, names
 from problems.pendulum3d_invariants import solve
+from workbench.app.registry import load, names
 
 
 def test_quick_run_meets_every_comparison(tmp_path):

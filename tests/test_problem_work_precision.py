@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from models import pendulum3d as p3
-from problems import load, names
 from problems.work_precision import BODY, slowest_period, solve
+from workbench.app.registry import load, names
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from problems import load, names
+from workbench.app.registry import load, names
 
 PROBLEMS = ["velocity_feedback_hanging", "so3_pd_closed_loop", "cart_nonlinear_inverted"]
 

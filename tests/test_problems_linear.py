@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import problems
+from workbench.app import registry as problems
 
 NAMES = [
     "pendulum3d_linearization",

@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 
 import pytest  # noqa: E402
 
-import problems  # noqa: E402
+from workbench.app import registry as problems  # noqa: E402
 
 NAMES = ["stable_manifold_s2", "stable_manifolds_so3", "inverted_manifold_velocity_feedback"]
 

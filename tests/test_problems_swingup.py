@@ -13,10 +13,10 @@ import pytest
 from problems import swingup_3d_pendulum as p3d
 from problems import swingup_double_spherical_cart as dbl
 from problems import swingup_spherical_cart as cart
-from workbench.manifolds import SO3
-from workbench.ocp import Collocation, Guess, ManifoldHandling, solve
-from workbench.ocp.stepper import Stepper
-from workbench.ocp.study import swings
+from workbench.control.ocp import Collocation, Guess, ManifoldHandling, solve
+from workbench.control.ocp.stepper import Stepper
+from workbench.control.ocp.study import swings
+from workbench.core.manifolds import SO3
 
 
 def test_swing_classification():

@@ -12,11 +12,7 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
-from workbench.branch import EndReason, PointKind, StepControl
-from workbench.continuation import correct_point
-from workbench.errors import ModelError, ParameterError
-from workbench.manifolds import so3_exp
-from workbench.relative_equilibria import (
+from models.relative_equilibria import (
     alpha,
     limit_at_infinity,
     rotation_problem,
@@ -25,7 +21,11 @@ from workbench.relative_equilibria import (
     stability_label,
     static_equilibria,
 )
-from workbench.relative_families import at_alpha, trace_relative_equilibria
+from models.relative_families import at_alpha, trace_relative_equilibria
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import so3_exp
+from workbench.equilibria._branch import EndReason, PointKind, StepControl
+from workbench.equilibria._continuation import correct_point
 
 J_CYL = np.diag([0.4486, 0.3943, 0.0772])
 RHO_CYL = np.array([-0.0140, 0.1044, 0.4989])

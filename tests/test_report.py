@@ -23,19 +23,19 @@ import numpy as np
 import pytest
 import sympy as sp
 
-import problems
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from models.spherical import spherical_pendulum
-from workbench.report import Format, ReportInputError, Status, build_report
-from workbench.report.latexmath import LatexError, to_mathml, to_typst
-from workbench.report.symbolic import (
+from workbench.app import registry as problems
+from workbench.app.report import Format, ReportInputError, Status, build_report
+from workbench.app.report.latexmath import LatexError, to_mathml, to_typst
+from workbench.app.report.symbolic import (
     casadi_to_sympy,
     parameter_symbols,
     state_symbols,
     vector_field_rows,
 )
-from workbench.result import Result
+from workbench.study._result import Result
 
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": [0.0, 0.0, 0.3]}
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
@@ -260,8 +260,8 @@ def test_bad_input_fails_before_anything_runs(tmp_path):
 
 
 def test_no_partial_files_when_pdf_fails(tmp_path, monkeypatch):
-    import workbench.report.pdf as pdf
-    from workbench.report import ReportError
+    import workbench.app.report.pdf as pdf
+    from workbench.app.report import ReportError
 
     def fail(doc):
         raise ReportError("typst failed: simulated")

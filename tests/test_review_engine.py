@@ -15,26 +15,27 @@ import pytest
 from conftest import assert_close
 
 from models import pendulum3d as p3
-from workbench import _validate, relative_families
-from workbench.accuracy import Sweep, WorkPrecision
-from workbench.attraction import check_convergence
-from workbench.branch import PointKind, StepControl
+from models import relative_families
+from models.relative_equilibria import static_equilibria
+from models.relative_families import trace_relative_equilibria
 from workbench.codegen import agreement, compile_sources, generate
-from workbench.continuation import continue_branch, switch_branch
-from workbench.controllability import second_order_form
-from workbench.eigen import eigenstructure
-from workbench.errors import ModelError, ParameterError, SolverError
-from workbench.evaluator import DenseEvaluator, Evaluator
-from workbench.integrators import integrate, rkmk4
-from workbench.linearize import linearize, linearize_ambient
-from workbench.lqr import geometric_feedback, lqr
-from workbench.lyapunov import Lyapunov, SublevelSet
-from workbench.manifolds import ProductManifold, Rn
-from workbench.model import Model, Parameter, Symbolic
-from workbench.relative_equilibria import static_equilibria
-from workbench.relative_families import trace_relative_equilibria
-from workbench.roots import RootStatus, ZeroProblem, check_count, check_positive
-from workbench.simulate import Method, constraint_residuals, simulate
+from workbench.control._attraction import check_convergence
+from workbench.control._lyapunov import Lyapunov, SublevelSet
+from workbench.core import validate as _validate
+from workbench.core._evaluator import DenseEvaluator, Evaluator
+from workbench.core._model import Model, Parameter, Symbolic
+from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.manifolds import ProductManifold, Rn
+from workbench.equilibria._branch import PointKind, StepControl
+from workbench.equilibria._continuation import continue_branch, switch_branch
+from workbench.equilibria._roots import RootStatus, ZeroProblem, check_count, check_positive
+from workbench.linear._controllability import second_order_form
+from workbench.linear._eigen import eigenstructure
+from workbench.linear._linearize import linearize, linearize_ambient
+from workbench.linear._lqr import geometric_feedback, lqr
+from workbench.simulation._simulate import Method, constraint_residuals, simulate
+from workbench.simulation.accuracy import Sweep, WorkPrecision
+from workbench.simulation.integrators import integrate, rkmk4
 
 
 @pytest.fixture(scope="module")
@@ -335,8 +336,8 @@ def test_linearize_ambient_evaluates_the_jacobians_once(monkeypatch):
 
 
 def test_linearize_reexports_the_ambient_form_and_stays_small():
-    amb = importlib.import_module("workbench.ambient_linearization")
-    lin_mod = importlib.import_module("workbench.linearize")  # the package binds the function
+    amb = importlib.import_module("workbench.linear._ambient")
+    lin_mod = importlib.import_module("workbench.linear._linearize")  # the package binds the function
 
     for name in ("AmbientLinearization", "linearize_ambient", "closed_loop_jacobians",
                  "EQUILIBRIUM_TOL"):
@@ -497,7 +498,7 @@ def test_simulate_collocation_degree_defaults_to_four(planar):
 
 
 def test_energy_hessian_is_cached_with_the_model_and_released_with_it(monkeypatch):
-    amb = importlib.import_module("workbench.ambient_linearization")
+    amb = importlib.import_module("workbench.linear._ambient")
     monkeypatch.setattr(amb, "_JAC_CACHE", {})  # linearize's bounded cache, emptied below
     model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.5])
     x_e = model.state(R=np.diag([1.0, -1.0, -1.0]), omega=np.zeros(3))  # hanging

@@ -9,8 +9,8 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.spherical import spherical_pendulum
-from workbench.errors import ModelError
-from workbench.simulate import Method, simulate
+from workbench.core.errors import ModelError
+from workbench.simulation._simulate import Method, simulate
 
 
 @pytest.fixture

@@ -9,8 +9,8 @@ import os
 import numpy as np
 import pytest
 
-from workbench.errors import ParameterError
-from workbench.sweep import (
+from workbench.core.errors import ParameterError
+from workbench.simulation._sweep import (
     InlineExecutor,
     ItemStatus,
     MissingDependencyError,
@@ -44,7 +44,7 @@ def pid(*, x: int) -> int:
 def orbit_crossings(*, c: float) -> np.ndarray:
     """A real workload: 5 section crossings of the Routh orbit for c."""
     from models import pendulum3d as p3
-    from workbench.poincare import poincare_map, turning_section
+    from workbench.global_dynamics._poincare import poincare_map, turning_section
 
     body = {"J": np.diag([0.13, 0.28, 0.17]), "rho": np.array([0.0, 0.0, 0.3])}
     full = p3.full(**body)

@@ -11,10 +11,10 @@ from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.controllers import s2_pd
 from models.spherical import spherical_pendulum
-from workbench.errors import ModelError, ParameterError
-from workbench.linearize import linearize
-from workbench.manifolds import so3_exp
-from workbench.symbolic import casadi_to_sympy, exact_number, symbolic_linearization
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import so3_exp
+from workbench.linear._linearize import linearize
+from workbench.linear.symbolic import casadi_to_sympy, exact_number, symbolic_linearization
 
 J1, J2, J3, r, m, g, k1, k2, k3 = sp.symbols("J1 J2 J3 rho m g k1 k2 k3", positive=True)
 s = sp.Symbol("s")  # the Laplace variable of SymbolicLinearization (no assumptions)

@@ -9,11 +9,11 @@ import scipy.linalg as sla
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
-from workbench.errors import ParameterError
-from workbench.linearize import linearize
-from workbench.ocp import Stepper
-from workbench.simulate import simulate
-from workbench.tvlqr import closed_loop, perturbed_starts, tvlqr
+from workbench.control._tvlqr import closed_loop, perturbed_starts, tvlqr
+from workbench.control.ocp import Stepper
+from workbench.core.errors import ParameterError
+from workbench.linear._linearize import linearize
+from workbench.simulation._simulate import simulate
 
 E3 = np.array([0.0, 0.0, 1.0])
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": np.array([0.0, 0.0, 0.3]), "m": 1.0,
@@ -53,7 +53,7 @@ def test_tangent_linearisation_matches_finite_differences_in_charts(pendulum):
     st = Stepper(pendulum, rtol=1e-12, atol=1e-12)
     k = 2
     # rebuild A_k from the gains' ingredients: compare with finite differences
-    from workbench.tvlqr import _Flow
+    from workbench.control._tvlqr import _Flow
 
     flow = _Flow(pendulum, 1e-12)
     _, Fx, Fu = flow(X[k], U[k], c.dt)
@@ -84,11 +84,11 @@ def test_riccati_along_an_equilibrium_converges_to_the_dare(pendulum):
 
 def test_discrete_equilibrium_linearisation_is_the_exponential_of_the_continuous_one(
         pendulum):
-    """Independent check against workbench.linearize: A_d = expm(A_c dt) in one basis."""
+    """Independent check against workbench.linear._linearize: A_d = expm(A_c dt) in one basis."""
     xe = np.r_[-E3, 0.0, 0.0, 0.0]
     dt = 0.02
     t, X, U = _reference(pendulum, xe, np.zeros(3), dt, 2)
-    from workbench.tvlqr import _Flow
+    from workbench.control._tvlqr import _Flow
 
     _, Fx, Fu = _Flow(pendulum, 1e-12)(xe, np.zeros(3), dt)
     N = pendulum.manifold.tangent_basis(xe)

@@ -1,31 +1,28 @@
 """The geometric pendulum workbench.
 
-Coordinate-free models as casadi graphs, and the analyses derived from them.
+Coordinate-free models as casadi graphs, and the analyses derived from them. The engine is
+grouped into rooms, each a package whose public names are re-exported here:
+
+- :mod:`workbench.core` — manifolds, :class:`Model`, evaluators, validation, errors, status;
+- :mod:`workbench.mechanics` — systems from their Lagrangians;
+- :mod:`workbench.simulation` — ``simulate``, geometric integrators, accuracy, sweeps;
+- :mod:`workbench.linear` — linearisation, eigenstructure, PBH/Kalman, LQR, symbolic forms;
+- :mod:`workbench.equilibria` — Newton on manifolds, equilibria, continuation;
+- :mod:`workbench.global_dynamics` — invariant manifolds, Poincare maps, FTLE, phase;
+- :mod:`workbench.control` — feedback, Lyapunov, domains of attraction, OCP, TVLQR;
+- :mod:`workbench.codegen` — controllers exported as C;
+- :mod:`workbench.study` — results and figures of define-and-solve studies;
+- :mod:`workbench.app` — the command line and the report (above the problems; not imported here).
 """
 
-from workbench.continuation import StepControl, continue_branch
-from workbench.controllability import kalman_rank, pbh, pbh_second_order, second_order_form
-from workbench.eigen import Eigenstructure, Stability, Subspace, eigenstructure
-from workbench.equilibria import enumerate_equilibria, find_equilibrium
-from workbench.errors import (
-    ManifoldError,
-    ModelError,
-    ParameterError,
-    SolverError,
-    WorkbenchError,
-)
-from workbench.invariant_manifolds import (
-    InvariantManifold,
-    invariant_manifold,
-    stable_manifold,
-    unstable_manifold,
-)
-from workbench.linearize import LinearModel, linearize, linearize_ambient
-from workbench.lqr import LQRResult, geometric_feedback, lqr
-from workbench.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp, so3_log, vee
-from workbench.model import BuildLog, Evaluator, Model, Parameter, Symbolic
-from workbench.ocp import (
+from __future__ import annotations
+
+import sys as _sys
+
+from workbench import codegen, control, core, equilibria, global_dynamics, linear, simulation
+from workbench.control import (
     OCP,
+    TVLQR,
     Collocation,
     ManifoldHandling,
     MultipleShooting,
@@ -33,82 +30,154 @@ from workbench.ocp import (
     OCPStatus,
     TargetPoint,
     TargetSet,
+    ocp,
+    solve_ocp,
+    tvlqr,
+    tvlqr_along,
 )
-from workbench.ocp import solve as solve_ocp
-from workbench.phase import geometric_phase_check
-from workbench.poincare import PoincareOrbit, Section, poincare_map, turning_section
-from workbench.relative_families import at_alpha, trace_relative_equilibria
-from workbench.simulate import Method, Multistep, Trajectory, simulate
-from workbench.sweep import SweepResult, grid, sweep
-from workbench.tvlqr import TVLQR, tvlqr, tvlqr_along
+from workbench.core import (
+    S1,
+    S2,
+    SO3,
+    TS2,
+    BuildLog,
+    Evaluator,
+    ManifoldError,
+    Model,
+    ModelError,
+    Parameter,
+    ParameterError,
+    ProductManifold,
+    Rn,
+    SolverError,
+    Symbolic,
+    WorkbenchError,
+    errors,
+    hat,
+    manifolds,
+    so3_exp,
+    so3_log,
+    vee,
+)
+from workbench.equilibria import (
+    StepControl,
+    continue_branch,
+    enumerate_equilibria,
+    find_equilibrium,
+)
+from workbench.global_dynamics import (
+    InvariantManifold,
+    PoincareOrbit,
+    Section,
+    geometric_phase_check,
+    invariant_manifold,
+    poincare_map,
+    stable_manifold,
+    turning_section,
+    unstable_manifold,
+)
+from workbench.linear import (
+    Eigenstructure,
+    LinearModel,
+    LQRResult,
+    Stability,
+    Subspace,
+    eigenstructure,
+    geometric_feedback,
+    kalman_rank,
+    linearize,
+    linearize_ambient,
+    lqr,
+    pbh,
+    pbh_second_order,
+    second_order_form,
+    symbolic,
+)
+from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
+
+# Module paths of the flat layout that the README documented keep working as aliases of
+# their rooms (``from workbench.manifolds import S2``, ``import workbench.ocp``).
+for _old, _module in {
+    "manifolds": manifolds,
+    "errors": errors,
+    "symbolic": symbolic,
+    "ocp": ocp,
+}.items():
+    _sys.modules.setdefault(f"{__name__}.{_old}", _module)
+del _old, _module
 
 __all__ = [
     "OCP",
-    "Collocation",
-    "ManifoldHandling",
-    "MultipleShooting",
-    "OCPSolution",
-    "OCPStatus",
+    "S1",
+    "S2",
+    "SO3",
+    "TS2",
     "TVLQR",
-    "TargetPoint",
-    "TargetSet",
-    "solve_ocp",
-    "tvlqr",
-    "tvlqr_along",
-    "InvariantManifold",
-    "invariant_manifold",
-    "stable_manifold",
-    "unstable_manifold",
-    "PoincareOrbit",
-    "Section",
-    "SweepResult",
-    "geometric_phase_check",
-    "grid",
-    "poincare_map",
-    "sweep",
-    "turning_section",
-    "StepControl",
-    "at_alpha",
-    "continue_branch",
-    "enumerate_equilibria",
-    "find_equilibrium",
-    "trace_relative_equilibria",
     "BuildLog",
+    "Collocation",
     "Eigenstructure",
     "Evaluator",
+    "InvariantManifold",
     "LQRResult",
     "LinearModel",
+    "ManifoldError",
+    "ManifoldHandling",
+    "Method",
+    "Model",
+    "ModelError",
+    "MultipleShooting",
     "Multistep",
+    "OCPSolution",
+    "OCPStatus",
+    "Parameter",
+    "ParameterError",
+    "PoincareOrbit",
+    "ProductManifold",
+    "Rn",
+    "Section",
+    "SolverError",
     "Stability",
+    "StepControl",
     "Subspace",
+    "SweepResult",
+    "Symbolic",
+    "TargetPoint",
+    "TargetSet",
+    "Trajectory",
+    "WorkbenchError",
+    "codegen",
+    "continue_branch",
+    "control",
+    "core",
     "eigenstructure",
+    "enumerate_equilibria",
+    "equilibria",
+    "find_equilibrium",
     "geometric_feedback",
+    "geometric_phase_check",
+    "global_dynamics",
+    "grid",
+    "hat",
+    "invariant_manifold",
     "kalman_rank",
+    "linear",
     "linearize",
     "linearize_ambient",
     "lqr",
     "pbh",
     "pbh_second_order",
+    "poincare_map",
     "second_order_form",
-    "ManifoldError",
-    "Method",
-    "Model",
-    "ModelError",
-    "Parameter",
-    "Symbolic",
-    "ParameterError",
-    "ProductManifold",
-    "Rn",
-    "S1",
-    "S2",
-    "SO3",
-    "SolverError",
-    "TS2",
-    "Trajectory",
-    "WorkbenchError",
-    "hat",
     "simulate",
+    "simulation",
     "so3_exp",
     "so3_log",
+    "solve_ocp",
+    "stable_manifold",
+    "sweep",
+    "tvlqr",
+    "tvlqr_along",
+    "turning_section",
+    "unstable_manifold",
     "vee",
 ]

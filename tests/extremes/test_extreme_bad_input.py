@@ -3,7 +3,7 @@
 One table, one row per (entry point, kind of bad input): wrong types, wrong shapes, NaN and
 inf, non-unit directions, non-orthonormal rotations, negative or zero physical parameters,
 unknown names. Each row names the exception class it must raise (a
-:class:`~workbench.errors.WorkbenchError` subclass: ManifoldError, ParameterError,
+:class:`~workbench.core.errors.WorkbenchError` subclass: ManifoldError, ParameterError,
 ModelError, SolverError, ReportInputError) and words its message must contain: the
 argument, what was expected and what was got. The rows marked "fixed" raised something else
 (numpy's ValueError, IndexError, casadi's RuntimeError, AttributeError) or silently
@@ -29,6 +29,8 @@ from models import controllers as C
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from models.pendulum3d import phase_density
+from models.relative_equilibria import rotation_problem, static_equilibria
+from models.relative_families import at_alpha, trace_relative_equilibria
 from models.spherical import spherical_pendulum
 from workbench import (
     S1,
@@ -49,32 +51,30 @@ from workbench import (
     so3_log,
     vee,
 )
-from workbench.accuracy import Sweep, work_precision
-from workbench.attraction import clopper_pearson
-from workbench.continuation import StepControl, continue_branch
-from workbench.equilibria import find_equilibrium
-from workbench.errors import (
+from workbench.app.report import ReportInputError, build_report, check_out_dir
+from workbench.control._attraction import clopper_pearson
+from workbench.control._lyapunov import Lyapunov, as_states
+from workbench.control._tvlqr import tvlqr
+from workbench.control.ocp import OCP, Collocation, TargetPoint
+from workbench.control.ocp import solve as ocp_solve_fn
+from workbench.core.errors import (
     ManifoldError,
     ModelError,
     ParameterError,
     SolverError,
     WorkbenchError,
 )
-from workbench.ftle import lyapunov_exponent
-from workbench.integrators import integrate, lgvi
-from workbench.lyapunov import Lyapunov, as_states
-from workbench.manifolds import sphere_basis
-from workbench.ocp import OCP, Collocation, TargetPoint
-from workbench.ocp import solve as ocp_solve_fn
-from workbench.phase import first_self_intersection, holonomy_angle
-from workbench.poincare import poincare_map, stabilized_field, turning_section
-from workbench.relative_equilibria import rotation_problem, static_equilibria
-from workbench.relative_families import at_alpha, trace_relative_equilibria
-from workbench.report import ReportInputError, build_report, check_out_dir
-from workbench.result import Result
-from workbench.sweep import grid, sweep
-from workbench.symbolic import exact_number, symbolic_linearization
-from workbench.tvlqr import tvlqr
+from workbench.core.manifolds import sphere_basis
+from workbench.equilibria._continuation import StepControl, continue_branch
+from workbench.equilibria._equilibria import find_equilibrium
+from workbench.global_dynamics._ftle import lyapunov_exponent
+from workbench.global_dynamics._phase import first_self_intersection, holonomy_angle
+from workbench.global_dynamics._poincare import poincare_map, stabilized_field, turning_section
+from workbench.linear.symbolic import exact_number, symbolic_linearization
+from workbench.simulation._sweep import grid, sweep
+from workbench.simulation.accuracy import Sweep, work_precision
+from workbench.simulation.integrators import integrate, lgvi
+from workbench.study._result import Result
 
 NAN, INF = float("nan"), float("inf")
 J0 = np.diag([3.0, 2.0, 1.0])
@@ -577,7 +577,7 @@ def test_build_report_refuses_bad_input_before_running_or_writing(tmp_path, kw, 
     ("s2_pd", "name", ("ExportableController", "str", "'s2_pd'")),
 ])
 def test_export_c_writes_nothing_on_bad_input(tmp_path, controller, binding, words):
-    from models.exports import build
+    from workbench.app.catalogue import build
     from workbench.codegen.api import export_c
 
     with pytest.raises(ModelError) as info:

@@ -12,18 +12,18 @@ import numpy as np
 import pytest
 
 from models import pendulum3d as p3
-from problems.extremes import J_CYL, RHO_HAT, frequencies, prop9, spectrum_error
-from workbench import linearize, simulate, so3_exp
-from workbench.errors import SolverError
-from workbench.manifolds import ProductManifold, Rn
-from workbench.relative_equilibria import (
+from models.relative_equilibria import (
     alpha,
     rotation_problem,
     slice_zeros,
     sphere_points,
     static_equilibria,
 )
-from workbench.roots import RootStatus, newton_on_manifold
+from problems.extremes import J_CYL, RHO_HAT, frequencies, prop9, spectrum_error
+from workbench import linearize, simulate, so3_exp
+from workbench.core.errors import SolverError
+from workbench.core.manifolds import ProductManifold, Rn
+from workbench.equilibria._roots import RootStatus, newton_on_manifold
 
 Q = so3_exp([0.3, -0.5, 0.7])
 

@@ -13,8 +13,8 @@ import pytest
 
 from problems import extremes
 from problems.extremes import CLEAR, CORRECT, DEFECT, Cases, Check
-from workbench.errors import ModelError, SolverError
-from workbench.report.tables import MAX_ROWS, value_tables
+from workbench.app.report.tables import MAX_ROWS, value_tables
+from workbench.core.errors import ModelError, SolverError
 
 GROUPS = ("near_balanced", "ill_conditioned", "fast_and_slow", "continuation", "large_chains",
           "optimisation", "bad_input")

@@ -19,10 +19,10 @@ from hypothesis import strategies as st
 from scipy.linalg import eigh
 
 from models import pendulum3d as p3
+from models.relative_equilibria import alpha, rotation_problem, slice_zeros
 from tests.conftest import assert_close
 from workbench import S1, S2, SO3, TS2, linearize, simulate, so3_exp, so3_log
-from workbench.manifolds import hat
-from workbench.relative_equilibria import alpha, rotation_problem, slice_zeros
+from workbench.core.manifolds import hat
 
 E3 = np.array([0.0, 0.0, 1.0])
 FEW = settings(max_examples=10, deadline=None, derandomize=True)

@@ -1,9 +1,9 @@
 """Controllers of the workbench exported as self-contained C99 code, verified and timed.
 
-Typical use (the papers' controllers are built by name in :mod:`models.exports`; the
+Typical use (the papers' controllers are built by name in :mod:`workbench.app.catalogue`; the
 engine only receives :class:`ExportableController` entries)::
 
-    from models import exports
+    from workbench.app import catalogue as exports
     from workbench import codegen
     exports.names()                                   # what can be exported
     res = codegen.export_c(exports.build("saturated_velocity_feedback"), "out/",

@@ -11,7 +11,6 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from workbench._validate import choice
 from workbench.codegen.build import (
     CompiledController,
     Optimization,
@@ -20,7 +19,8 @@ from workbench.codegen.build import (
 )
 from workbench.codegen.csource import generate
 from workbench.codegen.spec import Binding, ExportableController
-from workbench.errors import ModelError
+from workbench.core.errors import ModelError
+from workbench.core.validate import choice
 
 __all__ = ["ExportResult", "Through", "agreement", "compile_controller", "export_c"]
 
@@ -30,7 +30,7 @@ def _controller(controller: ExportableController) -> ExportableController:
         got = f"{type(controller).__name__} {controller!r}" if isinstance(controller, str) \
             else type(controller).__name__
         raise ModelError(f"controller must be an ExportableController (the papers' "
-                         f"controllers are built by name with models.exports.build(name)); "
+                         f"controllers are built by name with workbench.app.catalogue.build(name)); "
                          f"got {got}")
     return controller
 
@@ -49,7 +49,7 @@ def compile_controller(
     Parameters
     ----------
     controller : ExportableController
-        The controller (e.g. from :func:`models.exports.build`).
+        The controller (e.g. from :func:`workbench.app.catalogue.build`).
     binding : Binding
         What is frozen into the code and what is a run-time input.
     optimization : Optimization
@@ -79,7 +79,7 @@ class Through(str, Enum):
         The wrapper ``NAME_step`` (what a C user calls), through ctypes.
     EXTERNAL
         casadi's entry point ``NAME``, through :func:`casadi.external` (what
-        :func:`workbench.simulate.simulate` calls).
+        :func:`workbench.simulation._simulate.simulate` calls).
     """
 
     STEP = "step"
@@ -179,7 +179,7 @@ def export_c(
     Parameters
     ----------
     controller : ExportableController
-        The controller (e.g. from :func:`models.exports.build`).
+        The controller (e.g. from :func:`workbench.app.catalogue.build`).
     out_dir : path-like
         Output directory.
     binding : Binding

@@ -32,9 +32,9 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from workbench._validate import choice
 from workbench.codegen.csource import CFLAGS_WARN, CSources
-from workbench.errors import ModelError, WorkbenchError
+from workbench.core.errors import ModelError, WorkbenchError
+from workbench.core.validate import choice
 
 __all__ = [
     "CACHE_ENV",

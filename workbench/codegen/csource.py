@@ -30,8 +30,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from workbench._validate import choice
 from workbench.codegen.spec import Binding, Entry, ExportableController
+from workbench.core.validate import choice
 
 __all__ = ["CSources", "BENCH_STATES", "generate", "void_unused_parameters"]
 
@@ -392,7 +392,7 @@ def generate(controller: ExportableController, *, binding: Binding,
     Parameters
     ----------
     controller : ExportableController
-        The controller (e.g. from :func:`models.exports.build`).
+        The controller (e.g. from :func:`workbench.app.catalogue.build`).
     binding : Binding
         What is frozen into the code and what is a run-time input.
     with_jacobian : bool

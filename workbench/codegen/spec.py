@@ -5,7 +5,7 @@ An :class:`ExportableController` holds a controller (a ``casadi.Function``
 default gains of that example, the units and meaning of every input and output entry (for
 the C header), an example state, and a sampler of test states that crowds the
 controller's singular or saturated regions. The engine knows no concrete controller: the
-papers' controllers are built by :func:`models.exports.build`.
+papers' controllers are built by :func:`workbench.app.catalogue.build`.
 
 For :attr:`Binding.PARAMETERS_AND_GAINS` the gains become run-time inputs: the entry's
 ``law`` builds the same law with the gains as casadi symbols (for the papers' controllers,
@@ -24,8 +24,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from workbench.errors import ModelError
-from workbench.model import Context, Model
+from workbench.core._model import Context, Model
+from workbench.core.errors import ModelError
 
 __all__ = ["Binding", "Entry", "ExportableController", "Law", "Sampler"]
 

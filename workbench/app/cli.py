@@ -1,0 +1,258 @@
+"""The ``workbench`` command line.
+
+``workbench list`` names the problems; ``workbench run NAME [--quick] [--json PATH]`` runs
+one (or ``all``) and prints its results; ``workbench report [NAMES...] [--quick] [--html]
+[--pdf] [--out DIR]`` writes the HTML and/or PDF report; ``workbench bench [NAMES...]
+[--list]`` runs the scripts in ``benchmarks/``; ``workbench export-c NAME --out DIR``
+exports a controller as C99 (:mod:`workbench.app.export_cli`). Errors are one clear line on
+stderr with a non-zero exit status (2 for bad input; 1 when a problem failed or a
+comparison is out of tolerance).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib.util
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
+
+from workbench.app.export_cli import add_export_c_parser
+from workbench.core.errors import WorkbenchError
+from workbench.study._result import Result, format_result, to_jsonable
+
+__all__ = ["main", "build_parser", "benchmark_scripts"]
+
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+"""Directory of the benchmark scripts (``bench_*.py``, each with a ``main()``)."""
+
+
+class CLIError(Exception):
+    """A user error on the command line: printed as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message (see --help)`` and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _problems():  # imported lazily: the engine does not depend on the problem catalogue
+    from workbench.app import registry as problems
+
+    return problems
+
+
+def _writable_json(path: str) -> Path:
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise CLIError(f"--json: directory {str(parent)!r} does not exist")
+    if p.exists() and p.is_dir():
+        raise CLIError(f"--json: {path!r} is a directory, expected a file path")
+    try:
+        with open(p.with_name(p.name + ".probe"), "w"):
+            pass
+        p.with_name(p.name + ".probe").unlink()
+    except OSError as exc:
+        raise CLIError(f"--json: cannot write to {path!r} ({exc.strerror})") from exc
+    return p
+
+
+def _run(args: argparse.Namespace) -> int:
+    problems = _problems()
+    targets = problems.names() if args.name == "all" else [args.name]
+    if args.name != "all" and args.name not in problems.names():
+        raise CLIError(
+            f"unknown problem {args.name!r}; run 'workbench list' (known: "
+            f"{', '.join(problems.names())})"
+        )
+    out = _writable_json(args.json) if args.json else None
+    results: list[Result] = []
+    for i, name in enumerate(targets):
+        if len(targets) > 1:
+            print(f"[{i + 1}/{len(targets)}] {name} ...", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        result = problems.load(name).solve(quick=args.quick)
+        result.timings.setdefault("total", time.perf_counter() - t0)
+        print(format_result(result), flush=True)
+        results.append(result)
+    if out is not None:
+        data = results[0].as_dict() if len(results) == 1 and args.name != "all" else {
+            r.name: r.as_dict() for r in results
+        }
+        tmp = out.with_name(out.name + ".partial")
+        tmp.write_text(json.dumps(to_jsonable(data), indent=2, allow_nan=False))
+        tmp.replace(out)
+        print(f"wrote {out}", file=sys.stderr)
+    bad = [r.name for r in results if not r.ok]
+    if bad:
+        print(f"error: comparisons out of tolerance in: {', '.join(bad)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    problems = _problems()
+    if getattr(args, "markdown", False):
+        print("| name | reproduces |\n|---|---|")
+        for name in problems.names():
+            print(f"| `{name}` | {problems.title(name)} |")
+        return 0
+    for name in problems.names():
+        print(f"{name:<34} {problems.title(name)}")
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from workbench.app.report import DEFAULT_OUT, Format, build_report
+
+    formats = [f for f, on in ((Format.HTML, args.html), (Format.PDF, args.pdf)) if on]
+    if not formats:
+        formats = [Format.HTML, Format.PDF]
+    t0 = time.perf_counter()
+    rep = build_report(args.names or None, quick=args.quick, formats=formats,
+                       out_dir=args.out or DEFAULT_OUT, progress=not args.no_progress)
+    total = time.perf_counter() - t0
+    for fmt_, path in rep.paths.items():
+        print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
+    stages = ", ".join(f"{k} {v:.1f} s" for k, v in rep.seconds.items())
+    print(f"{len(rep.runs)} problems in {total:.1f} s ({stages})")
+    if rep.failed:
+        print(f"error: problems failed (shown in the report): {', '.join(rep.failed)}",
+              file=sys.stderr)
+    if rep.out_of_tolerance:
+        print("error: comparisons out of tolerance in: " + ", ".join(rep.out_of_tolerance),
+              file=sys.stderr)
+    return 0 if rep.ok else 1
+
+
+def benchmark_scripts(directory: Path | None = None) -> dict[str, Path]:
+    """The benchmark scripts by name (``bench_models.py`` is ``models``)."""
+    directory = BENCHMARKS if directory is None else directory
+    if not directory.is_dir():
+        return {}
+    return {p.stem.removeprefix("bench_"): p for p in sorted(directory.glob("bench_*.py"))}
+
+
+def _bench(args: argparse.Namespace) -> int:
+    scripts = benchmark_scripts()
+    if args.list:
+        for name, path in scripts.items():
+            print(f"{name:<24} {path}")
+        return 0
+    if not scripts:
+        raise CLIError(f"no benchmark scripts (bench_*.py) in {BENCHMARKS}")
+    names = [n.removeprefix("bench_") for n in args.names] or list(scripts)
+    unknown = [n for n in names if n not in scripts]
+    if unknown:
+        raise CLIError(f"unknown benchmark(s) {', '.join(map(repr, unknown))}; known: "
+                       f"{', '.join(scripts)}")
+    failed = []
+    for i, name in enumerate(names):
+        print(f"[{i + 1}/{len(names)}] benchmark {name} ...", file=sys.stderr, flush=True)
+        print(f"=== {name}", flush=True)
+        if _run_benchmark(name, scripts[name]) != 0:
+            failed.append(name)
+        print(flush=True)
+    if failed:
+        print(f"error: benchmarks failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _run_benchmark(name: str, path: Path) -> int:
+    """Import a benchmark script and call its ``main()``; return its exit status."""
+    saved_argv, saved_path = sys.argv, list(sys.path)
+    sys.argv = [str(path)]
+    sys.path.insert(0, str(path.parent))
+    try:
+        spec = importlib.util.spec_from_file_location(f"_bench_{path.stem}", path)
+        mod = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+        spec.loader.exec_module(mod)  # type: ignore[union-attr]
+        if not callable(getattr(mod, "main", None)):
+            print(f"error: benchmark {name} ({path.name}) has no main()", file=sys.stderr)
+            return 1
+        status = mod.main()
+        return int(status) if isinstance(status, int) else 0
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except Exception as exc:  # noqa: BLE001 - one failing benchmark does not stop the rest
+        print(f"error: benchmark {name} raised {type(exc).__name__}: {exc}",
+              file=sys.stderr)
+        return 1
+    finally:
+        sys.argv = saved_argv
+        with contextlib.suppress(ValueError):
+            sys.path[:] = saved_path
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also used by the tests)."""
+    parser = _Parser(
+        prog="workbench",
+        description="Geometric pendulum workbench: run the papers' problems.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_Parser)
+    p_list = sub.add_parser("list", help="list the problems with one-line descriptions")
+    p_list.add_argument("--markdown", action="store_true",
+                        help="print the list as the README's Markdown table")
+    p_list.set_defaults(func=_list)
+    p_run = sub.add_parser("run", help="run one problem (or 'all') and print its results")
+    p_run.add_argument("name", help="problem name (see 'workbench list'), or 'all'")
+    p_run.add_argument("--quick", action="store_true", help="smaller sizes, for a fast check")
+    p_run.add_argument("--json", metavar="PATH", help="also write the values as JSON")
+    p_run.set_defaults(func=_run)
+    p_rep = sub.add_parser(
+        "report", help="run problems and write their HTML and/or PDF report",
+        description="Run the problems (all, or NAMES) and write one report: a self-contained "
+        "HTML file and/or a PDF, in DIR. A problem that fails appears in the report with "
+        "its error. Exit status 1 if a problem failed or a comparison is out of tolerance.",
+    )
+    p_rep.add_argument("names", nargs="*", metavar="NAME",
+                       help="problems to include (default: all; see 'workbench list')")
+    p_rep.add_argument("--quick", action="store_true", help="run the problems in quick mode")
+    p_rep.add_argument("--html", action="store_true", help="write HTML (default: HTML and PDF)")
+    p_rep.add_argument("--pdf", action="store_true", help="write PDF (default: HTML and PDF)")
+    p_rep.add_argument("--out", metavar="DIR", default=None,
+                       help="output directory (default: reports/out/ of the repository)")
+    p_rep.add_argument("--no-progress", action="store_true",
+                       help="do not show per-problem progress on stderr")
+    p_rep.set_defaults(func=_report)
+    p_bench = sub.add_parser(
+        "bench", help="run the benchmark scripts and print their output",
+        description="Run the scripts benchmarks/bench_*.py (all, or NAMES), each through its "
+        "main(), and print what they print.",
+    )
+    p_bench.add_argument("names", nargs="*", metavar="NAME",
+                         help="benchmarks to run (default: all; see --list)")
+    p_bench.add_argument("--list", action="store_true", help="name the benchmarks and stop")
+    p_bench.set_defaults(func=_bench)
+    add_export_c_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except CLIError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except WorkbenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

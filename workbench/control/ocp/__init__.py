@@ -1,0 +1,52 @@
+"""Optimal control on manifolds: a declarative problem, pluggable transcriptions, Ipopt.
+
+>>> ocp = OCP(model, x0=x0, target=TargetPoint(model.manifold, xf), u_lower=-10,
+...           u_upper=10, T=(0.5, 3.0), running_cost=lambda x, u: u.T @ u,
+...           terminal_cost=lambda x, T: T)                      # doctest: +SKIP
+>>> sol = solve(ocp, Collocation(N=40, degree=3))                # doctest: +SKIP
+>>> sol.status, sol.message                                      # doctest: +SKIP
+"""
+
+from workbench.control.ocp.expand import sx_function
+from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.local import ProductLocal, local_for
+from workbench.control.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
+from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
+from workbench.control.ocp.stepper import Stepper
+from workbench.control.ocp.strategies import coarse_to_fine, continuation, multistart, refine
+from workbench.control.ocp.transcription import (
+    Collocation,
+    Graph,
+    Integrator,
+    ManifoldHandling,
+    MultipleShooting,
+    Scheme,
+    Transcription,
+)
+
+__all__ = [
+    "OCP",
+    "Collocation",
+    "Graph",
+    "Guess",
+    "Integrator",
+    "ManifoldHandling",
+    "MultipleShooting",
+    "OCPSolution",
+    "OCPStatus",
+    "PathConstraint",
+    "ProductLocal",
+    "Scheme",
+    "Stepper",
+    "TargetPoint",
+    "TargetSet",
+    "Transcription",
+    "coarse_to_fine",
+    "continuation",
+    "local_for",
+    "multistart",
+    "refine",
+    "solve",
+    "sx_function",
+    "transcribe",
+]

@@ -1,0 +1,144 @@
+r"""Scalar (SX) versions of a model's functions, with linear solves made symbolic.
+
+Ipopt with exact Hessians is fastest on SX graphs: every derivative is a flat scalar
+expression that casadi differentiates, simplifies and evaluates without the overhead of
+matrix-valued nodes. ``casadi.Function.expand`` produces one for most MX graphs, but not for
+a graph that contains a numeric linear solve (the chain model's ``casadi.solve(A, b,
+"lapacklu")``): a numeric factorisation has no scalar expression. :func:`sx_function`
+replays the MX algorithm instruction by instruction on SX symbols and replaces each linear
+solve ``A \\ b`` by casadi's symbolic QR solve of the same matrix, so the result is the same
+mathematical function (one graph, no re-typed equations), only evaluated differently. The
+size of the symbolic solve grows like ``n^3`` in the matrix dimension: fine for the 5x5 and
+8x8 systems of the one- and two-link carts, measured for both in ``benchmarks/bench_ocp.py``.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from workbench.core.errors import ModelError
+
+__all__ = ["sx_function"]
+
+_UNSUPPORTED = "cannot be replayed on SX"
+
+
+def sx_function(fn: ca.Function, *, name: str | None = None) -> ca.Function:
+    """An SX function equal to ``fn``, with numeric linear solves made symbolic.
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        An SX function (returned unchanged) or an MX function. MX graphs are first expanded
+        by casadi; if that fails because of a linear-solve node, the graph is replayed
+        instruction by instruction (inputs, outputs, nonzero selections, calls of SX-able
+        functions, linear solves, elementwise operations, matrix products, concatenations).
+    name : str, optional
+        Name of the new function (default: ``fn``'s name with ``_sx``).
+
+    Returns
+    -------
+    casadi.Function
+        Same inputs and outputs (names and sparsity), an SX graph.
+
+    Raises
+    ------
+    ModelError
+        If the graph contains an operation that cannot be replayed on SX.
+    """
+    if fn.is_a("SXFunction"):
+        return fn
+    new_name = name or f"{fn.name()}_sx"
+    try:
+        return fn.expand(new_name)
+    except RuntimeError:
+        pass
+    ins = [ca.SX.sym(fn.name_in(i), fn.sparsity_in(i)) for i in range(fn.n_in())]
+    outs = [ca.SX.zeros(fn.sparsity_out(i)) for i in range(fn.n_out())]
+    work: dict[int, ca.SX] = {}
+    for k in range(fn.n_instructions()):
+        op = fn.instruction_id(k)
+        node = fn.instruction_MX(k)
+        i_in, i_out = fn.instruction_input(k), fn.instruction_output(k)
+        if op == ca.OP_INPUT:
+            info = node.info()
+            nz = ca.vec(ins[info["ind"]])[info["offset"]: info["offset"] + node.nnz()]
+            work[i_out[0]] = _reshape(nz, node.sparsity())
+        elif op == ca.OP_OUTPUT:
+            info = node.info()
+            val = ca.vec(work[i_in[0]])
+            flat = ca.vec(outs[info["ind"]])
+            flat[info["offset"]: info["offset"] + val.numel()] = val
+            outs[info["ind"]] = _reshape(flat, fn.sparsity_out(info["ind"]))
+        elif op == ca.OP_CONST:
+            work[i_out[0]] = ca.SX(ca.evalf(node))
+        elif op == ca.OP_PARAMETER:
+            raise ModelError(f"graph of {fn.name()!r} has a free parameter node; {_UNSUPPORTED}")
+        elif op == ca.OP_GETNONZEROS:
+            src = ca.vec(work[i_in[0]])
+            info = node.info()
+            if "slice" in info:
+                s = info["slice"]
+                idx = list(range(s["start"], s["stop"], s["step"]))
+            elif "nz" in info:
+                idx = list(info["nz"])
+            else:
+                raise ModelError(f"nonzero selection {info} in {fn.name()!r}; {_UNSUPPORTED}")
+            work[i_out[0]] = _reshape(src[idx], node.sparsity())
+        elif op == ca.OP_CALL:
+            sub = sx_function(node.which_function())
+            res = sub.call([work[i] for i in i_in])
+            for j, r in zip(i_out, res):
+                if j >= 0:
+                    work[j] = r
+        elif op == ca.OP_SOLVE:
+            b, A = work[i_in[0]], work[i_in[1]]
+            if node.info().get("tr", False):
+                A = A.T
+            work[i_out[0]] = ca.solve(A, b)
+        elif op == ca.OP_MTIMES:
+            z, x, y = (work[i] for i in i_in)
+            work[i_out[0]] = z + ca.mtimes(x, y)
+        elif op == ca.OP_VERTCAT:
+            work[i_out[0]] = ca.vertcat(*[work[i] for i in i_in])
+        elif op == ca.OP_HORZCAT:
+            work[i_out[0]] = ca.horzcat(*[work[i] for i in i_in])
+        elif op == ca.OP_TRANSPOSE:
+            work[i_out[0]] = work[i_in[0]].T
+        elif op == ca.OP_RESHAPE:
+            work[i_out[0]] = _reshape(ca.vec(work[i_in[0]]), node.sparsity())
+        elif len(i_in) in (1, 2) and _elementwise(op):
+            args = [work[i] for i in i_in]
+            work[i_out[0]] = (ca.SX.unary(op, args[0]) if len(args) == 1
+                              else ca.SX.binary(op, args[0], args[1]))
+        else:
+            raise ModelError(
+                f"operation {node} (op code {op}) in {fn.name()!r}; {_UNSUPPORTED}"
+            )
+    return ca.Function(
+        new_name, ins, outs,
+        [fn.name_in(i) for i in range(fn.n_in())],
+        [fn.name_out(i) for i in range(fn.n_out())],
+        {"cse": True},
+    )
+
+
+def _reshape(v: ca.SX, sp: ca.Sparsity) -> ca.SX:
+    if sp.is_dense():
+        return ca.reshape(v, sp.size1(), sp.size2())
+    return ca.SX(sp, v)
+
+
+_ELEMENTWISE = {
+    getattr(ca, n) for n in (
+        "OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_NEG", "OP_EXP", "OP_LOG", "OP_POW",
+        "OP_CONSTPOW", "OP_SQRT", "OP_SQ", "OP_TWICE", "OP_SIN", "OP_COS", "OP_TAN",
+        "OP_ASIN", "OP_ACOS", "OP_ATAN", "OP_ATAN2", "OP_FABS", "OP_SIGN", "OP_FMIN",
+        "OP_FMAX", "OP_INV", "OP_TANH", "OP_SINH", "OP_COSH", "OP_IF_ELSE_ZERO", "OP_LT",
+        "OP_LE", "OP_EQ", "OP_NE", "OP_NOT", "OP_AND", "OP_OR",
+    ) if hasattr(ca, n)
+}
+
+
+def _elementwise(op: int) -> bool:
+    return op in _ELEMENTWISE

@@ -1,0 +1,150 @@
+"""Initial guesses that respect the manifold: geodesic interpolation and warm starts.
+
+A :class:`Guess` is a sampled state trajectory on the manifold (at normalised times
+``s`` in ``[0, 1]``), a control per sample interval and a final time. Between samples it
+is interpolated along the one-parameter curves of the local exponential coordinates
+(:mod:`workbench.control.ocp.local`): great circles on S^2, ``R exp(s log(R^T R'))`` on SO(3),
+straight lines on R^n. So the guess at every collocation point lies on the manifold.
+
+The hanging start with ``u = 0`` is a stationary point of every swing-up problem (the
+gradient of the Lagrangian vanishes by symmetry), so a geodesic guess picks a great
+circle for each antipodal factor (``axes``) and may add seeded noise to the control.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from workbench.control.ocp.local import ProductLocal
+from workbench.control.ocp.problem import OCP
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import S2, TS2, sphere_basis
+from workbench.core.types import ArrayLike, Vector
+
+__all__ = ["Guess"]
+
+
+@dataclass
+class Guess:
+    """A sampled initial guess.
+
+    Attributes
+    ----------
+    s : ndarray, shape=(n,)
+        Normalised sample times, increasing from 0 to 1.
+    x : ndarray, shape=(n, ambient_dim)
+        States at ``s``.
+    u : ndarray, shape=(n - 1, n_inputs)
+        Control on each sample interval.
+    T : float
+        Final time.
+    local : ProductLocal
+        The manifold's local coordinates (for interpolation).
+    """
+
+    s: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    T: float
+    local: ProductLocal
+
+    def state(self, s: float) -> Vector:
+        """The state at normalised time ``s``, interpolated on the manifold."""
+        k = int(np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2))
+        a = (s - self.s[k]) / (self.s[k + 1] - self.s[k])
+        if a <= 0:
+            return self.x[k]
+        if a >= 1:
+            return self.x[k + 1]
+        return self.local.interpolate(self.x[k], self.x[k + 1], float(a))
+
+    def controls(self, N: int) -> np.ndarray:
+        """Control on each of ``N`` equal intervals (sample-and-hold at their midpoints)."""
+        mid = (np.arange(N) + 0.5) / N
+        idx = np.clip(np.searchsorted(self.s, mid, side="right") - 1, 0, len(self.u) - 1)
+        return self.u[idx]
+
+    @classmethod
+    def geodesic(
+        cls,
+        ocp: OCP,
+        *,
+        T: float | None = None,
+        end: ArrayLike | None = None,
+        axes: dict[str, ArrayLike] | None = None,
+        rng: np.random.Generator | None = None,
+        noise: float = 0.0,
+        samples: int = 101,
+    ) -> Guess:
+        """Geodesic interpolation from ``x0`` to the target, rest of the state likewise.
+
+        Parameters
+        ----------
+        ocp : OCP
+            The problem.
+        T : float, optional
+            Final time of the guess (default: the middle of the allowed range).
+        end : array-like, optional
+            End state (default: the target's witness point).
+        axes : dict of str to array-like, optional
+            Rotation axis for a factor whose end point is antipodal to its start (a great
+            circle is not unique there); by factor name.
+        rng : numpy.random.Generator, optional
+            With ``rng``, antipodal factors without an axis get a random great circle.
+        noise : float
+            Standard deviation of seeded control noise, relative to the bound's half-range
+            (needs ``rng``); the hanging start with ``u = 0`` is a stationary point.
+        samples : int
+            Number of samples.
+
+        Returns
+        -------
+        Guess
+        """
+        man = ocp.model.manifold
+        local = ProductLocal(man)
+        x0 = ocp.x0
+        xf = ocp.target.witness if end is None else man.check(end, name="end")
+        ax = {k: np.asarray(v, float) for k, v in (axes or {}).items()}
+        for name, f in man.factors:
+            if name in ax or not isinstance(f, (S2, TS2)):
+                continue
+            q0, q1 = x0[man.slices[name]][:3], xf[man.slices[name]][:3]
+            if q0 @ q1 < -1 + 1e-9 and rng is not None:
+                ax[name] = sphere_basis(q0) @ rng.standard_normal(2)
+        y = local.log(x0, xf, axes=ax)
+        s = np.linspace(0.0, 1.0, int(samples))
+        x = np.array([np.asarray(local.act(x0, si * y), float).ravel() for si in s])
+        u = np.zeros((len(s) - 1, ocp.model.n_inputs))
+        if noise:
+            if rng is None:
+                raise ParameterError("noise needs an rng (numpy.random.Generator) to be seeded")
+            half = np.where(np.isfinite(ocp.u_upper - ocp.u_lower),
+                            0.5 * (ocp.u_upper - ocp.u_lower), 1.0)
+            mid = np.where(np.isfinite(ocp.u_upper + ocp.u_lower),
+                           0.5 * (ocp.u_upper + ocp.u_lower), 0.0)
+            u = np.clip(mid + noise * half * rng.standard_normal(u.shape), ocp.u_lower,
+                        ocp.u_upper)
+        T = float(np.mean(ocp.T_range)) if T is None else float(T)
+        return cls(s, x, u, T, local)
+
+    @classmethod
+    def from_samples(cls, ocp: OCP, t: ArrayLike, x: ArrayLike, u: ArrayLike) -> Guess:
+        """A guess from a sampled trajectory (e.g. a previous solution, for warm starts).
+
+        Parameters
+        ----------
+        ocp : OCP
+            The problem (for the manifold).
+        t : array-like, shape=(n,)
+            Times from 0 to T.
+        x : array-like, shape=(n, ambient_dim)
+            States.
+        u : array-like, shape=(n - 1, n_inputs)
+            Controls per interval.
+        """
+        t = np.asarray(t, float)
+        return cls(t / t[-1], np.asarray(x, float), np.asarray(u, float), float(t[-1]),
+                   ProductLocal(ocp.model.manifold))

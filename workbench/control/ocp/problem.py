@@ -1,0 +1,365 @@
+"""The declarative optimal control problem: dynamics, boundary conditions, costs, bounds.
+
+An :class:`OCP` states *what* is to be optimised; a transcription
+(:class:`~workbench.control.ocp.transcription.Collocation` or
+:class:`~workbench.control.ocp.transcription.MultipleShooting`) and a manifold handling say *how*.
+
+Boundary conditions are imposed through charts, as independent equations only. The state
+lives on a manifold of dimension ``n`` inside an ambient space of dimension ``N > n``; the
+transcription carries the ``N - n`` constraints (``|q| = 1``, ``q . w = 0``,
+``R^T R = I``) through the dynamics. Demanding an ambient equality such as ``q_N = -e3``
+adds ``N`` equations where only ``n`` are independent, and Ipopt then reports the problem
+infeasible or fails to converge (LICQ does not hold). A terminal condition is therefore
+written as ``chart(y*, phi(x_N)) = 0`` with ``phi: M -> P`` a submersion onto a target
+manifold ``P`` (the identity for a target point, ``(R, omega) -> (R^T e3, omega)`` for the
+inverted equilibrium manifold of the 3D pendulum), which is ``dim P`` equations; their
+independence is verified at a witness point before anything is solved. A chart is only
+injective on a neighbourhood (the S^2 chart ``B^T (q* x q)`` vanishes at ``q = -q*`` too);
+the neighbourhood is imposed as inequalities (``q* . q >= 0``, ``tr(R*^T R) >= 1``) that are
+inactive at a solution.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.core._model import Model
+from workbench.core.errors import ManifoldError, ModelError, ParameterError
+from workbench.core.manifolds import DEFAULT_TOL, S1, S2, SO3, TS2, ProductManifold
+from workbench.core.types import ArrayLike, Expr, Vector
+
+__all__ = ["OCP", "TargetPoint", "TargetSet", "PathConstraint", "chart_domain"]
+
+CostFn = Callable[[Any, Any], Any]
+"""``L(x, u)``: a scalar casadi expression of the symbolic state and input."""
+
+
+def chart_domain(manifold: ProductManifold, centre: Vector, x: Expr) -> list[Expr]:
+    """Expressions ``>= 0`` on the neighbourhood where the chart around ``centre`` is injective.
+
+    Parameters
+    ----------
+    manifold : ProductManifold
+        The manifold of the chart.
+    centre : ndarray, shape=(ambient_dim,)
+        The chart's centre.
+    x : casadi expression, shape=(ambient_dim,)
+        The point.
+
+    Returns
+    -------
+    list of casadi expressions
+        ``q* . q`` for S1, S2 and TS2 factors (the open hemisphere around ``q*``), and
+        ``tr(R*^T R) - 1 = 2 cos(angle)`` for SO3 factors (rotations closer than 90 deg).
+    """
+    out = []
+    for name, f in manifold.factors:
+        sl = manifold.slices[name]
+        c, xs = ca.DM(centre[sl]), x[sl]
+        if isinstance(f, (S1, S2)):
+            out.append(ca.dot(c, xs))
+        elif isinstance(f, TS2):
+            out.append(ca.dot(c[0:3], xs[0:3]))
+        elif isinstance(f, SO3):
+            out.append(ca.trace(SO3.matrix(c).T @ SO3.matrix(xs)) - 1)
+    return out
+
+
+class Target:
+    """A terminal set ``{x : chart(y*, phi(x)) = 0}`` (base of the two target kinds)."""
+
+    manifold: ProductManifold
+    value: Vector
+    witness: Vector
+    description: str
+
+    def phi(self, x: Expr) -> Expr:
+        """The map from the model's state to the target manifold."""
+        raise NotImplementedError
+
+    def equations(self, x: Expr) -> Expr:
+        """``chart(y*, phi(x))``: ``dim P`` independent equations, zero on the set."""
+        return self.manifold.chart(self.value, self.phi(x))
+
+    def domain(self, x: Expr) -> list[Expr]:
+        """Inequalities ``>= 0`` keeping ``phi(x)`` where the chart is injective."""
+        return chart_domain(self.manifold, self.value, self.phi(x))
+
+    def distance(self, x: ArrayLike) -> float:
+        """``|chart(y*, phi(x))|`` at a numeric state (max-norm)."""
+        xs = ca.DM(np.asarray(x, float).ravel())
+        return float(np.max(np.abs(np.asarray(ca.evalf(self.equations(xs)), float))))
+
+    def validate(self, model: Model, *, tol: float = DEFAULT_TOL) -> None:
+        """Check the set is consistent and its equations independent, before any solve.
+
+        Raises
+        ------
+        ManifoldError
+            If the target value is off the target manifold, the witness off the model's
+            manifold or not in the set, or the equations are not independent at the witness.
+        """
+        self.manifold.check(self.value, name="target value", tol=tol)
+        model.manifold.check(self.witness, name="target witness", tol=tol)
+        x = ca.SX.sym("x", model.manifold.ambient_dim)
+        try:
+            y = self.phi(x)
+        except Exception as exc:  # noqa: BLE001 - re-raised with context
+            raise ModelError(f"target map phi failed on the model's state: {exc}") from exc
+        if y.numel() != self.manifold.ambient_dim:
+            raise ModelError(
+                f"target map phi must return {self.manifold.ambient_dim} numbers "
+                f"({self.manifold.describe()}); got {y.numel()}"
+            )
+        yw = np.asarray(ca.Function("phi", [x], [y])(self.witness), float).ravel()
+        self.manifold.check(yw, name="phi(target witness)", tol=max(tol, 1e-9))
+        res = float(np.max(np.abs(yw - self.value)))
+        if res > 1e-8:
+            raise ManifoldError(
+                f"target witness is not in the target set {self.description}: "
+                f"|phi(witness) - y*| = {res:.3g}"
+            )
+        Nw = model.manifold.tangent_basis(self.witness)
+        J = np.asarray(ca.Function("J", [x], [ca.jacobian(self.equations(x), x)])(self.witness))
+        sv = np.linalg.svd(J @ Nw, compute_uv=False)
+        rank = int(np.sum(sv > 1e-9 * max(sv.max(initial=0.0), 1.0)))
+        if rank < self.manifold.dim:
+            raise ManifoldError(
+                f"target {self.description}: its {self.manifold.dim} equations are not "
+                f"independent on the state manifold (rank {rank} at the witness); phi must "
+                f"be a submersion there"
+            )
+
+
+@dataclass(frozen=True)
+class TargetPoint(Target):
+    """A terminal point ``x_f`` on the model's manifold, imposed as ``chart(x_f, x_N) = 0``.
+
+    Parameters
+    ----------
+    manifold : ProductManifold
+        The model's manifold.
+    point : array-like, shape=(ambient_dim,)
+        The terminal state; must lie on the manifold (checked, never projected).
+    description : str
+        Words for messages.
+    """
+
+    manifold: ProductManifold
+    point: Vector
+    description: str = "terminal point"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "point",
+                           self.manifold.check(self.point, name="terminal state x_f"))
+
+    @property
+    def value(self) -> Vector:  # type: ignore[override]
+        """The terminal point (``phi`` is the identity)."""
+        return self.point
+
+    @property
+    def witness(self) -> Vector:  # type: ignore[override]
+        """The terminal point itself."""
+        return self.point
+
+    def phi(self, x: Expr) -> Expr:  # noqa: D102
+        return x
+
+
+@dataclass(frozen=True)
+class TargetSet(Target):
+    """A terminal set ``{x : phi(x) = y*}``, a submanifold of the state manifold.
+
+    Parameters
+    ----------
+    map : callable
+        ``phi(x)``, casadi expression of the model's ambient state, onto ``manifold``.
+    manifold : ProductManifold
+        The target manifold ``P``.
+    value : array-like, shape=(P.ambient_dim,)
+        ``y*`` on ``P``.
+    witness : array-like, shape=(ambient_dim,)
+        A state in the set (used to validate, and as the guess's end point).
+    description : str
+        Words for messages, e.g. ``"Gamma = -e3, omega = 0"``.
+    """
+
+    map: Callable[[Expr], Expr]
+    manifold: ProductManifold
+    value: Vector
+    witness: Vector
+    description: str = "terminal set"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "value", np.asarray(self.value, float).ravel())
+        object.__setattr__(self, "witness", np.asarray(self.witness, float).ravel())
+
+    def phi(self, x: Expr) -> Expr:  # noqa: D102
+        return ca.vec(self.map(x))
+
+
+@dataclass(frozen=True)
+class PathConstraint:
+    """``lower <= c(x, u) <= upper`` at the nodes of the transcription.
+
+    Parameters
+    ----------
+    function : callable
+        ``c(x, u)``, casadi expression (vector) of the symbolic state and input (at node
+        ``k`` the control of interval ``k``; at the last node that of the last interval).
+    lower, upper : float or array-like
+        Bounds (``-inf``/``inf`` for one-sided).
+    name : str
+        For messages and results.
+    nodes : str
+        ``"all"`` (default), ``"first"`` or ``"last"``. A condition on the first node only
+        can fix a gauge: the spherical cart swing-up is invariant under rotations about the
+        vertical, so its optima come in circles and the reduced Hessian is singular there;
+        ``u_y = 0`` on the first interval picks one optimum of each circle.
+    """
+
+    function: CostFn
+    lower: Any = -np.inf
+    upper: Any = np.inf
+    name: str = "path constraint"
+    nodes: str = "all"
+
+    def __post_init__(self) -> None:
+        if self.nodes not in ("all", "first", "last"):
+            raise ParameterError(
+                f"nodes must be 'all', 'first' or 'last'; got {self.nodes!r}"
+            )
+
+    def applies(self, k: int, N: int) -> bool:
+        """Whether the constraint holds at node ``k`` of ``0 .. N``."""
+        return (self.nodes == "all" or (self.nodes == "first" and k == 0)
+                or (self.nodes == "last" and k == N))
+
+
+@dataclass
+class OCP:
+    """An optimal control problem on a model's manifold.
+
+    Minimise ``integral_0^T L(x, u) dt + Phi(x(T), T)`` subject to the model's dynamics
+    ``x' = f(x, u, p)`` (from ``model.function("f")``), ``x(0) = x0``, ``x(T)`` in the
+    target set, ``u_lower <= u <= u_upper``, path constraints, and ``T`` fixed or free in
+    a range. Controls are piecewise constant on the transcription's intervals.
+
+    Parameters
+    ----------
+    model : Model
+        The dynamics.
+    x0 : array-like, shape=(ambient_dim,)
+        Initial state; must lie on the model's manifold to ``tol`` (never projected).
+    target : TargetPoint or TargetSet
+        Terminal condition.
+    u_lower, u_upper : array-like, shape=(n_inputs,)
+        Control bounds.
+    T : float or (float, float)
+        Fixed final time, or the range ``(T_min, T_max)`` of a free final time.
+    running_cost : callable, optional
+        ``L(x, u)``; ``0`` when omitted.
+    terminal_cost : callable, optional
+        ``Phi(x_T, T)``; ``0`` when omitted. Minimum time is ``lambda x, T: T``.
+    path_constraints : sequence of PathConstraint
+        Constraints at every node.
+    tol : float
+        Largest accepted manifold residual of ``x0`` and of a target point.
+    name : str
+        For messages and results.
+    """
+
+    model: Model
+    x0: ArrayLike
+    target: Target
+    u_lower: ArrayLike
+    u_upper: ArrayLike
+    T: float | tuple[float, float]
+    running_cost: CostFn | None = None
+    terminal_cost: Callable[[Any, Any], Any] | None = None
+    path_constraints: Sequence[PathConstraint] = ()
+    tol: float = DEFAULT_TOL
+    name: str = "ocp"
+    _cache: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        m = self.model
+        self.x0 = m.check_state(self.x0, name="x0", tol=self.tol)
+        if not isinstance(self.target, Target):
+            raise ModelError(
+                f"target must be a TargetPoint or a TargetSet; got {type(self.target).__name__}"
+            )
+        if self.target.manifold is not m.manifold and isinstance(self.target, TargetPoint):
+            if self.target.manifold.ambient_dim != m.manifold.ambient_dim:
+                raise ModelError(
+                    f"target point is on {self.target.manifold.describe()}, the model's state "
+                    f"is on {m.manifold.describe()}"
+                )
+        self.target.validate(m, tol=self.tol)
+        self.u_lower = self._bound(self.u_lower, "u_lower")
+        self.u_upper = self._bound(self.u_upper, "u_upper")
+        if np.any(self.u_lower > self.u_upper):
+            raise ParameterError(
+                f"u_lower must not exceed u_upper; got {self.u_lower.tolist()} > "
+                f"{self.u_upper.tolist()}"
+            )
+        self.T_range = self._horizon(self.T)
+        for c in self.path_constraints:
+            if not isinstance(c, PathConstraint):
+                raise ModelError(
+                    f"path_constraints must hold PathConstraint objects; got {type(c).__name__}"
+                )
+
+    def _bound(self, value: ArrayLike, name: str) -> Vector:
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim == 0:
+            arr = np.full(self.model.n_inputs, float(arr))
+        if arr.shape != (self.model.n_inputs,) or np.any(np.isnan(arr)):
+            raise ParameterError(
+                f"{name} must be a number or have {self.model.n_inputs} entries (one per "
+                f"input of {self.model.name}); got {np.asarray(value).tolist()}"
+            )
+        return arr
+
+    @staticmethod
+    def _horizon(T: float | tuple[float, float]) -> tuple[float, float]:
+        try:
+            if np.ndim(T) == 0:
+                lo = hi = float(T)  # type: ignore[arg-type]
+            else:
+                lo, hi = (float(v) for v in T)  # type: ignore[union-attr]
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(
+                f"T must be a final time or a range (T_min, T_max); got {T!r}"
+            ) from exc
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
+            raise ParameterError(f"T must satisfy 0 < T_min <= T_max < inf; got {T!r}")
+        return lo, hi
+
+    @property
+    def free_time(self) -> bool:
+        """Whether the final time is a decision variable."""
+        return self.T_range[0] < self.T_range[1]
+
+    def with_bounds(self, *, u_lower: ArrayLike | None = None, u_upper: ArrayLike | None = None,
+                    T: float | tuple[float, float] | None = None) -> OCP:
+        """The same problem with other control bounds or horizon (for continuation).
+
+        Built transcriptions are shared: bounds are data of the NLP, not of its graph.
+        """
+        new = OCP(
+            model=self.model, x0=self.x0, target=self.target,
+            u_lower=self.u_lower if u_lower is None else u_lower,
+            u_upper=self.u_upper if u_upper is None else u_upper,
+            T=self.T if T is None else T, running_cost=self.running_cost,
+            terminal_cost=self.terminal_cost, path_constraints=self.path_constraints,
+            tol=self.tol, name=self.name,
+        )
+        new._cache = self._cache
+        return new

@@ -1,0 +1,410 @@
+"""Solving an OCP: one call, a solution with a status, its cost and its measured error.
+
+:func:`solve` builds (once per problem, transcription, handling and graph; cached on the
+:class:`~workbench.control.ocp.problem.OCP`) and solves the NLP with Ipopt, and returns an
+:class:`OCPSolution` whose :class:`OCPStatus` carries a readable message with Ipopt's
+return status, the iterations and the build and solve times. A failed solve raises
+:class:`~workbench.core.errors.SolverError` (with the solution attached as ``.solution``)
+unless ``raise_on_failure=False``. The accuracy is measured, not assumed:
+:meth:`OCPSolution.resimulate` integrates the optimal piecewise-constant control open loop
+with CVODES and reports the end-state error and the target residual.
+
+Strategies for nonconvex problems (seeded starts, coarse-to-fine, continuation) are in
+:mod:`workbench.control.ocp.strategies`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.problem import OCP
+from workbench.control.ocp.transcription import (
+    Collocation,
+    Graph,
+    ManifoldHandling,
+    Method,
+    Transcription,
+    check_method,
+)
+from workbench.core.errors import ParameterError, SolverError
+
+__all__ = ["OCPStatus", "OCPSolution", "solve", "transcribe"]
+
+
+class OCPStatus(Enum):
+    """Outcome of a solve; the value is the readable part of the message."""
+
+    SUCCESS = "solved to the requested tolerance"
+    ACCEPTABLE = "solved to Ipopt's acceptable tolerance only"
+    INFEASIBLE = ("locally infeasible: Ipopt stopped at a local minimum of the constraint "
+                  "violation (there may be no feasible point, or none near this guess)")
+    MAX_ITERATIONS = "the iteration limit was reached before convergence"
+    FAILED = "Ipopt failed"
+    INACCURATE = ("Ipopt converged, but the transcribed trajectory does not follow the "
+                  "dynamics to defect_tol (local defect against CVODES on each interval)")
+
+    @classmethod
+    def from_ipopt(cls, status: str) -> OCPStatus:
+        """Map Ipopt's return status string to a status."""
+        return {
+            "Solve_Succeeded": cls.SUCCESS,
+            "Solved_To_Acceptable_Level": cls.ACCEPTABLE,
+            "Infeasible_Problem_Detected": cls.INFEASIBLE,
+            "Maximum_Iterations_Exceeded": cls.MAX_ITERATIONS,
+            "Maximum_CpuTime_Exceeded": cls.MAX_ITERATIONS,
+            "Maximum_WallTime_Exceeded": cls.MAX_ITERATIONS,
+        }.get(status, cls.FAILED)
+
+    @property
+    def ok(self) -> bool:
+        """Whether the solution is usable (converged)."""
+        return self in (OCPStatus.SUCCESS, OCPStatus.ACCEPTABLE)
+
+
+@dataclass
+class OCPSolution:
+    """A solved (or failed) OCP.
+
+    Attributes
+    ----------
+    status : OCPStatus
+        Outcome.
+    ipopt_status : str
+        Ipopt's own return status.
+    objective : float
+        Optimal cost.
+    T : float
+        Final time.
+    t : ndarray, shape=(N+1,)
+        Node times.
+    x : ndarray, shape=(N+1, ambient_dim)
+        Node states.
+    u : ndarray, shape=(N, n_inputs)
+        Piecewise-constant control.
+    method : Collocation or MultipleShooting
+        The transcription.
+    handling : ManifoldHandling
+        Manifold handling.
+    graph : Graph
+        SX or MX.
+    cost : dict
+        ``build_seconds`` (0 when the transcription was cached), ``transcription_cached``
+        (whether this solve reused an earlier build), ``first_build_seconds``,
+        ``solve_seconds``, ``iterations``, ``nlp_variables``, ``nlp_constraints``.
+    error : dict
+        ``constraint_violation`` (max over the NLP's constraints, from their bounds),
+        ``manifold_residual`` (max over the nodes), ``target_residual``,
+        ``local_defect`` (converged solves: max over the intervals of
+        ``|Phi_h(x_k, u_k) - x_(k+1)|``, the node ``x_k`` integrated over the interval
+        with its control by CVODES, rtol 1e-10: how far the transcribed trajectory is
+        from one of the model, independent of the open-loop growth of errors); after
+        :meth:`resimulate`, also ``resim_end_error``, ``resim_target_residual``.
+    ocp : OCP
+        The problem.
+    w, lam_x, lam_g : ndarray
+        Primal and dual NLP solution (for warm starts).
+    """
+
+    status: OCPStatus
+    ipopt_status: str
+    objective: float
+    T: float
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    method: Method
+    handling: ManifoldHandling
+    graph: Graph
+    cost: dict[str, Any]
+    error: dict[str, Any]
+    ocp: OCP
+    w: np.ndarray = field(repr=False)
+    lam_x: np.ndarray = field(repr=False)
+    lam_g: np.ndarray = field(repr=False)
+
+    @property
+    def message(self) -> str:
+        """One readable line: status, Ipopt's status, iterations, times, cost."""
+        c = self.cost
+        defect = (f", local defect {self.error['local_defect']:.1e}"
+                  if "local_defect" in self.error else "")
+        return (
+            f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
+            f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
+            f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s"
+            f"{defect} [{self.describe()}]"
+        )
+
+    def describe(self) -> str:
+        """Transcription, handling and graph in words."""
+        return f"{self.method.describe()}, {self.handling.value}, {self.graph.value.upper()}"
+
+    def guess(self) -> Guess:
+        """Return the solution as a guess (for warm-starting another transcription)."""
+        return Guess.from_samples(self.ocp, self.t, self.x, self.u)
+
+    def control(self, t: float) -> np.ndarray:
+        """The piecewise-constant optimal control at time ``t``."""
+        k = int(np.clip(np.floor(t / self.T * len(self.u)), 0, len(self.u) - 1))
+        return self.u[k]
+
+    def resimulate(self, *, rtol: float = 1e-10, atol: float = 1e-10,
+                   substeps: int = 1) -> dict[str, Any]:
+        """Integrate the optimal control open loop with CVODES and measure the error.
+
+        Parameters
+        ----------
+        rtol, atol : float
+            CVODES tolerances.
+        substeps : int
+            Output samples per interval (for figures).
+
+        Returns
+        -------
+        dict
+            ``t``, ``x`` (the re-simulated samples), ``end_error`` (max-norm of the ambient
+            difference between the re-simulated and the transcribed final state),
+            ``target_residual`` (of the re-simulated final state), ``max_node_error``,
+            ``manifold_residual`` (of the re-simulation), ``seconds``. The first three are
+            also stored in :attr:`error`.
+        """
+        from workbench.control.ocp.stepper import Stepper
+
+        stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
+        t0 = time.perf_counter()
+        h = self.T / len(self.u)
+        xs, ts = [self.x[0]], [0.0]
+        x = self.x[0]
+        node_err = 0.0
+        for k, uk in enumerate(self.u):
+            for j in range(substeps):
+                x = stepper.step(x, uk, h / substeps)
+                xs.append(x)
+                ts.append(k * h + (j + 1) * h / substeps)
+            node_err = max(node_err, float(np.max(np.abs(x - self.x[k + 1]))))
+        xs_arr = np.array(xs)
+        man = self.ocp.model.manifold
+        out = {
+            "t": np.array(ts),
+            "x": xs_arr,
+            "end_error": float(np.max(np.abs(xs_arr[-1] - self.x[-1]))),
+            "max_node_error": node_err,
+            "target_residual": self.ocp.target.distance(xs_arr[-1]),
+            "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in xs_arr)),
+            "seconds": time.perf_counter() - t0,
+            "rtol": rtol,
+        }
+        self.error.update(resim_end_error=out["end_error"],
+                          resim_target_residual=out["target_residual"],
+                          resim_max_node_error=node_err)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Plain JSON-serialisable account (no arrays of the trajectory)."""
+        return {
+            "status": self.status.name,
+            "ipopt_status": self.ipopt_status,
+            "message": self.message,
+            "objective": self.objective,
+            "T": self.T,
+            "transcription": self.describe(),
+            "cost": dict(self.cost),
+            "error": dict(self.error),
+        }
+
+
+WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-6, "warm_start_bound_push": 1e-9,
+              "warm_start_mult_bound_push": 1e-9, "warm_start_slack_bound_push": 1e-9}
+"""Ipopt options added when a solution of the same transcription warm-starts a solve."""
+
+
+def _ipopt_options(tol: float, max_iter: int, print_level: int,
+                   extra: dict[str, Any] | None) -> dict[str, Any]:
+    if not (np.isfinite(tol) and tol > 0):
+        raise ParameterError(f"tol must be positive and finite; got {tol!r}")
+    if not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ParameterError(f"max_iter must be an integer >= 1; got {max_iter!r}")
+    if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
+        raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
+    opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
+            "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": 5}
+    opts.update(extra or {})
+    return opts
+
+
+def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = ManifoldHandling.AMBIENT,
+               graph: Graph = Graph.SX, ipopt: dict[str, Any] | None = None,
+               ) -> tuple[Transcription, bool]:
+    """The transcription of ``ocp`` (built on first use, cached on the OCP).
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem.
+    method : Collocation or MultipleShooting
+        The transcription.
+    handling : ManifoldHandling
+        Manifold handling.
+    graph : Graph
+        SX or MX.
+    ipopt : dict, optional
+        Ipopt options of the first solver (others are created on demand, sharing the
+        generated derivatives).
+
+    Returns
+    -------
+    (Transcription, bool)
+        The transcription and whether it was built by this call.
+    """
+    check_method(method)
+    key = (method, handling, graph)
+    if key in ocp._cache:
+        return ocp._cache[key], False
+    tr = Transcription(ocp, method, handling, graph, ipopt or _ipopt_options(1e-8, 1000, 0, None))
+    ocp._cache[key] = tr
+    return tr, True
+
+
+def solve(
+    ocp: OCP,
+    method: Method | None = None,
+    *,
+    handling: ManifoldHandling = ManifoldHandling.AMBIENT,
+    graph: Graph = Graph.SX,
+    guess: Guess | OCPSolution | None = None,
+    tol: float = 1e-8,
+    max_iter: int = 1000,
+    print_level: int = 0,
+    ipopt_options: dict[str, Any] | None = None,
+    raise_on_failure: bool = True,
+    defect_tol: float | None = None,
+) -> OCPSolution:
+    """Transcribe and solve an OCP with Ipopt (exact Hessian).
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem.
+    method : Collocation or MultipleShooting, optional
+        The transcription (default ``Collocation(N=40, degree=3)``).
+    handling : ManifoldHandling
+        ``AMBIENT`` or ``LIE_GROUP`` (see :mod:`workbench.control.ocp.transcription`).
+    graph : Graph
+        ``SX`` (scalar graph, fastest) or ``MX``.
+    guess : Guess or OCPSolution, optional
+        Initial guess; a solution of the *same* transcription also warm-starts the
+        multipliers. Default: :meth:`Guess.geodesic` (deterministic great circles). The
+        guess vector is moved into the variable bounds before the solve (as Ipopt would);
+        the problem's data are never changed.
+    tol : float
+        Ipopt's tolerance.
+    max_iter : int
+        Ipopt's iteration limit.
+    print_level : int
+        Ipopt's print level (0 = quiet).
+    ipopt_options : dict, optional
+        Further Ipopt options.
+    raise_on_failure : bool
+        Raise :class:`SolverError` unless the status is SUCCESS or ACCEPTABLE.
+    defect_tol : float, optional
+        Largest accepted ``error["local_defect"]`` of a converged solve; above it the
+        status is INACCURATE (a too coarse transcription, e.g. a long horizon on few
+        intervals, can converge to an NLP solution that is no trajectory of the model).
+        Without it the defect is only measured and reported.
+
+    Returns
+    -------
+    OCPSolution
+
+    Raises
+    ------
+    SolverError
+        If Ipopt does not converge and ``raise_on_failure``; ``.solution`` holds the result.
+    """
+    method = method or Collocation()
+    opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
+    if defect_tol is not None and not (isinstance(defect_tol, (int, float, np.number))
+                                       and np.isfinite(defect_tol) and defect_tol > 0):
+        raise ParameterError(f"defect_tol must be a positive finite number or None; got "
+                             f"{defect_tol!r}")
+    tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
+    lbw, ubw = tr.bounds(ocp)
+    args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg, "ubg": tr.ubg,
+                            "p": ocp.model.p}
+    if isinstance(guess, OCPSolution) and guess.method == method and \
+            guess.handling is handling and guess.graph is graph:
+        # primal-dual warm start: start close to the central path, not at mu = 0.1
+        opts = {**WARM_START, **opts} if ipopt_options is None else opts
+        args.update(x0=guess.w, lam_x0=guess.lam_x, lam_g0=guess.lam_g)
+    else:
+        if isinstance(guess, OCPSolution):
+            guess = guess.guess()
+        g = guess if guess is not None else Guess.geodesic(ocp)
+        args["x0"] = tr.pack(g.state, g.controls(tr.N), g.T)
+    args["x0"] = np.clip(args["x0"], lbw, ubw)
+    solver = tr.solver(opts)
+    t0, c0 = time.perf_counter(), time.process_time()
+    sol = solver(**args)
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    stats = solver.stats()
+    ipopt_status = str(stats.get("return_status", "unknown"))
+    status = OCPStatus.from_ipopt(ipopt_status)
+    w = np.asarray(sol["x"], float).ravel()
+    X, U, T = tr.unpack(w)
+    gval = np.asarray(sol["g"], float).ravel()
+    viol = np.maximum(np.maximum(tr.lbg - gval, gval - tr.ubg), 0.0)
+    man = ocp.model.manifold
+    cost = {
+        "build_seconds": tr.build_seconds if built else 0.0,
+        "transcription_cached": not built,
+        "first_build_seconds": tr.build_seconds,
+        "solve_seconds": seconds,
+        "solve_cpu_seconds": cpu,
+        "hessian_seconds": float(stats.get("t_wall_nlp_hess_l", float("nan"))),
+        "jacobian_seconds": float(stats.get("t_wall_nlp_jac_g", float("nan"))),
+        "iterations": int(stats.get("iter_count", -1)),
+        "nlp_variables": tr.nw,
+        "nlp_constraints": tr.ng,
+    }
+    error = {
+        "constraint_violation": float(viol.max(initial=0.0)),
+        "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in X)),
+        "target_residual": ocp.target.distance(X[-1]),
+    }
+    out = OCPSolution(
+        status=status, ipopt_status=ipopt_status, objective=float(sol["f"]), T=T,
+        t=tr.times(T), x=X, u=U, method=method, handling=handling, graph=graph, cost=cost,
+        error=error, ocp=ocp, w=w, lam_x=np.asarray(sol["lam_x"], float).ravel(),
+        lam_g=np.asarray(sol["lam_g"], float).ravel(),
+    )
+    if status.ok:
+        out.error["local_defect"] = _local_defect(out)
+        if defect_tol is not None and not out.error["local_defect"] <= defect_tol:
+            out.status = status = OCPStatus.INACCURATE
+    if raise_on_failure and not status.ok:
+        err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=ipopt_status)
+        err.solution = out  # type: ignore[attr-defined]
+        raise err
+    return out
+
+
+def _local_defect(sol: OCPSolution) -> float:
+    """Max over intervals of ``|Phi_h(x_k, u_k) - x_(k+1)|`` (CVODES, rtol 1e-10)."""
+    from workbench.control.ocp.stepper import Stepper
+
+    key = ("local_defect_stepper", 1e-10)  # one CVODES build per problem, not per solve
+    if key not in sol.ocp._cache:
+        sol.ocp._cache[key] = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
+    stepper = sol.ocp._cache[key]
+    h = sol.T / len(sol.u)
+    try:
+        return max(float(np.max(np.abs(stepper.step(x, u, h) - xn)))
+                   for x, u, xn in zip(sol.x[:-1], sol.u, sol.x[1:]))
+    except SolverError:  # the nodes are not even integrable: no trajectory at all
+        return float("inf")

@@ -1,0 +1,93 @@
+"""The core of the engine: manifolds, models, evaluators, validation, errors, status."""
+
+from __future__ import annotations
+
+from workbench.core._evaluator import (
+    DenseEvaluator,
+    Evaluator,
+)
+from workbench.core._feedback import (
+    feedback_function,
+)
+from workbench.core._model import (
+    BuildLog,
+    BuildRecord,
+    Context,
+    Model,
+    Parameter,
+    Symbolic,
+    finite,
+    nonnegative,
+    positive,
+    spd3,
+)
+from workbench.core.errors import (
+    ManifoldError,
+    ModelError,
+    ParameterError,
+    SolverError,
+    WorkbenchError,
+)
+from workbench.core.manifolds import (
+    DEFAULT_TOL,
+    S1,
+    S2,
+    SO3,
+    TS2,
+    Factor,
+    ProductManifold,
+    Rn,
+    hat,
+    so3_exp,
+    so3_log,
+    sphere_basis,
+    vee,
+)
+from workbench.core.types import (
+    Expr,
+    Matrix,
+    Vector,
+)
+from workbench.core.validate import (
+    choice,
+    count,
+)
+
+__all__ = [
+    "BuildLog",
+    "BuildRecord",
+    "Context",
+    "DEFAULT_TOL",
+    "DenseEvaluator",
+    "Evaluator",
+    "Expr",
+    "Factor",
+    "ManifoldError",
+    "Matrix",
+    "Model",
+    "ModelError",
+    "Parameter",
+    "ParameterError",
+    "ProductManifold",
+    "Rn",
+    "S1",
+    "S2",
+    "SO3",
+    "SolverError",
+    "Symbolic",
+    "TS2",
+    "Vector",
+    "WorkbenchError",
+    "choice",
+    "count",
+    "feedback_function",
+    "finite",
+    "hat",
+    "nonnegative",
+    "positive",
+    "so3_exp",
+    "so3_log",
+    "spd3",
+    "sphere_basis",
+    "vee",
+]

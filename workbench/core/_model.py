@@ -1,0 +1,569 @@
+"""Models: a vector field on a product manifold, written once as a casadi graph.
+
+A :class:`Model` holds named state factors (a :class:`~workbench.core.manifolds.ProductManifold`),
+a number of inputs, named and validated parameters, and *builders*: Python callables that
+write the vector field and the invariants as casadi expressions of symbolic state, input
+and parameters. Nothing is built until it is asked for. Each casadi.Function is then built
+once, cached, and recorded in the model's build log (name, node count, build time), so a
+problem can report exactly what a scene required.
+
+Parameters are an *input* of every function (``f(x, u, p)``), so a parameter sweep or a
+continuation needs no rebuild: :meth:`Model.with_parameters` returns a model with other
+values that shares the already built graphs. Freezing the numbers into a graph is an
+explicit option (:meth:`Model.function` with ``frozen=True``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.core._evaluator import Evaluator
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
+from workbench.core.types import ArrayLike, Vector
+from workbench.core.validate import choice
+
+__all__ = [
+    "Symbolic",
+    "Parameter",
+    "BuildRecord",
+    "BuildLog",
+    "Context",
+    "Model",
+    "positive",
+    "nonnegative",
+    "spd3",
+    "finite",
+    "Evaluator",
+]
+
+
+class Symbolic(StrEnum):
+    """Symbol class of a model's graphs (a str-enum: ``Symbolic.SX == "SX"``).
+
+    Attributes
+    ----------
+    SX
+        Scalar expression graphs (``casadi.SX``): compact, fast to evaluate, export to C
+        and convert to sympy.
+    MX
+        Matrix expression graphs (``casadi.MX``): allow numeric sub-solves
+        (``casadi.solve``) inside the graph, as the chain model needs.
+    """
+
+    SX = "SX"
+    MX = "MX"
+
+
+# ----------------------------------------------------------------------------------------
+# parameters
+
+
+def finite(value: np.ndarray) -> str | None:
+    """Check that every entry is finite; return a message fragment on failure."""
+    if not np.all(np.isfinite(value)):
+        return f"must be finite; got {np.array2string(value, precision=6)}"
+    return None
+
+
+def positive(value: np.ndarray) -> str | None:
+    """Check that every entry is finite and strictly positive."""
+    msg = finite(value)
+    if msg:
+        return msg
+    if np.any(value <= 0):
+        return f"must be positive; got {np.array2string(value, precision=6)}"
+    return None
+
+
+def nonnegative(value: np.ndarray) -> str | None:
+    """Check that every entry is finite and non-negative."""
+    msg = finite(value)
+    if msg:
+        return msg
+    if np.any(value < 0):
+        return f"must be non-negative; got {np.array2string(value, precision=6)}"
+    return None
+
+
+def spd3(value: np.ndarray) -> str | None:
+    """Check a 3x3 matrix is symmetric positive definite (symmetry to 1e-12 relative)."""
+    msg = finite(value)
+    if msg:
+        return msg
+    scale = max(float(np.max(np.abs(value))), 1e-300)
+    asym = float(np.max(np.abs(value - value.T)))
+    if asym > 1e-12 * scale:
+        return (
+            f"must be symmetric positive definite; got a non-symmetric matrix "
+            f"(max |J - J^T| = {asym:.3g})"
+        )
+    eig = np.linalg.eigvalsh(0.5 * (value + value.T))
+    if np.any(eig <= 0):
+        return (
+            f"must be symmetric positive definite; got eigenvalues "
+            f"{np.array2string(eig, precision=6)}"
+        )
+    return None
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named model parameter.
+
+    Parameters
+    ----------
+    name : str
+        Identifier, e.g. ``"J"``.
+    shape : tuple of int
+        ``()`` for a scalar, ``(3,)`` for a vector, ``(3, 3)`` for a matrix.
+    description : str
+        What it is, with its unit.
+    check : callable, optional
+        ``check(value) -> message or None``; a message makes the value invalid.
+    """
+
+    name: str
+    shape: tuple[int, ...]
+    description: str
+    check: Callable[[np.ndarray], str | None] | None = finite
+
+    @property
+    def size(self) -> int:
+        """Number of scalars."""
+        return int(np.prod(self.shape)) if self.shape else 1
+
+    def validate(self, value: Any) -> np.ndarray:
+        """Return ``value`` as an array of this shape, or raise ParameterError."""
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(
+                f"parameter {self.name!r} ({self.description}) must be numeric with shape "
+                f"{self.shape}; got {value!r}"
+            ) from exc
+        if arr.shape != self.shape:
+            raise ParameterError(
+                f"parameter {self.name!r} ({self.description}) must have shape {self.shape}; "
+                f"got shape {arr.shape}"
+            )
+        if self.check is not None:
+            msg = self.check(arr)
+            if msg:
+                raise ParameterError(f"parameter {self.name!r} ({self.description}) {msg}")
+        return arr
+
+
+# ----------------------------------------------------------------------------------------
+# build log
+
+
+@dataclass(frozen=True)
+class BuildRecord:
+    """One built casadi.Function: its name, size and the time it took."""
+
+    name: str
+    n_nodes: int
+    seconds: float
+    symbolic: str
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON-serialisable form."""
+        return {
+            "function": self.name,
+            "n_nodes": self.n_nodes,
+            "build_seconds": self.seconds,
+            "symbolic": self.symbolic,
+        }
+
+
+@dataclass
+class BuildLog:
+    """The functions a model has built, in build order."""
+
+    records: list[BuildRecord] = field(default_factory=list)
+
+    def add(self, record: BuildRecord) -> None:
+        """Append a record."""
+        self.records.append(record)
+
+    def as_list(self) -> list[dict[str, Any]]:
+        """Plain JSON-serialisable form."""
+        return [r.as_dict() for r in self.records]
+
+    def names(self) -> list[str]:
+        """Names of the built functions."""
+        return [r.name for r in self.records]
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+
+# ----------------------------------------------------------------------------------------
+# symbolic context handed to model builders
+
+
+class Context:
+    """Symbolic state, input and parameters, as handed to a model's builders.
+
+    Attributes
+    ----------
+    x : casadi SX or MX, shape=(ambient_dim, 1)
+        The whole stored state.
+    u : casadi SX or MX, shape=(n_inputs, 1)
+        The input.
+    p : casadi SX or MX, shape=(n_params, 1)
+        All parameters stacked.
+    """
+
+    def __init__(self, model: Model, x: Any, u: Any, p: Any) -> None:
+        self.model, self.x, self.u, self.p = model, x, u, p
+
+    def __getitem__(self, name: str) -> Any:
+        """A state part by factor name, or a parameter by name (matrices reshaped)."""
+        man = self.model.manifold
+        if name in man.slices:
+            return self.x[man.slices[name]]
+        if name in self.model.parameter_slices:
+            par = self.model.parameter(name)
+            piece = self.p[self.model.parameter_slices[name]]
+            if len(par.shape) == 2:
+                # stored row-major (numpy order): reshape then transpose
+                return ca.reshape(piece, par.shape[1], par.shape[0]).T
+            return piece
+        raise ModelError(
+            f"unknown name {name!r}; state factors are {man.names}, parameters are "
+            f"{[p.name for p in self.model.parameters]}"
+        )
+
+
+Builder = Callable[[Context], Any]
+
+
+# ----------------------------------------------------------------------------------------
+# the model
+
+
+class _Graphs:
+    """Cache of built functions, shared between models that differ only in values."""
+
+    def __init__(self) -> None:
+        self.functions: dict[str, ca.Function] = {}
+        self.log = BuildLog()
+
+
+class Model:
+    """A controlled vector field on a product manifold, with invariants.
+
+    Parameters
+    ----------
+    name : str
+        Identifier of the model, e.g. ``"pendulum3d_full"``.
+    manifold : ProductManifold
+        The state space, in storage order.
+    n_inputs : int
+        Dimension of the input ``u`` (0 for none).
+    parameters : sequence of Parameter
+        Declared parameters, in storage order of ``p``.
+    values : mapping of str to array-like
+        A value for every declared parameter; validated.
+    vector_field : callable
+        ``vector_field(ctx) -> xdot`` as a casadi expression of shape ``(ambient_dim, 1)``.
+    invariants : mapping of str to callable, optional
+        ``invariant(ctx) -> scalar`` expressions conserved when ``u = 0``.
+    symbolic : Symbolic or {"SX", "MX"}
+        Symbol class for the graphs (:class:`Symbolic`; the strings are accepted). MX allows
+        numeric sub-solves (``casadi.solve``) inside the graph, as the chain model needs.
+    description : str
+        One line saying what the model is, with the paper and equation numbers.
+    equations : sequence of str
+        The equations implemented, as LaTeX with their paper equation numbers (for reports).
+    input_description : str
+        What ``u`` is (units).
+    """
+
+    def __init__(
+        self,
+        *,
+        name: str,
+        manifold: ProductManifold,
+        n_inputs: int,
+        parameters: Sequence[Parameter],
+        values: Mapping[str, ArrayLike],
+        vector_field: Builder,
+        invariants: Mapping[str, Builder] | None = None,
+        symbolic: Symbolic | str = Symbolic.SX,
+        description: str = "",
+        equations: Sequence[str] = (),
+        input_description: str = "",
+    ) -> None:
+        symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
+        if not isinstance(n_inputs, (int, np.integer)) or n_inputs < 0:
+            raise ModelError(f"n_inputs must be an integer >= 0; got {n_inputs!r}")
+        self.name = name
+        self.manifold = manifold
+        self.n_inputs = int(n_inputs)
+        self.parameters: tuple[Parameter, ...] = tuple(parameters)
+        self.symbolic: Symbolic = symbolic
+        self.description = description
+        self.equations = tuple(equations)
+        self.input_description = input_description
+        self._vector_field = vector_field
+        self._invariants: dict[str, Builder] = dict(invariants or {})
+        self.parameter_slices: dict[str, slice] = {}
+        k = 0
+        for par in self.parameters:
+            self.parameter_slices[par.name] = slice(k, k + par.size)
+            k += par.size
+        self.n_params = k
+        self.values: dict[str, np.ndarray] = self._validate_values(values)
+        self._graphs = _Graphs()
+
+    # parameters ---------------------------------------------------------------------------
+
+    def parameter(self, name: str) -> Parameter:
+        """The declared parameter called ``name``."""
+        for par in self.parameters:
+            if par.name == name:
+                return par
+        raise ModelError(
+            f"unknown parameter {name!r} of model {self.name!r}; "
+            f"known: {[p.name for p in self.parameters]}"
+        )
+
+    def _validate_values(self, values: Mapping[str, ArrayLike]) -> dict[str, np.ndarray]:
+        declared = [p.name for p in self.parameters]
+        unknown = [k for k in values if k not in declared]
+        if unknown:
+            raise ParameterError(
+                f"unknown parameter(s) {unknown} for model {self.name!r}; known: {declared}"
+            )
+        missing = [k for k in declared if k not in values]
+        if missing:
+            raise ParameterError(f"model {self.name!r} needs values for {missing}")
+        return {p.name: p.validate(values[p.name]) for p in self.parameters}
+
+    @property
+    def p(self) -> Vector:
+        """All parameter values stacked in storage order (matrices row-major)."""
+        if not self.parameters:
+            return np.zeros(0)
+        return np.concatenate([self.values[p.name].reshape(-1) for p in self.parameters])
+
+    def with_parameters(self, **values: ArrayLike) -> Model:
+        """A model with some parameter values changed, sharing the already built graphs.
+
+        Parameters
+        ----------
+        **values : array-like
+            New values by parameter name; validated.
+
+        Returns
+        -------
+        Model
+            A new model; its build log is the same object as this one's.
+        """
+        merged = dict(self.values)
+        unknown = [k for k in values if k not in merged]
+        if unknown:
+            raise ParameterError(
+                f"unknown parameter(s) {unknown} for model {self.name!r}; known: {list(merged)}"
+            )
+        merged.update(values)
+        clone = object.__new__(Model)
+        clone.__dict__.update(self.__dict__)
+        clone.values = self._validate_values(merged)
+        return clone
+
+    # symbols ------------------------------------------------------------------------------
+
+    @property
+    def sym(self) -> type:
+        """``casadi.SX`` or ``casadi.MX``."""
+        return ca.SX if self.symbolic is Symbolic.SX else ca.MX
+
+    def context(self) -> Context:
+        """Fresh symbols for state, input and parameters."""
+        S = self.sym
+        return Context(
+            self,
+            S.sym("x", self.manifold.ambient_dim),
+            S.sym("u", self.n_inputs),
+            S.sym("p", self.n_params),
+        )
+
+    @property
+    def build_log(self) -> BuildLog:
+        """What has been built so far (shared with models from :meth:`with_parameters`)."""
+        return self._graphs.log
+
+    @property
+    def invariant_names(self) -> list[str]:
+        """Names of the declared invariants."""
+        return list(self._invariants)
+
+    # functions ----------------------------------------------------------------------------
+
+    def _build(self, key: str, make: Callable[[], ca.Function]) -> ca.Function:
+        cache = self._graphs.functions
+        if key not in cache:
+            t0 = time.perf_counter()
+            fn = make()
+            dt = time.perf_counter() - t0
+            cache[key] = fn
+            self._graphs.log.add(
+                BuildRecord(f"{self.name}.{key}", int(fn.n_nodes()), dt, self.symbolic)
+            )
+        return cache[key]
+
+    def function(self, name: str, *, frozen: bool = False) -> ca.Function:
+        """A built (cached) casadi.Function of the model.
+
+        Parameters
+        ----------
+        name : str
+            ``"f"`` (``(x, u, p) -> xdot``), ``"f_x"`` and ``"f_u"`` (Jacobians of ``f``
+            w.r.t. ``x`` and ``u``), ``"residual"`` (``x -> h(x)``), ``"invariants"``
+            (``(x, p) -> all invariants``) or the name of one invariant (``(x, p) -> I``).
+        frozen : bool
+            If true, substitute the current parameter values into the graph and drop the
+            ``p`` input (smaller graphs and faster code; rebuilt for other values).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        if frozen:
+            return self._frozen(name)
+        if name == "f":
+            return self._build("f", self._make_f)
+        if name in ("f_x", "f_u"):
+            return self._build(name, lambda: self._make_jac(name))
+        if name == "residual":
+            return self._build("residual", self._make_residual)
+        if name == "invariants":
+            return self._build("invariants", self._make_invariants)
+        if name in self._invariants:
+            return self._build(name, lambda: self._make_invariant(name))
+        raise ModelError(
+            f"model {self.name!r} has no function {name!r}; known: f, f_x, f_u, residual, "
+            f"invariants, {', '.join(self._invariants) or '(no invariants)'}"
+        )
+
+    def _frozen(self, name: str) -> ca.Function:
+        key = f"{name}@frozen[{hash(self.p.tobytes())}]"
+
+        def make() -> ca.Function:
+            fn = self.function(name)
+            ins = [fn.sx_in(i) if self.symbolic is Symbolic.SX else fn.mx_in(i)
+                   for i in range(fn.n_in())]
+            names = [fn.name_in(i) for i in range(fn.n_in())]
+            args = [ca.DM(self.p) if n == "p" else s for n, s in zip(names, ins)]
+            outs = fn.call(args)
+            keep = [(s, n) for s, n in zip(ins, names) if n != "p"]
+            return ca.Function(
+                f"{fn.name()}_frozen",
+                [s for s, _ in keep],
+                outs,
+                [n for _, n in keep],
+                [fn.name_out(i) for i in range(fn.n_out())],
+                {"cse": True} if self.symbolic is Symbolic.SX else {},
+            )
+
+        return self._build(key, make)
+
+    def _make_f(self) -> ca.Function:
+        ctx = self.context()
+        xdot = ca.vec(self._vector_field(ctx))
+        if xdot.shape != (self.manifold.ambient_dim, 1):
+            raise ModelError(
+                f"vector field of {self.name!r} must have shape ({self.manifold.ambient_dim}, 1);"
+                f" got {xdot.shape}"
+            )
+        return ca.Function("f", [ctx.x, ctx.u, ctx.p], [xdot], ["x", "u", "p"], ["xdot"])
+
+    def _make_jac(self, which: str) -> ca.Function:
+        f = self.function("f")
+        S = self.sym
+        x, u, p = S.sym("x", f.size1_in(0)), S.sym("u", f.size1_in(1)), S.sym("p", f.size1_in(2))
+        xdot = f(x, u, p)
+        wrt = x if which == "f_x" else u
+        return ca.Function(which, [x, u, p], [ca.jacobian(xdot, wrt)], ["x", "u", "p"], [which])
+
+    def _make_residual(self) -> ca.Function:
+        x = self.sym.sym("x", self.manifold.ambient_dim)
+        return ca.Function("residual", [x], [self.manifold.residual(x)], ["x"], ["h"])
+
+    def _make_invariant(self, name: str) -> ca.Function:
+        ctx = self.context()
+        val = self._invariants[name](ctx)
+        return ca.Function(name, [ctx.x, ctx.p], [val], ["x", "p"], [name])
+
+    def _make_invariants(self) -> ca.Function:
+        ctx = self.context()
+        vals = [self._invariants[n](ctx) for n in self._invariants]
+        out = ca.vertcat(*vals) if vals else self.sym(0, 1)
+        return ca.Function("invariants", [ctx.x, ctx.p], [out], ["x", "p"], ["I"])
+
+    # numeric conveniences -----------------------------------------------------------------
+
+    def check_state(self, x: ArrayLike, *, name: str = "x", tol: float = DEFAULT_TOL) -> Vector:
+        """Validate a numeric state on the model's manifold; return it flat and unchanged."""
+        return self.manifold.check(x, name=name, tol=tol)
+
+    def state(self, *, tol: float = DEFAULT_TOL, **parts: ArrayLike) -> Vector:
+        """Assemble and validate a state from named parts, e.g. ``state(R=I, omega=w)``."""
+        return self.check_state(self.manifold.join(parts), tol=tol)
+
+    def _input(self, u: ArrayLike | None) -> Vector:
+        if u is None:
+            return np.zeros(self.n_inputs)
+        uv = np.asarray(u, dtype=float).ravel()
+        if uv.size != self.n_inputs:
+            raise ModelError(
+                f"u must have {self.n_inputs} entries for model {self.name!r}; "
+                f"got shape {np.shape(u)}"
+            )
+        if not np.all(np.isfinite(uv)):
+            raise ModelError(f"u must be finite; got {uv.tolist()}")
+        return uv
+
+    def _raw_state(self, x: ArrayLike) -> Vector:
+        """``x`` flat, of the ambient size and finite (no manifold check), or ModelError."""
+        try:
+            xv = np.asarray(x, dtype=float).ravel()
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"x must be a numeric state for model {self.name!r}; got "
+                             f"{type(x).__name__}") from exc
+        n = self.manifold.ambient_dim
+        if xv.size != n or not np.all(np.isfinite(xv)):
+            raise ModelError(
+                f"x must be {n} finite numbers for model {self.name!r} "
+                f"({self.manifold.describe()}); got shape {np.shape(x)}"
+                + ("" if xv.size != n else f" with non-finite entries {xv.tolist()}")
+            )
+        return xv
+
+    def rhs(self, x: ArrayLike, u: ArrayLike | None = None) -> Vector:
+        """Evaluate the vector field at a numeric state (no manifold check)."""
+        return np.asarray(
+            self.function("f")(self._raw_state(x), self._input(u), self.p)
+        ).ravel()
+
+    def invariants(self, x: ArrayLike) -> dict[str, float]:
+        """All invariants at a numeric state."""
+        vals = np.asarray(self.function("invariants")(self._raw_state(x), self.p))
+        return {n: float(v) for n, v in zip(self._invariants, vals.ravel())}
+
+    def __repr__(self) -> str:
+        return (
+            f"Model({self.name!r}, {self.manifold.describe()}, inputs={self.n_inputs}, "
+            f"parameters={[p.name for p in self.parameters]})"
+        )

@@ -1,0 +1,83 @@
+"""Global dynamics: invariant manifolds of saddles, Poincare maps, FTLE, geometric phase."""
+
+from __future__ import annotations
+
+from workbench.global_dynamics._ftle import (
+    LyapunovEstimate,
+    lyapunov_exponent,
+)
+from workbench.global_dynamics._invariant_manifolds import (
+    VECTORISED_METHODS,
+    InvariantManifold,
+    invariant_manifold,
+    stable_manifold,
+    unstable_manifold,
+)
+from workbench.global_dynamics._manifold_validation import (
+    Validation,
+    compare_per_point,
+    validate,
+)
+from workbench.global_dynamics._phase import (
+    PhaseCheck,
+    cone_integral,
+    first_self_intersection,
+    geometric_phase_check,
+    holonomy_angle,
+    wrap_angle,
+)
+from workbench.global_dynamics._poincare import (
+    OrbitStatus,
+    PoincareOrbit,
+    Stepper,
+    poincare_map,
+)
+from workbench.global_dynamics._sections import (
+    Direction,
+    Section,
+    stabilized_field,
+    turning_section,
+    turning_section_state,
+)
+from workbench.global_dynamics._seeds import (
+    ball_points,
+    batch_evaluate,
+    direction_spread,
+    distances,
+    equilibrium_distance,
+    sphere_directions,
+)
+
+__all__ = [
+    "Direction",
+    "InvariantManifold",
+    "LyapunovEstimate",
+    "OrbitStatus",
+    "PhaseCheck",
+    "PoincareOrbit",
+    "Section",
+    "Stepper",
+    "VECTORISED_METHODS",
+    "Validation",
+    "ball_points",
+    "batch_evaluate",
+    "compare_per_point",
+    "cone_integral",
+    "direction_spread",
+    "distances",
+    "equilibrium_distance",
+    "first_self_intersection",
+    "geometric_phase_check",
+    "holonomy_angle",
+    "invariant_manifold",
+    "lyapunov_exponent",
+    "poincare_map",
+    "sphere_directions",
+    "stabilized_field",
+    "stable_manifold",
+    "turning_section",
+    "turning_section_state",
+    "unstable_manifold",
+    "validate",
+    "wrap_angle",
+]

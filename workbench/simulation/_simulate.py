@@ -1,0 +1,494 @@
+"""Simulation with measured cost and accuracy.
+
+:func:`simulate` integrates a model (optionally in closed loop with a controller given as
+a casadi.Function of the state) with one of casadi's integrators, and returns a
+:class:`Trajectory` that carries what it cost (wall time, build time, steps, right-hand
+side evaluations) and how accurate it is by the measures that need no reference
+solution: the drift of every invariant and the constraint residual of every manifold
+factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``degree``)
+are explicit keywords.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.core._feedback import feedback_function
+from workbench.core._model import Model
+from workbench.core.errors import ModelError, SolverError
+from workbench.core.manifolds import DEFAULT_TOL, SO3
+from workbench.core.types import ArrayLike
+from workbench.core.validate import choice, count
+from workbench.simulation.integrators import (
+    NEWTON_MAX_ITER,
+    NEWTON_TOL,
+    integrate,
+    lgvi,
+    rkmk4,
+    s2_variational,
+)
+from workbench.simulation.integrators.common import check_step, steps_per_interval
+
+__all__ = [
+    "GEOMETRIC_METHODS",
+    "Method",
+    "Multistep",
+    "Trajectory",
+    "simulate",
+    "closed_loop_function",
+    "constraint_residuals",
+]
+
+
+class Method(str, Enum):
+    """Integration methods of :func:`simulate`.
+
+    Attributes
+    ----------
+    CVODES
+        SUNDIALS CVODES (variable order BDF, adaptive step); knobs ``rtol``, ``atol``.
+    RK
+        Classical fixed-step Runge-Kutta of order 4 (casadi ``rk``); knob ``step``.
+    COLLOCATION
+        Fixed-step Legendre collocation of ``degree`` d (order 2d; casadi
+        ``collocation``); knobs ``step``, ``degree``.
+    LGVI
+        Lie group variational integrator on TSO(3) (order 2, symplectic, implicit; Newton
+        on the graph's derivatives) for rigid-body models such as the full 3D pendulum;
+        knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
+    S2_VARIATIONAL
+        Variational integrator on S^2 (order 2, symplectic) for models on TS^2 such as the
+        spherical pendulum; knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
+    RKMK4
+        Explicit Runge-Kutta-Munthe-Kaas Lie-group method of order 4 for any model on
+        R^n, S1, S2, SO3 and TS2 factors; knobs ``step``, ``jit``.
+
+    The last three are :mod:`workbench.simulation.integrators`; they keep the state on the manifold
+    to round-off and report it in the trajectory's diagnostics.
+    """
+
+    CVODES = "cvodes"
+    RK = "rk"
+    COLLOCATION = "collocation"
+    LGVI = "lgvi"
+    S2_VARIATIONAL = "s2_variational"
+    RKMK4 = "rkmk4"
+
+
+GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4)
+"""Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
+
+
+class Multistep(str, Enum):
+    """Linear multistep family of CVODES.
+
+    Attributes
+    ----------
+    ADAMS
+        Adams-Moulton, orders 1-12: the efficient choice for non-stiff dynamics such as the
+        uncontrolled pendulums (at rtol = atol = 1e-12 over 100 s of the 3D pendulum it
+        conserves E and h about 100 times better than BDF with 4 times fewer evaluations).
+    BDF
+        Backward differentiation formulas, orders 1-5: for stiff closed loops (high gains).
+    """
+
+    ADAMS = "adams"
+    BDF = "bdf"
+
+
+@dataclass
+class Trajectory:
+    """A simulated trajectory with its cost and accuracy diagnostics.
+
+    Attributes
+    ----------
+    t : ndarray, shape=(n_times,)
+        Output times.
+    x : ndarray, shape=(n_times, ambient_dim)
+        States (stored ambient coordinates).
+    u : ndarray, shape=(n_times, n_inputs)
+        Inputs applied at the output times.
+    model : Model
+        The simulated model.
+    method : Method
+        Integration method.
+    options : dict
+        The method's knobs as used.
+    cost : dict
+        ``wall_seconds`` (integration), ``build_seconds`` (integrator construction),
+        ``steps`` and ``rhs_evaluations`` where the method reports them.
+    diagnostics : dict
+        ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
+        (relative to ``|initial|``; nan when the invariant starts at zero)
+        deviation from its initial value; ``constraint_residual``: max-norm residual of
+        every factor over the trajectory; ``closed_loop``: whether a controller acted
+        (invariants are then not expected to be conserved).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    model: Model
+    method: Method
+    options: dict[str, Any]
+    cost: dict[str, Any] = field(default_factory=dict)
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    def part(self, name: str) -> np.ndarray:
+        """States of one factor over time; SO3 parts come as ``(n_times, 3, 3)`` matrices."""
+        man = self.model.manifold
+        sl = man.slices[name] if name in man.slices else None
+        if sl is None:
+            raise ModelError(f"unknown factor {name!r}; this model has {man.names}")
+        block = self.x[:, sl]
+        if isinstance(man.factor(name), SO3):
+            return np.array([SO3.matrix(row) for row in block])
+        return block
+
+    @property
+    def final(self) -> np.ndarray:
+        """The last state."""
+        return self.x[-1]
+
+    def invariant_series(self, name: str) -> np.ndarray:
+        """Values of one invariant at every output time."""
+        fn = self.model.function(name)
+        return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
+
+    def summary(self) -> dict[str, Any]:
+        """Plain JSON-serialisable account: method, knobs, cost, diagnostics."""
+        return {
+            "model": self.model.name,
+            "method": self.method.value,
+            "options": self.options,
+            "t0": float(self.t[0]),
+            "tf": float(self.t[-1]),
+            "n_times": int(len(self.t)),
+            "cost": self.cost,
+            "diagnostics": self.diagnostics,
+        }
+
+
+def _times(t: ArrayLike) -> np.ndarray:
+    try:
+        tv = np.asarray(t, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"t must be a 1-D array of output times; got {t!r}") from exc
+    if tv.ndim != 1:
+        raise ModelError(f"t must be a 1-D array of output times; got shape {tv.shape}")
+    if tv.size < 2:
+        raise ModelError(f"t must hold at least two times (start and end); got {tv.size}")
+    if not np.all(np.isfinite(tv)):
+        raise ModelError("t must be finite")
+    d = np.diff(tv)
+    if not (np.all(d > 0) or np.all(d < 0)):
+        raise ModelError(
+            "t must be strictly increasing (forward) or strictly decreasing (backward); "
+            f"got steps between {d.min():.3g} and {d.max():.3g}"
+        )
+    return tv
+
+
+def closed_loop_function(model: Model, controller: ca.Function | None) -> ca.Function:
+    """``(x, p) -> (xdot, u)`` of the model with the controller in the loop (or u = 0).
+
+    Parameters
+    ----------
+    model : Model
+        The plant.
+    controller : casadi.Function or None
+        ``u = k(x)`` or ``u = k(x, p)`` (``p`` the model's parameters), output of size
+        ``model.n_inputs``.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    f = model.function("f")
+    S = model.sym
+    x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
+    u = feedback_function(model, controller)(x, p)
+    return ca.Function("closed_loop", [x, p], [f(x, u, p), u], ["x", "p"], ["xdot", "u"])
+
+
+def simulate(
+    model: Model,
+    x0: ArrayLike,
+    t: ArrayLike,
+    *,
+    controller: ca.Function | None = None,
+    method: Method | str = Method.CVODES,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    step: float | None = None,
+    degree: int | None = None,
+    multistep: Multistep | str = Multistep.ADAMS,
+    max_steps: int = 1_000_000,
+    tol: float = DEFAULT_TOL,
+    newton_tol: float = NEWTON_TOL,
+    newton_max_iter: int = NEWTON_MAX_ITER,
+    jit: bool = False,
+) -> Trajectory:
+    """Integrate a model from ``x0`` and report the cost and the accuracy.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x0 : array-like, shape=(ambient_dim,)
+        Initial state; must lie on the model's manifold to ``tol`` (it is never
+        projected here: call the factor's ``project`` explicitly if needed).
+    t : array-like, shape=(n_times,)
+        Output times, strictly increasing, or strictly decreasing for backward
+        integration (the field is negated and integrated forward in ``-t``).
+    controller : casadi.Function, optional
+        Feedback ``u = k(x)`` or ``k(x, p)``; ``u = 0`` when omitted.
+    method : Method or str
+        ``"cvodes"``, ``"rk"``, ``"collocation"``, or a geometric method ``"lgvi"``,
+        ``"s2_variational"``, ``"rkmk4"`` (see :class:`Method`).
+    rtol, atol : float
+        Relative and absolute tolerances (CVODES only).
+    step : float, optional
+        Largest step for the fixed-step methods (required for them, refused for CVODES);
+        each output interval is split into ``ceil(interval / step)`` equal steps.
+    degree : int, optional
+        Collocation degree (Legendre points), for ``"collocation"`` only (default 4).
+    multistep : Multistep or str
+        CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
+    max_steps : int
+        CVODES' limit on internal steps per output interval.
+    tol : float
+        Largest accepted constraint residual of ``x0``.
+    newton_tol : float
+        Largest relative residual of the implicit update of ``"lgvi"`` and
+        ``"s2_variational"`` (a step that does not reach it raises SolverError).
+    newton_max_iter : int
+        Newton iterations per implicit update of those methods.
+    jit : bool
+        Compile the step of a geometric method to C (SX models; ~1 s once per process);
+        refused for the casadi methods.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    ModelError
+        Bad input: an unknown ``method`` or ``multistep``, bad times, tolerances,
+        ``max_steps``, ``step`` (the check of :func:`workbench.simulation.integrators.integrate`,
+        raised as ModelError here) or ``degree``, a bad controller, or ``step``,
+        ``degree`` or ``jit`` given to a method that does not use them.
+    ManifoldError
+        If ``x0`` is off the manifold.
+    SolverError
+        If the integrator fails (with its status), or an implicit update of a geometric
+        method does not converge (with the step and its residual).
+    """
+    method = choice(Method, method, "method", error=ModelError)
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
+        if not (isinstance(val, (int, float, np.number)) and np.isfinite(val) and val > 0):
+            raise ModelError(f"{name} must be positive and finite; got {val!r}")
+    max_steps = count("max_steps", max_steps, error=ModelError)
+    _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    x0v = model.check_state(x0, name="x0", tol=tol)
+    tv = _times(t)
+    horizon = abs(tv[-1] - tv[0])
+    opts: dict[str, Any] = {}
+    options_used: dict[str, Any] = {}
+    if method is Method.CVODES:
+        multistep = choice(Multistep, multistep, "multistep", error=ModelError)
+        opts.update(abstol=atol, reltol=rtol, max_num_steps=int(max_steps),
+                    linear_multistep_method=multistep.value)
+        options_used.update(rtol=rtol, atol=atol, multistep=multistep.value)
+    else:
+        if step is None:
+            raise ModelError(f"step must be a positive number for method {method.value!r}; "
+                             f"got None")
+        step = check_step(step, horizon, error=ModelError)
+        dt_out = float(np.max(np.abs(np.diff(tv))))
+        if not np.allclose(np.abs(np.diff(tv)), dt_out, rtol=1e-9, atol=0):
+            raise ModelError(
+                f"method {method.value!r} needs equally spaced output times t; got spacings "
+                f"between {np.abs(np.diff(tv)).min():.6g} and {dt_out:.6g}"
+            )
+        n_fe = steps_per_interval(dt_out, step)
+        opts["number_of_finite_elements"] = n_fe
+        options_used.update(step=dt_out / n_fe, requested_step=step)
+        if method is Method.COLLOCATION:
+            degree = count("degree", 4 if degree is None else degree, error=ModelError)
+            opts.update(interpolation_order=degree, collocation_scheme="legendre")
+            options_used["degree"] = int(degree)
+
+    if method in GEOMETRIC_METHODS:
+        return _simulate_geometric(
+            model, x0v, tv, controller=controller, method=method, step=float(step),
+            options_used=options_used, newton_tol=newton_tol,
+            newton_max_iter=newton_max_iter, jit=jit,
+        )
+
+    t_build = time.perf_counter()
+    loop = closed_loop_function(model, controller)
+    S = model.sym
+    xs, ps = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
+    sign = 1.0 if tv[-1] > tv[0] else -1.0
+    ode = sign * loop(xs, ps)[0]
+    s_grid = sign * (tv - tv[0])
+    dae = {"x": xs, "p": ps, "ode": ode}
+    p_in: np.ndarray = model.p
+    if method is Method.CVODES:
+        integrator = ca.integrator(f"sim_{model.name}", method.value, dae, 0.0, s_grid[1:],
+                                   opts)
+    else:
+        # casadi spreads number_of_finite_elements over the whole output grid and rounds
+        # per interval (one step per interval when it is below the number of outputs);
+        # one interval repeated with mapaccum takes exactly n_fe steps in every interval.
+        one = ca.integrator(f"sim_{model.name}_interval", method.value, dae, 0.0,
+                            float(abs(s_grid[1])), opts)
+        integrator = one.mapaccum(f"sim_{model.name}", len(tv) - 1)
+        p_in = np.tile(model.p.reshape(-1, 1), (1, len(tv) - 1))
+    build_seconds = time.perf_counter() - t_build
+
+    t_run = time.perf_counter()
+    try:
+        res = integrator(x0=x0v, p=p_in)
+    except RuntimeError as exc:
+        stats = integrator.stats()
+        raise SolverError(
+            f"{method.value} failed integrating {model.name} from t={tv[0]:g} "
+            f"(reached t={tv[0] + sign * float(stats.get('tcur', float('nan'))):g}): "
+            f"{str(exc).splitlines()[-1] if str(exc) else exc!r}",
+            status=str(stats.get("return_status", "integrator error")),
+        ) from exc
+    wall = time.perf_counter() - t_run
+    stats = integrator.stats()
+    xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
+    if not np.all(np.isfinite(xs_out)):
+        raise SolverError(
+            f"{method.value} produced non-finite states for {model.name}", status="non-finite"
+        )
+
+    n_out = len(tv) - 1
+    cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
+    if method is Method.CVODES:
+        cost.update(steps=int(stats.get("nsteps", -1)), rhs_evaluations=int(stats["nfevals"]),
+                    jacobian_evaluations=int(stats.get("n_call_jacF", 0)))
+    elif method is Method.RK:
+        steps = n_out * opts["number_of_finite_elements"]
+        cost.update(steps=steps, rhs_evaluations=4 * steps)
+    else:
+        cost.update(steps=n_out * opts["number_of_finite_elements"], rhs_evaluations=None)
+
+    u_out = np.asarray(loop.map(len(tv))(xs_out.T, model.p)[1]).T.reshape(len(tv), -1)
+    traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
+    traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
+    return traj
+
+
+def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
+    """Refuse knobs that the method would silently ignore."""
+    unused = []
+    if step is not None and method is Method.CVODES:
+        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol)")
+    if degree is not None and method is not Method.COLLOCATION:
+        unused.append(f"degree={degree!r} (the collocation degree)")
+    if jit and method not in GEOMETRIC_METHODS:
+        unused.append(f"jit={jit!r} (compiles the step of {[m.value for m in GEOMETRIC_METHODS]})")
+    if unused:
+        raise ModelError(
+            f"method {method.value!r} does not use {', '.join(unused)}; drop it or choose a "
+            f"method that uses it"
+        )
+
+
+def _simulate_geometric(
+    model: Model,
+    x0v: np.ndarray,
+    tv: np.ndarray,
+    *,
+    controller: ca.Function | None,
+    method: Method,
+    step: float,
+    options_used: dict[str, Any],
+    newton_tol: float,
+    newton_max_iter: int,
+    jit: bool,
+) -> Trajectory:
+    """The branch of :func:`simulate` for :data:`GEOMETRIC_METHODS`."""
+    t_build = time.perf_counter()
+    if method is Method.RKMK4:
+        scheme = rkmk4(model, controller, jit=jit)
+    else:
+        build = lgvi if method is Method.LGVI else s2_variational
+        scheme = build(model, controller, newton_tol=newton_tol,
+                       newton_max_iter=newton_max_iter, jit=jit)
+        options_used.update(newton_tol=scheme.newton_tol,
+                            newton_max_iter=scheme.newton_max_iter)
+    options_used["jit"] = bool(jit)
+    build_seconds = time.perf_counter() - t_build
+    run = integrate(model, scheme, x0v, tv, step=step)
+    options_used["step"] = abs(run.step)
+    loop = closed_loop_function(model, controller)
+    u_out = np.asarray(loop.map(len(tv))(run.x.T, model.p)[1]).T.reshape(len(tv), -1)
+    cost = {"build_seconds": build_seconds, **run.cost}
+    traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
+    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
+                        **run.diagnostics}
+    return traj
+
+
+def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
+    """Max-norm constraint residual of every factor at every state, vectorised.
+
+    Parameters
+    ----------
+    model : Model
+        The model (its manifold).
+    x : array-like, shape=(n_times, ambient_dim)
+        States.
+
+    Returns
+    -------
+    dict of str to ndarray, shape=(n_times,)
+        Per factor name, ``max |h(x)|`` at each state (zeros for R^n).
+    """
+    X = np.atleast_2d(np.asarray(x, dtype=float))
+    out = {}
+    for name, factor in model.manifold.factors:
+        fns = factor.constraint_functions()  # built once per factor
+        if fns is None:
+            out[name] = np.zeros(len(X))
+            continue
+        block = X[:, model.manifold.slices[name]]
+        out[name] = np.max(np.abs(np.asarray(fns[0](block.T))), axis=0).reshape(len(X))
+    return out
+
+
+def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
+    model = traj.model
+    drift = {}
+    for name in model.invariant_names:
+        series = traj.invariant_series(name)
+        dev = np.abs(series - series[0])
+        # relative to the initial value; undefined (nan) when the invariant starts at 0
+        scale = abs(series[0]) if series[0] != 0 else np.nan
+        drift[name] = {
+            "initial": float(series[0]),
+            "max_abs": float(dev.max()),
+            "max_rel": float(dev.max() / scale) if np.isfinite(scale) else float("nan"),
+        }
+    residual = {name: float(series.max())
+                for name, series in constraint_residuals(model, traj.x).items()}
+    return {
+        "invariant_drift": drift,
+        "constraint_residual": residual,
+        "closed_loop": closed_loop,
+    }

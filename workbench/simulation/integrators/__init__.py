@@ -1,0 +1,37 @@
+"""Structure-preserving fixed-step integrators, built from a model's casadi graph.
+
+* :func:`lgvi`: Lie group variational integrator on TSO(3) (rigid body, 3D pendulum);
+* :func:`s2_variational`: variational integrator on S^2 (spherical pendulum);
+* :func:`rkmk4`: explicit Runge-Kutta-Munthe-Kaas method of order 4 for any model on
+  R^n, S1, S2, SO3 and TS2 factors.
+
+Each returns a :class:`Scheme` (one step as a casadi.Function, cached in the model's build
+log) that :func:`integrate` runs forward or backward in time; they are first-class
+methods of :func:`workbench.simulation._simulate.simulate` (``Method.LGVI``, ``Method.S2_VARIATIONAL``,
+``Method.RKMK4``). The casadi-backed methods (cvodes, rk, collocation) live in
+:mod:`workbench.simulation._simulate`.
+"""
+
+from workbench.simulation.integrators.common import (
+    CHUNK,
+    NEWTON_MAX_ITER,
+    NEWTON_TOL,
+    Integration,
+    Scheme,
+    integrate,
+)
+from workbench.simulation.integrators.lgvi import lgvi
+from workbench.simulation.integrators.rkmk import rkmk4
+from workbench.simulation.integrators.s2_variational import s2_variational
+
+__all__ = [
+    "CHUNK",
+    "NEWTON_MAX_ITER",
+    "NEWTON_TOL",
+    "Integration",
+    "Scheme",
+    "integrate",
+    "lgvi",
+    "rkmk4",
+    "s2_variational",
+]

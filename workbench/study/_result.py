@@ -1,0 +1,296 @@
+"""Results of problems: values, paper-versus-workbench comparisons, figures, costs.
+
+A problem's ``solve(*, quick=False)`` returns a :class:`Result`. Its ``values`` are plain
+JSON-serialisable data; its ``comparisons`` put each number a paper prints (or a closed
+form) next to the workbench's, with the deviation and the tolerance it is held to; its
+``figures`` are matplotlib figures; ``build_log`` lists every casadi.Function the problem
+built; ``timings`` the wall time of its steps.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from workbench.core._model import Model
+
+__all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Convert numpy scalars/arrays (also complex) and nested containers to plain JSON data."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (complex, np.complexfloating)):
+        return {"re": to_jsonable(float(obj.real)), "im": to_jsonable(float(obj.imag))}
+    if isinstance(obj, (float, np.floating)):
+        f = float(obj)
+        return f if math.isfinite(f) else str(f)
+    return obj
+
+
+@dataclass
+class Comparison:
+    """A reference value (printed in a paper, or a closed form) beside the workbench's.
+
+    Attributes
+    ----------
+    quantity : str
+        What is compared.
+    reference : float
+        The paper's or closed form's value.
+    workbench : float
+        The workbench's value.
+    tolerance : float
+        Largest accepted deviation (absolute, or relative when ``relative``).
+    source : str
+        Where the reference comes from ("paper 000 (3.22)", "closed form", ...).
+    relative : bool
+        Whether deviation and tolerance are relative to ``|reference|``.
+    """
+
+    quantity: str
+    reference: float
+    workbench: float
+    tolerance: float
+    source: str
+    relative: bool = False
+
+    @property
+    def deviation(self) -> float:
+        """``|workbench - reference|``, divided by ``|reference|`` when relative."""
+        d = abs(float(self.workbench) - float(self.reference))
+        if self.relative:
+            d /= max(abs(float(self.reference)), np.finfo(float).tiny)
+        return d
+
+    @property
+    def ok(self) -> bool:
+        """Whether the deviation is within the tolerance."""
+        return bool(self.deviation <= self.tolerance)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain form."""
+        return to_jsonable(
+            {
+                "quantity": self.quantity,
+                "reference": self.reference,
+                "workbench": self.workbench,
+                "deviation": self.deviation,
+                "tolerance": self.tolerance,
+                "relative": self.relative,
+                "source": self.source,
+                "ok": self.ok,
+            }
+        )
+
+
+class ResultStatus(Enum):
+    """Outcome of a problem's comparisons; the value is a readable message."""
+
+    OK = "every comparison within its tolerance"
+    OUT_OF_TOLERANCE = "some comparisons out of tolerance"
+    NO_COMPARISONS = "no reference values to compare with"
+
+
+@dataclass
+class Result:
+    """What a problem's ``solve`` returns.
+
+    Attributes
+    ----------
+    name : str
+        The problem's name (its module name in ``problems/``).
+    title : str
+        One line: what it reproduces.
+    quick : bool
+        Whether it ran in quick mode.
+    values : dict
+        Results as plain data.
+    comparisons : list of Comparison
+        Reference versus workbench.
+    figures : dict of str to matplotlib.figure.Figure
+        Figures by name.
+    timings : dict of str to float
+        Wall seconds of the problem's steps.
+    build_log : list of dict
+        Every casadi.Function built, from the models used.
+    models : list of str
+        Names of the models used.
+    notes : list of str
+        Remarks (departures from the paper, errata applied).
+    """
+
+    name: str
+    title: str
+    quick: bool = False
+    values: dict[str, Any] = field(default_factory=dict)
+    comparisons: list[Comparison] = field(default_factory=list)
+    figures: dict[str, Any] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+    build_log: list[dict[str, Any]] = field(default_factory=list)
+    models: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def compare(
+        self,
+        quantity: str,
+        reference: float,
+        workbench: float,
+        *,
+        tolerance: float,
+        source: str,
+        relative: bool = False,
+    ) -> Comparison:
+        """Record a reference-versus-workbench comparison and return it."""
+        c = Comparison(quantity, float(reference), float(workbench), float(tolerance), source,
+                       relative)
+        self.comparisons.append(c)
+        return c
+
+    @contextmanager
+    def timed(self, step: str) -> Iterator[None]:
+        """Time a block into ``timings[step]`` (accumulating)."""
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.timings[step] = self.timings.get(step, 0.0) + time.perf_counter() - t0
+
+    def use(self, *models: Model) -> None:
+        """Declare models used; their build logs are collected by :meth:`finish`."""
+        for m in models:
+            if all(m is not u for u in self._used):
+                self._used.append(m)
+
+    def __post_init__(self) -> None:
+        self._used: list[Model] = []
+
+    @property
+    def used_models(self) -> tuple[Model, ...]:
+        """The models declared with :meth:`use`, in order (for reports: equations, builds)."""
+        return tuple(self._used)
+
+    @property
+    def status(self) -> ResultStatus:
+        """:class:`ResultStatus` of the comparisons (``status.value`` reads as a message)."""
+        if not self.comparisons:
+            return ResultStatus.NO_COMPARISONS
+        return ResultStatus.OK if self.ok else ResultStatus.OUT_OF_TOLERANCE
+
+    def finish(self) -> Result:
+        """Collect the build logs of the used models (each function once); return self."""
+        seen: set[int] = set()
+        self.build_log = []
+        self.models = []
+        for m in self._used:
+            self.models.append(m.name)
+            if id(m.build_log) in seen:
+                continue
+            seen.add(id(m.build_log))
+            self.build_log.extend(m.build_log.as_list())
+        return self
+
+    @property
+    def ok(self) -> bool:
+        """Whether every comparison is within its tolerance."""
+        return all(c.ok for c in self.comparisons)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON-serialisable form (figures are listed by name only)."""
+        return to_jsonable(
+            {
+                "name": self.name,
+                "title": self.title,
+                "quick": self.quick,
+                "ok": self.ok,
+                "status": self.status.name,
+                "values": self.values,
+                "comparisons": [c.as_dict() for c in self.comparisons],
+                "figures": sorted(self.figures),
+                "timings": self.timings,
+                "build_log": self.build_log,
+                "models": self.models,
+                "notes": self.notes,
+            }
+        )
+
+    def write_json(self, path: str | Path) -> Path:
+        """Write :meth:`as_dict` to ``path`` (complete file or nothing)."""
+        path = Path(path)
+        text = json.dumps(self.as_dict(), indent=2, allow_nan=False)
+        tmp = path.with_name(path.name + ".partial")
+        tmp.write_text(text)
+        tmp.replace(path)
+        return path
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, float):
+        return f"{x:.6g}"
+    return str(x)
+
+
+def format_result(result: Result, *, max_values: int = 40) -> str:
+    """A plain-text account of a result for the terminal."""
+    lines = [f"== {result.name}: {result.title}" + ("  [quick]" if result.quick else "")]
+    if result.comparisons:
+        lines.append("  reference vs workbench:")
+        w = max(len(c.quantity) for c in result.comparisons)
+        for c in result.comparisons:
+            kind = "rel" if c.relative else "abs"
+            lines.append(
+                f"    {'ok ' if c.ok else 'BAD'} {c.quantity:<{w}}  ref {c.reference:<14.10g} "
+                f"got {c.workbench:<14.10g} {kind} dev {c.deviation:.2e} (tol {c.tolerance:.0e};"
+                f" {c.source})"
+            )
+    flat = list(_flatten(result.values))
+    if flat:
+        lines.append("  values:")
+        for k, v in flat[:max_values]:
+            lines.append(f"    {k} = {v}")
+        if len(flat) > max_values:
+            lines.append(f"    ... ({len(flat) - max_values} more in --json)")
+    if result.timings:
+        lines.append(
+            "  timings [s]: " + ", ".join(f"{k} {v:.3g}" for k, v in result.timings.items())
+        )
+    if result.build_log:
+        lines.append("  built:")
+        for r in result.build_log:
+            ms = r["build_seconds"] * 1e3
+            lines.append(f"    {r['function']:<44} {r['n_nodes']:>7} nodes  {ms:8.1f} ms")
+    for note in result.notes:
+        lines.append(f"  note: {note}")
+    lines.append(f"  status: {result.status.value}")
+    return "\n".join(lines)
+
+
+def _flatten(values: Any, prefix: str = "") -> Iterator[tuple[str, str]]:
+    if isinstance(values, dict):
+        for k, v in values.items():
+            yield from _flatten(v, f"{prefix}.{k}" if prefix else str(k))
+    elif isinstance(values, (list, tuple)) and len(values) > 6:
+        arr = np.asarray(values, dtype=object)
+        yield prefix, f"[{len(values)} entries]" if arr.ndim else str(values)
+    else:
+        yield prefix, _fmt(values) if not isinstance(values, (list, tuple)) else str(
+            [_fmt(v) for v in values]
+        )
