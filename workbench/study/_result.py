@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from workbench.core._model import Model
+from workbench.core.errors import ParameterError
 
 __all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
 
@@ -128,6 +129,8 @@ class Result:
         Reference versus workbench.
     figures : dict of str to matplotlib.figure.Figure
         Figures by name.
+    captions : dict of str to str
+        A caption (what the figure shows, in words) per figure name; see :meth:`figure`.
     timings : dict of str to float
         Wall seconds of the problem's steps.
     build_log : list of dict
@@ -144,6 +147,7 @@ class Result:
     values: dict[str, Any] = field(default_factory=dict)
     comparisons: list[Comparison] = field(default_factory=list)
     figures: dict[str, Any] = field(default_factory=dict)
+    captions: dict[str, str] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     build_log: list[dict[str, Any]] = field(default_factory=list)
     models: list[str] = field(default_factory=list)
@@ -164,6 +168,29 @@ class Result:
                        relative)
         self.comparisons.append(c)
         return c
+
+    def figure(self, key: str, fig: Any, *, caption: str) -> Any:
+        """Add ``fig`` to :attr:`figures` under ``key`` with its caption; return ``fig``.
+
+        Parameters
+        ----------
+        key : str
+            The figure's name.
+        fig : matplotlib.figure.Figure
+            The figure.
+        caption : str
+            What the figure shows, in a sentence or two (the report prints it beneath).
+
+        Raises
+        ------
+        ParameterError
+            If the caption is empty.
+        """
+        if not str(caption).strip():
+            raise ParameterError(f"figure {key!r}: the caption must say what it shows; got ''")
+        self.figures[key] = fig
+        self.captions[key] = str(caption).strip()
+        return fig
 
     @contextmanager
     def timed(self, step: str) -> Iterator[None]:
@@ -225,6 +252,8 @@ class Result:
                 "values": self.values,
                 "comparisons": [c.as_dict() for c in self.comparisons],
                 "figures": sorted(self.figures),
+                "captions": {k: self.captions[k] for k in sorted(self.captions)
+                             if k in self.figures},
                 "timings": self.timings,
                 "build_log": self.build_log,
                 "models": self.models,
