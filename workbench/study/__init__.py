@@ -2,6 +2,15 @@
 
 from __future__ import annotations
 
+from workbench.study._compare import (
+    SpectrumMatch,
+    compare_counts,
+    compare_spectrum,
+    compare_stability,
+    match_spectrum,
+    sign_pattern,
+)
+from workbench.study._figures import Panel, line_figure, spectrum_figure
 from workbench.study._plots import (
     MAX_SEGMENTS,
     body_axis_curves,
@@ -23,6 +32,15 @@ from workbench.study._script import run_script
 
 __all__ = [
     "run_script",
+    "Panel",
+    "SpectrumMatch",
+    "compare_counts",
+    "compare_spectrum",
+    "compare_stability",
+    "line_figure",
+    "match_spectrum",
+    "sign_pattern",
+    "spectrum_figure",
     "Comparison",
     "MAX_SEGMENTS",
     "Result",

@@ -1,0 +1,127 @@
+"""The study room's shared comparisons and figures (workbench.study)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from workbench.core.errors import ParameterError
+from workbench.linear import Stability, eigenstructure
+from workbench.study import (
+    Panel,
+    Result,
+    compare_counts,
+    compare_spectrum,
+    compare_stability,
+    line_figure,
+    match_spectrum,
+    sign_pattern,
+    spectrum_figure,
+)
+
+RNG = np.random.default_rng(14)
+
+
+def _spectrum(n_pairs: int, n_real: int) -> np.ndarray:
+    z = RNG.standard_normal(n_pairs) + 1j * (0.5 + RNG.random(n_pairs))
+    return np.concatenate([z, z.conj(), RNG.standard_normal(n_real)])
+
+
+@pytest.mark.parametrize("trial", range(5))
+def test_match_recovers_a_permutation_exactly(trial):
+    ref = _spectrum(3, 2)
+    perm = RNG.permutation(ref.size)
+    m = match_spectrum(ref[perm], ref)
+    assert m.max_deviation == 0.0
+    np.testing.assert_array_equal(perm[m.index], np.arange(ref.size))
+
+
+def test_match_of_a_perturbed_spectrum_deviates_by_the_perturbation():
+    ref = _spectrum(4, 3)
+    eps = 1e-7 * (RNG.standard_normal(ref.size) + 1j * RNG.standard_normal(ref.size))
+    perm = RNG.permutation(ref.size)
+    m = match_spectrum((ref + eps)[perm], ref)
+    np.testing.assert_allclose(m.deviations, np.abs(eps), rtol=0, atol=1e-15)
+    assert m.max_part_deviation <= m.max_deviation <= np.sqrt(2) * m.max_part_deviation
+
+
+def test_conjugate_pairs_are_matched_to_their_own_half_plane():
+    # a pair +-i w with w close to another pair: each value takes its own conjugate
+    ref = np.array([1j, -1j, 1.001j, -1.001j])
+    got = np.array([-1.001j, 1j + 1e-12, 1.001j, -1j])
+    m = match_spectrum(got, ref)
+    np.testing.assert_array_equal(np.sign(m.computed.imag), np.sign(ref.imag))
+    assert m.max_deviation <= 1e-12
+
+
+def test_repeated_values_take_distinct_computed_values():
+    # greedy nearest-first would pair both references with the first 0.5 when the
+    # reference order is unlucky; the assignment pairs one to one
+    m = match_spectrum([0.5, 0.5 + 1e-9, 3.0], [0.5, 0.5])
+    assert sorted(m.index.tolist()) == [0, 1]
+    assert m.max_deviation <= 1e-9
+
+
+def test_optimal_assignment_beats_greedy_nearest_first():
+    # references (0, 0.15), computed (0.1, -0.2): nearest-first in reference order pairs
+    # 0 -> 0.1 and leaves 0.15 -> -0.2 (worst 0.35); the assignment pairs 0 -> -0.2,
+    # 0.15 -> 0.1 (worst 0.2, total 0.25 < 0.45)
+    m = match_spectrum([0.1, -0.2], [0.0, 0.15])
+    assert m.computed.real.tolist() == [-0.2, 0.1]
+    assert np.isclose(m.max_deviation, 0.2) and np.isclose(m.deviations.sum(), 0.25)
+
+
+def test_reference_may_be_a_subset_and_must_be_finite():
+    m = match_spectrum([0.0, 0.0, 2j, -2j], [2j, -2j])
+    assert m.max_deviation == 0.0 and set(m.index.tolist()) == {2, 3}
+    with pytest.raises(ParameterError, match="more than"):
+        match_spectrum([1.0], [1.0, 2.0])
+    with pytest.raises(ParameterError, match="finite"):
+        match_spectrum([np.nan, 1.0], [1.0])
+
+
+def test_compare_spectrum_records_worst_or_each():
+    res = Result("t", "t")
+    ref = np.array([-1 + 2j, -1 - 2j, -3.0])
+    compare_spectrum(res, "case", ref[::-1] + 1e-6, ref, tolerance=1e-5, source="closed form")
+    (c,) = res.comparisons
+    assert c.ok and np.isclose(c.workbench, 1e-6) and "3 eigenvalues" in c.quantity
+    compare_spectrum(res, "each", ref + 1e-3, ref, tolerance=1e-4, source="s", each=True)
+    assert len(res.comparisons) == 4 and not any(c.ok for c in res.comparisons[1:])
+    # printed to 4 decimals: measured on real and imaginary parts separately
+    compare_spectrum(res, "parts", ref + (3e-5 + 3e-5j), ref, tolerance=5e-5, source="s",
+                     parts=True)
+    assert res.comparisons[-1].ok and np.isclose(res.comparisons[-1].workbench, 3e-5)
+
+
+def test_counts_and_stability_of_a_saddle():
+    es = eigenstructure(np.diag([1.0, -2.0]))
+    res = Result("t", "t")
+    compare_stability(res, "saddle", es, Stability.SADDLE, 1, source="diag(1, -2)")
+    compare_counts(res, "saddle", {"stable modes": (1, es.n_stable)}, source="diag(1, -2)")
+    assert [c.ok for c in res.comparisons] == [True, True, True]
+    compare_stability(res, "wrong", es, Stability.STABLE_NODE, 0, source="s")
+    assert [c.ok for c in res.comparisons[3:]] == [False, False]
+
+
+def test_sign_pattern_counts_each_class():
+    ev = np.array([0.0, 1e-14, -1.0, -2.0, 3.0, -0.5 + 1j, -0.5 - 1j, 0.2 + 2j])
+    sp = sign_pattern(ev, 1e-10)
+    assert sp == {"zero": 2, "negative_real": 2, "positive_real": 1, "left_half_plane": 4,
+                  "right_half_plane": 2}
+
+
+def test_result_figure_keeps_caption_and_figures_mapping():
+    res = Result("t", "t")
+    fig = line_figure([Panel("a", {"x": ([0, 1], [1, 2])}),
+                       Panel("b", {"y": ([0, 1], [1, 1e-3]), "z": ([0, 1], [2, 1])},
+                             yscale="log")])
+    res.figure("lines", fig, caption="Two panels.")
+    assert res.figures["lines"] is fig and res.as_dict()["captions"] == {"lines": "Two panels."}
+    assert len([a for a in fig.axes if a.get_visible()]) == 2
+    with pytest.raises(ParameterError, match="caption"):
+        res.figure("bad", fig, caption="  ")
+    spec = spectrum_figure({"hanging": ([1j, -1j], [1j, -1j]), "alone": ([-1.0], None)})
+    assert len(spec.axes) == 2  # two panels on one row of at most three
+    assert np.allclose(spec.axes[0].lines[2].get_ydata(), [1.0, -1.0])  # Im of computed
+    assert len(spec.axes[1].lines) == 3  # no reference ring drawn
