@@ -6,6 +6,7 @@ printed eigenvalues and eigenvectors at both equilibria to rounding, confirms th
 is a stable focus and inverted a saddle with two unstable modes, and finds the stable
 directions at the inverted equilibrium where the paper's formula (11) puts them.
 """
+
 from __future__ import annotations
 
 from typing import Any
