@@ -28,6 +28,7 @@ from workbench.core._evaluator import Evaluator
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
 from workbench.core.types import ArrayLike, Vector
+from workbench.core import validate
 from workbench.core.validate import choice
 
 __all__ = [
@@ -67,30 +68,28 @@ class Symbolic(StrEnum):
 
 
 def finite(value: np.ndarray) -> str | None:
-    """Check that every entry is finite; return a message fragment on failure."""
-    if not np.all(np.isfinite(value)):
-        return f"must be finite; got {np.array2string(value, precision=6)}"
-    return None
+    """Check that every entry is finite; return a message fragment on failure.
+
+    A thin use of :func:`workbench.core.validate.entries_finite`.
+    """
+    return validate.entries_finite(value)
 
 
 def positive(value: np.ndarray) -> str | None:
-    """Check that every entry is finite and strictly positive."""
-    msg = finite(value)
-    if msg:
-        return msg
-    if np.any(value <= 0):
-        return f"must be positive; got {np.array2string(value, precision=6)}"
-    return None
+    """Check that every entry is finite and strictly positive (a message fragment or None).
+
+    A thin use of :func:`workbench.core.validate.entries_positive`; a parameter *check*
+    (``Parameter(check=positive)``), not the scalar validator ``validate.positive``.
+    """
+    return validate.entries_positive(value)
 
 
 def nonnegative(value: np.ndarray) -> str | None:
-    """Check that every entry is finite and non-negative."""
-    msg = finite(value)
-    if msg:
-        return msg
-    if np.any(value < 0):
-        return f"must be non-negative; got {np.array2string(value, precision=6)}"
-    return None
+    """Check that every entry is finite and non-negative (a message fragment or None).
+
+    A thin use of :func:`workbench.core.validate.entries_nonnegative`.
+    """
+    return validate.entries_nonnegative(value)
 
 
 def spd3(value: np.ndarray) -> str | None:
@@ -141,23 +140,17 @@ class Parameter:
         return int(np.prod(self.shape)) if self.shape else 1
 
     def validate(self, value: Any) -> np.ndarray:
-        """Return ``value`` as an array of this shape, or raise ParameterError."""
-        try:
-            arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(
-                f"parameter {self.name!r} ({self.description}) must be numeric with shape "
-                f"{self.shape}; got {value!r}"
-            ) from exc
-        if arr.shape != self.shape:
-            raise ParameterError(
-                f"parameter {self.name!r} ({self.description}) must have shape {self.shape}; "
-                f"got shape {arr.shape}"
-            )
+        """Return ``value`` as a real float array of this shape, or raise ParameterError.
+
+        Complex, boolean, string and None values are refused (never truncated or coerced);
+        then the parameter's own ``check`` runs.
+        """
+        label = f"parameter {self.name!r} ({self.description})"
+        arr = validate.array(label, value, shape=self.shape)
         if self.check is not None:
             msg = self.check(arr)
             if msg:
-                raise ParameterError(f"parameter {self.name!r} ({self.description}) {msg}")
+                raise ParameterError(f"{label} {msg}")
         return arr
 
 
@@ -251,6 +244,9 @@ Builder = Callable[[Context], Any]
 # the model
 
 
+_RESERVED = frozenset({"f", "f_x", "f_u", "residual", "invariants"})
+
+
 class _Graphs:
     """Cache of built functions, shared between models that differ only in values."""
 
@@ -305,8 +301,18 @@ class Model:
         input_description: str = "",
     ) -> None:
         symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
-        if not isinstance(n_inputs, (int, np.integer)) or n_inputs < 0:
-            raise ModelError(f"n_inputs must be an integer >= 0; got {n_inputs!r}")
+        validate.count("n_inputs", n_inputs, minimum=0, error=ModelError)
+        if not name:
+            raise ModelError(f"name must be a non-empty str; got {name!r}")
+        validate.single_line("name", name, error=ModelError)
+        if not isinstance(manifold, ProductManifold):
+            raise ModelError(f"manifold must be a ProductManifold; got {type(manifold).__name__}")
+        for inv in invariants or {}:
+            # an invariant becomes a casadi.Function (and output) of that name
+            validate.identifier("invariant name", inv, error=ModelError)
+            if inv in _RESERVED:
+                raise ModelError(f"invariant name must not be one of {sorted(_RESERVED)} (the "
+                                 f"model's own functions); got {inv!r}")
         self.name = name
         self.manifold = manifold
         self.n_inputs = int(n_inputs)
@@ -525,7 +531,7 @@ class Model:
     def _input(self, u: ArrayLike | None) -> Vector:
         if u is None:
             return np.zeros(self.n_inputs)
-        uv = np.asarray(u, dtype=float).ravel()
+        uv = validate.array("u", u, finite=False, error=ModelError).ravel()
         if uv.size != self.n_inputs:
             raise ModelError(
                 f"u must have {self.n_inputs} entries for model {self.name!r}; "
@@ -537,11 +543,8 @@ class Model:
 
     def _raw_state(self, x: ArrayLike) -> Vector:
         """``x`` flat, of the ambient size and finite (no manifold check), or ModelError."""
-        try:
-            xv = np.asarray(x, dtype=float).ravel()
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"x must be a numeric state for model {self.name!r}; got "
-                             f"{type(x).__name__}") from exc
+        xv = validate.array(f"x (a state of model {self.name!r})", x, finite=False,
+                            error=ModelError).ravel()
         n = self.manifold.ambient_dim
         if xv.size != n or not np.all(np.isfinite(xv)):
             raise ModelError(

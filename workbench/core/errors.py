@@ -12,6 +12,7 @@ __all__ = [
     "ParameterError",
     "ModelError",
     "SolverError",
+    "OutputError",
 ]
 
 
@@ -45,3 +46,10 @@ class SolverError(WorkbenchError, RuntimeError):
     def __init__(self, message: str, *, status: str = "") -> None:
         super().__init__(message if not status else f"{message} [status: {status}]")
         self.status = status
+
+
+class OutputError(WorkbenchError, OSError):
+    """An output file or directory cannot be written (missing folder, read-only, full disk).
+
+    Nothing partial is left behind when it is raised (see :mod:`workbench.core.files`).
+    """

@@ -22,7 +22,9 @@ from typing import Any
 import numpy as np
 
 from workbench.core._model import Model
-from workbench.core.errors import ParameterError
+from workbench.core.errors import OutputError, ParameterError
+from workbench.core.files import write_atomic
+from workbench.core.validate import output_path
 
 __all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
 
@@ -262,13 +264,30 @@ class Result:
         )
 
     def write_json(self, path: str | Path) -> Path:
-        """Write :meth:`as_dict` to ``path`` (complete file or nothing)."""
-        path = Path(path)
+        """Write :meth:`as_dict` to ``path``: the complete file or nothing.
+
+        Through :func:`workbench.core.files.write_atomic` (a unique temporary name in the
+        target folder, renamed into place; nothing else is touched; umask respected).
+
+        Parameters
+        ----------
+        path : str or Path
+            The JSON file; its folder must exist; ``""`` is refused.
+
+        Returns
+        -------
+        Path
+
+        Raises
+        ------
+        OutputError
+            Empty path, missing or read-only folder, full disk (nothing is left behind).
+        TypeError
+            A value that cannot be written as JSON (nothing is written).
+        """
+        output_path("path", path, error=OutputError)
         text = json.dumps(self.as_dict(), indent=2, allow_nan=False)
-        tmp = path.with_name(path.name + ".partial")
-        tmp.write_text(text)
-        tmp.replace(path)
-        return path
+        return write_atomic(path, text, name="path")
 
 
 def _fmt(x: Any) -> str:

@@ -8,6 +8,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ManifoldError
 from workbench.core.manifolds.lie import _is_casadi, _vec  # noqa: F401
 from workbench.core.types import ArrayLike, Expr, Matrix, Vector
@@ -76,6 +77,37 @@ class Factor(ABC):
         """Max-norm of :meth:`residual` at a numeric point."""
         r = np.asarray(self.residual(self._numeric(x)), dtype=float).ravel()
         return float(np.max(np.abs(r))) if r.size else 0.0
+
+    def residual_scales(self, x: Vector) -> Vector:
+        """Size of the quantity each residual entry is computed from (default all 1).
+
+        A constraint on a quantity with a scale is checked relative to it: an entry
+        ``h_i`` passes when ``|h_i| <= tol * max(1, scale_i)`` (e.g. tangency on TS^2,
+        ``|q . w| <= tol * max(1, |w|)``: the most accurate float64 state at ``|w| = 1e8``
+        has ``|q . w| ~ 1e-8``). Constraints that are already relative (``|q|^2 = 1``,
+        ``R^T R = I``: the entries of a rotation are at most 1) keep scale 1.
+
+        Parameters
+        ----------
+        x : ndarray, shape=(ambient_dim,)
+            A numeric point.
+
+        Returns
+        -------
+        ndarray
+            One scale per entry of the flattened :meth:`residual`.
+        """
+        r = np.asarray(self.residual(x), dtype=float).ravel()
+        return np.ones(r.size)
+
+    def scaled_residual_norm(self, x: ArrayLike) -> float:
+        """``max_i |h_i(x)| / max(1, scale_i)``: the residual compared with a tolerance."""
+        xv = self._numeric(x)
+        r = np.abs(np.asarray(self.residual(xv), dtype=float).ravel())
+        if not r.size:
+            return 0.0
+        scales = np.maximum(1.0, np.abs(self.residual_scales(xv)))
+        return float(np.max(r / scales))
 
     @abstractmethod
     def tangent_basis(self, x: ArrayLike) -> Matrix:
@@ -170,21 +202,48 @@ class Factor(ABC):
 
     # derived ------------------------------------------------------------------------------
 
-    def _numeric(self, x: ArrayLike) -> Vector:
-        return np.asarray(x, dtype=float).reshape(-1, order="F")
+    def _numeric(self, x: ArrayLike, name: str = "x") -> Vector:
+        """``x`` as a flat real array (complex, bool, str refused; never truncated)."""
+        return validate.array(name, x, finite=False, error=ManifoldError).reshape(
+            -1, order="F")
+
+    def _tangent(self, v: ArrayLike) -> Vector:
+        """Tangent coordinates ``v`` as ``dim`` finite real numbers, or ManifoldError."""
+        return validate.array(f"v (tangent coordinates on {self.kind})", v, size=self.dim,
+                              error=ManifoldError).reshape(-1)
 
     def belongs(self, x: ArrayLike, *, tol: float = DEFAULT_TOL) -> bool:
-        """Whether ``x`` has the right size and constraint residual at most ``tol``."""
+        """Whether ``x`` has the right size and scaled constraint residual at most ``tol``.
+
+        ``tol`` must be a positive finite number (ManifoldError otherwise); see
+        :meth:`residual_scales` for the relative thresholds.
+        """
+        tol = validate.tolerance("tol", tol, error=ManifoldError)
+        if not validate.is_real_array_like(x):
+            return False
         xv = self._numeric(x)
         return xv.size == self.ambient_dim and bool(np.all(np.isfinite(xv))) and (
-            self.residual_norm(xv) <= tol
+            self.scaled_residual_norm(xv) <= tol
         )
 
     def is_tangent(self, x: ArrayLike, v: ArrayLike, *, tol: float = DEFAULT_TOL) -> bool:
-        """Whether the ambient vector ``v`` is tangent at ``x``: ``dh/dx(x) v = 0``."""
-        return bool(
-            np.all(np.abs(self.constraint_jacobian(x) @ self._numeric(v)) <= tol)
-        )
+        """Whether the ambient vector ``v`` is tangent at ``x``: ``dh/dx(x) v = 0``.
+
+        Relative: ``|dh/dx v| <= tol * max(1, |dh/dx| |v|)``; ``tol`` must be a positive
+        finite number.
+        """
+        tol = validate.tolerance("tol", tol, error=ManifoldError)
+        xv, vv = self._numeric(x, "x"), self._numeric(v, "v")
+        for label, arr, raw in (("x", xv, x), ("v", vv, v)):
+            if arr.size != self.ambient_dim or not np.all(np.isfinite(arr)):
+                raise ManifoldError(f"{label} must be {self.ambient_dim} finite numbers for "
+                                    f"{self.kind}; got shape {np.shape(raw)}: {arr.tolist()}")
+        H = self.constraint_jacobian(xv)
+        if not H.size:
+            return True
+        lhs = np.abs(H @ vv)
+        scale = float(np.linalg.norm(H, 2) * np.linalg.norm(vv))
+        return bool(np.all(lhs <= validate.scaled_tolerance(tol, scale)))
 
     def check(self, x: ArrayLike, *, name: str = "x", tol: float = DEFAULT_TOL) -> Vector:
         """Validate a numeric point and return it as a flat array, unchanged.
@@ -196,7 +255,8 @@ class Factor(ABC):
         name : str
             Name of the argument, used in the error message.
         tol : float
-            Largest accepted constraint residual (max-norm).
+            Largest accepted constraint residual (max-norm, each entry relative to the
+            scale of its quantity, see :meth:`residual_scales`); a positive finite number.
 
         Returns
         -------
@@ -208,12 +268,8 @@ class Factor(ABC):
         ManifoldError
             With the residual and the explicit projection to use, if ``x`` is off the factor.
         """
-        try:
-            xv = self._numeric(x)
-        except (TypeError, ValueError) as exc:
-            raise ManifoldError(
-                f"{name} must be a numeric array for {self.kind}; got {type(x).__name__}"
-            ) from exc
+        tol = validate.tolerance("tol", tol, error=ManifoldError)
+        xv = self._numeric(x, name)
         if xv.size != self.ambient_dim:
             raise ManifoldError(
                 f"{name} must have {self.ambient_dim} entries for {self.kind}; "
@@ -221,11 +277,11 @@ class Factor(ABC):
             )
         if not np.all(np.isfinite(xv)):
             raise ManifoldError(f"{name} must be finite; got {xv.tolist()}")
-        res = self.residual_norm(xv)
+        res = self.scaled_residual_norm(xv)
         if res > tol:
             raise ManifoldError(
                 f"{name} is not on {self.kind}: {self.describe_residual(xv)} "
-                f"(max constraint residual {res:.3g} > tol {tol:.1g}). Nothing is "
+                f"(max scaled constraint residual {res:.3g} > tol {tol:.1g}). Nothing is "
                 f"normalised silently; project it explicitly with {self.projection_hint} "
                 f"and report the change, or pass a larger tol."
             )

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ManifoldError
 from workbench.core.manifolds.base import DEFAULT_TOL, Factor
 from workbench.core.manifolds.lie import (  # noqa: F401
@@ -63,7 +64,7 @@ class Rn(Factor):
         return np.eye(self.n)
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
-        return self._numeric(x) + self._numeric(v)
+        return self._numeric(x) + self._tangent(v)
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
         return _vec(x) - self._numeric(x_e)
@@ -99,7 +100,7 @@ class S1(Factor):
         return np.array([[-p[1]], [p[0]]])
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
-        p, a = self._numeric(x), float(np.ravel(v)[0])
+        p, a = self._numeric(x), float(self._tangent(v)[0])
         c, s = np.cos(a), np.sin(a)
         return np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
 
@@ -145,7 +146,7 @@ class S2(Factor):
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
         q = self._numeric(x)
-        xi = sphere_basis(q) @ np.asarray(v, dtype=float).reshape(2)
+        xi = sphere_basis(q) @ self._tangent(v)
         return so3_exp(xi) @ q
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
@@ -205,7 +206,7 @@ class TS2(Factor):
         return N
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
-        xv, v = self._numeric(x), np.asarray(v, dtype=float).reshape(4)
+        xv, v = self._numeric(x), self._tangent(v)
         q, w = xv[:3], xv[3:]
         B = sphere_basis(q)
         Q = so3_exp(B @ v[:2])
@@ -232,6 +233,10 @@ class TS2(Factor):
         q = S2().random_point(rng)
         w = scale * (sphere_basis(q) @ rng.standard_normal(2))
         return np.concatenate([q, w])
+
+    def residual_scales(self, x: Vector) -> Vector:
+        """``(1, |w|)``: tangency ``q . w = 0`` is checked relative to ``|w|``."""
+        return np.array([1.0, float(np.linalg.norm(np.asarray(x, dtype=float)[3:]))])
 
     def describe_residual(self, x: Vector) -> str:  # noqa: D102
         q, w = x[:3], x[3:]
@@ -264,8 +269,8 @@ class SO3(Factor):
         """The 9 stored numbers of a 3x3 rotation matrix (column-major)."""
         return np.asarray(R, dtype=float).reshape(3, 3).reshape(9, order="F")
 
-    def _numeric(self, x: ArrayLike) -> Vector:
-        a = np.asarray(x, dtype=float)
+    def _numeric(self, x: ArrayLike, name: str = "R") -> Vector:
+        a = validate.array(name, x, finite=False, error=ManifoldError)
         if a.shape == (3, 3):
             return a.reshape(9, order="F")
         return a.reshape(-1)
@@ -284,7 +289,7 @@ class SO3(Factor):
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
         R = self.matrix(self._numeric(x))
-        return self.flat(R @ so3_exp(np.asarray(v, dtype=float).reshape(3)))
+        return self.flat(R @ so3_exp(self._tangent(v)))
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
         Re = self.matrix(self._numeric(x_e))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ManifoldError
 from workbench.core.types import ArrayLike, Expr, Matrix, Vector
 
@@ -32,17 +33,13 @@ def _vec(x: Expr) -> Expr:
 
 
 def _finite_array(v: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``v`` as a finite float array of ``shape``, or ManifoldError naming ``name``."""
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ManifoldError(
-            f"{name} must be a numeric array of shape {shape}; got {type(v).__name__} {v!r}"
-        ) from exc
+    """``v`` as a finite real float array of ``shape``, or ManifoldError naming ``name``.
+
+    A thin use of :func:`workbench.core.validate.array` (complex, bool, str refused).
+    """
+    a = validate.array(name, v, error=ManifoldError)
     if a.size != int(np.prod(shape)):
         raise ManifoldError(f"{name} must have shape {shape}; got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ManifoldError(f"{name} must be finite; got {a.tolist()}")
     return a.reshape(shape)
 
 

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ManifoldError
 from workbench.core.manifolds.base import DEFAULT_TOL, Factor
 from workbench.core.manifolds.lie import _is_casadi  # noqa: F401
@@ -31,7 +32,13 @@ class ProductManifold:
     def __init__(self, factors: Sequence[tuple[str, Factor]]) -> None:
         if not factors:
             raise ManifoldError("a product manifold needs at least one factor; got none")
-        names = [n for n, _ in factors]
+        try:
+            names = [n for n, _ in factors]
+        except (TypeError, ValueError) as exc:
+            raise ManifoldError(f"factors must be a sequence of (name, Factor) pairs; got "
+                                f"{factors!r}") from exc
+        for n in names:
+            validate.identifier("factor name", n, error=ManifoldError)
         if len(set(names)) != len(names):
             raise ManifoldError(f"factor names must be unique; got {names}")
         for n, f in factors:
@@ -76,10 +83,8 @@ class ProductManifold:
             )
         out = []
         for n, f in self.factors:
-            try:
-                a = np.asarray(parts[n], dtype=float).reshape(-1, order="F")
-            except (TypeError, ValueError) as exc:
-                raise ManifoldError(f"part {n!r} must be numeric; got {parts[n]!r}") from exc
+            a = validate.array(f"part {n!r}", parts[n], finite=False,
+                               error=ManifoldError).reshape(-1, order="F")
             if a.size != f.ambient_dim:
                 raise ManifoldError(
                     f"part {n!r} must have {f.ambient_dim} entries for {f.kind}; got shape "
@@ -110,7 +115,8 @@ class ProductManifold:
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:
         """Factor-wise retraction of tangent coordinates ``v`` (shape ``(dim,)``)."""
-        xv, vv = np.asarray(x, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
+        xv = validate.array("x", x, finite=False, error=ManifoldError).ravel()
+        vv = validate.array("v", v, error=ManifoldError).ravel()
         if vv.size != self.dim:
             raise ManifoldError(f"v must have {self.dim} tangent coordinates ({self.describe()});"
                                 f" got shape {np.shape(v)}")
@@ -143,12 +149,8 @@ class ProductManifold:
         ManifoldError
             Naming the factor that is violated, its residual and the projection to use.
         """
-        try:
-            xv = np.asarray(x, dtype=float).ravel()
-        except (TypeError, ValueError) as exc:
-            raise ManifoldError(
-                f"{name} must be a numeric array; got {type(x).__name__}"
-            ) from exc
+        tol = validate.tolerance("tol", tol, error=ManifoldError)
+        xv = validate.array(name, x, finite=False, error=ManifoldError).ravel()
         if xv.size != self.ambient_dim:
             raise ManifoldError(
                 f"{name} must have {self.ambient_dim} entries ({self.describe()}); "

@@ -1,0 +1,220 @@
+"""The one file writer of the workbench: complete files or nothing, never another's file.
+
+Every writer (``Result.write_json``, the command line's ``--json``, the C export, the
+report) goes through :func:`write_atomic`:
+
+- the data go to a *unique* temporary name in the target folder (``mkstemp``), which is
+  renamed over the target in one atomic step when complete;
+- nothing is deleted that the writer did not create: no probe files, no fixed
+  ``.partial`` names that could be a user's file;
+- the new file gets the mode ``0o666 & ~umask``, like any file the user's shell creates;
+  new folders (:func:`make_dir`, :func:`temp_dir`) get ``0o777 & ~umask``;
+- on any failure, including a full disk or a KeyboardInterrupt mid-write, the temporary
+  file is removed and the target is left as it was; an :class:`OSError` becomes an
+  :class:`~workbench.core.errors.OutputError` whose one-line message names the path and
+  the reason;
+- an empty output path is refused (it is not "the current directory").
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from workbench.core.errors import OutputError, WorkbenchError
+from workbench.core.validate import output_path
+
+__all__ = ["write_atomic", "writable_dir", "make_dir", "temp_dir", "umask", "apply_umask"]
+
+
+def umask() -> int:
+    """The process's file-creation mask (read without changing it where the OS allows).
+
+    Returns
+    -------
+    int
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+def apply_umask(path: str | os.PathLike, *, directory: bool = False) -> None:
+    """Give ``path`` (created by a ``mkstemp``/``mkdtemp``, mode 0600/0700) the umask's mode.
+
+    Parameters
+    ----------
+    path : path-like
+        A file or folder this process created.
+    directory : bool
+        Whether it is a folder (base mode 0o777 instead of 0o666).
+    """
+    base = 0o777 if directory else 0o666
+    os.chmod(path, base & ~umask())
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or type(exc).__name__
+
+
+def writable_dir(
+    path: Any, *, name: str = "out_dir", error: type[WorkbenchError] = OutputError
+) -> Path:
+    """An existing folder this process may create files in (checked without writing).
+
+    Parameters
+    ----------
+    path : path-like
+        The folder.
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if it is not such a folder.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    WorkbenchError
+        Of class ``error``: missing, a file, or without write permission.
+    """
+    p = output_path(name, path, error=error)
+    if p.exists() and not p.is_dir():
+        raise error(f"{name}: {str(p)!r} exists and is not a directory")
+    if not p.is_dir():
+        raise error(f"{name}: directory {str(p)!r} does not exist")
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise error(f"{name}: directory {str(p)!r} is not writable (permission denied)")
+    return p
+
+
+def make_dir(
+    path: Any, *, name: str = "out_dir", error: type[WorkbenchError] = OutputError
+) -> Path:
+    """Create a folder (and its parents) with the umask's mode if missing; check it.
+
+    Parameters
+    ----------
+    path : path-like
+        The folder.
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if it cannot be created or written.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    p = output_path(name, path, error=error)
+    if p.exists() and not p.is_dir():
+        raise error(f"{name}: {str(p)!r} exists and is not a directory")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise error(f"{name}: cannot create directory {str(p)!r} ({_reason(exc)})") from exc
+    return writable_dir(p, name=name, error=error)
+
+
+def temp_dir(
+    parent: Path, prefix: str, *, name: str = "out_dir",
+    error: type[WorkbenchError] = OutputError,
+) -> Path:
+    """A new uniquely named folder in ``parent`` with the umask's mode (to be renamed).
+
+    Parameters
+    ----------
+    parent : Path
+        Where to create it (the target's folder, so a rename is atomic).
+    prefix : str
+        Start of its name.
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if it cannot be created.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    except OSError as exc:
+        raise error(f"{name}: cannot create files in {str(parent)!r} ({_reason(exc)})"
+                    ) from exc
+    apply_umask(tmp, directory=True)
+    return tmp
+
+
+def write_atomic(
+    path: Any,
+    data: bytes | str,
+    *,
+    name: str = "path",
+    error: type[WorkbenchError] = OutputError,
+) -> Path:
+    """Write a whole file under a unique temporary name in its folder, then rename it.
+
+    Parameters
+    ----------
+    path : path-like
+        The target file; its folder must exist. An existing file is replaced atomically.
+    data : bytes or str
+        The content (str is written as UTF-8).
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised (from the OSError) if the file cannot be written.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    WorkbenchError
+        Of class ``error``: an empty path, a folder, a missing or read-only folder, a full
+        disk. Nothing is left behind; the target is unchanged.
+    """
+    p = output_path(name, path, error=error)
+    if p.is_dir():
+        raise error(f"{name}: {str(p)!r} is a directory, expected a file path")
+    parent = p.parent
+    if not parent.is_dir():
+        raise error(f"{name}: directory {str(parent)!r} of {str(p)!r} does not exist")
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=parent)
+    except OSError as exc:
+        raise error(f"{name}: cannot write {str(p)!r} ({_reason(exc)})") from exc
+    try:
+        try:
+            view = memoryview(payload)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fchmod(fd, 0o666 & ~umask())
+        finally:
+            os.close(fd)
+        os.replace(tmp, p)
+    except BaseException as exc:  # also KeyboardInterrupt: leave nothing behind
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        if isinstance(exc, OSError):
+            raise error(f"{name}: cannot write {str(p)!r} ({_reason(exc)}); nothing was "
+                        f"written") from exc
+        raise
+    return p
