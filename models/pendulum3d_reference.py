@@ -1,0 +1,149 @@
+"""Closed forms of paper 000 for the 3D pendulum: independent references, never the model.
+
+The problems and tests compare what the graph gives with these formulas, typed from the
+paper; nothing here is derived from a model's graph.
+
+* :func:`simultaneous_diagonalisation` -- ``M`` and ``Lambda`` of (3.21)-(3.24);
+* :func:`frequencies` -- ``sqrt(m g l_i)``, the frequencies of (3.22)-(3.23);
+* :func:`rotation_taking` -- an attitude with a given reduced attitude (hanging or
+  inverted members of H and I, (3.12)-(3.13));
+* :func:`equilibrium_attitude` -- the hanging or inverted attitude for a given ``rho``;
+* :func:`prop9` -- Proposition 9 (with the erratum): a relative equilibrium at ``alpha``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from workbench.core.manifolds import hat, so3_exp
+from workbench.core.types import ArrayLike
+
+__all__ = ["equilibrium_attitude", "frequencies", "prop9", "rotation_taking",
+           "simultaneous_diagonalisation"]
+
+E3 = np.array([0.0, 0.0, 1.0])
+
+
+def simultaneous_diagonalisation(J: ArrayLike, rho: ArrayLike, m: float, g: float
+                                 ) -> tuple[np.ndarray, np.ndarray]:
+    """``M`` and ``Lambda = diag(m g l_1, m g l_2, 0)`` of paper 000 (3.21)-(3.24).
+
+    ``J = M M^T`` and ``-(m g / |rho|) hat(rho)^2 = M Lambda M^T``: from the generalised
+    symmetric eigenproblem ``K v = mu J v`` with ``V^T J V = I`` (so ``M = V^-T``), the zero
+    eigenvalue ordered last as in the paper.
+
+    Parameters
+    ----------
+    J : array-like, shape=(3, 3)
+        Inertia, symmetric positive definite.
+    rho : array-like, shape=(3,)
+        Centre of mass in the body frame, nonzero.
+    m, g : float
+        Mass and gravitational acceleration.
+
+    Returns
+    -------
+    M : ndarray, shape=(3, 3)
+    Lambda : ndarray, shape=(3,)
+        The diagonal ``(m g l_1, m g l_2, 0)``.
+    """
+    J, rho = np.asarray(J, dtype=float), np.asarray(rho, dtype=float)
+    K = -(m * g / np.linalg.norm(rho)) * hat(rho) @ hat(rho)
+    mu, V = sla.eigh(K, J)
+    order = [1, 2, 0]  # eigh sorts ascending: the zero eigenvalue comes first
+    mu, V = mu[order], V[:, order]
+    mu[2] = 0.0 if abs(mu[2]) < 1e-12 * mu[1] else mu[2]
+    return np.linalg.inv(V.T), mu
+
+
+def frequencies(J: ArrayLike, rho: ArrayLike, m: float = 1.0, g: float = 9.81) -> np.ndarray:
+    """``sqrt(m g l_i)``, i = 1, 2, of (3.22)-(3.23), ascending, shape=(2,).
+
+    Parameters
+    ----------
+    J : array-like, shape=(3, 3)
+        Inertia.
+    rho : array-like, shape=(3,)
+        Centre of mass in the body frame, nonzero.
+    m, g : float
+        Mass and gravitational acceleration.
+
+    Returns
+    -------
+    ndarray, shape=(2,)
+    """
+    rho = np.asarray(rho, dtype=float)
+    K = -m * g * hat(rho) @ hat(rho) / np.linalg.norm(rho)
+    return np.sqrt(np.sort(sla.eigh(K, np.asarray(J, dtype=float), eigvals_only=True))[1:])
+
+
+def rotation_taking(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """A rotation ``R`` with ``R a = b`` for unit vectors (``a = -b`` allowed).
+
+    Parameters
+    ----------
+    a, b : array-like, shape=(3,)
+        Unit vectors.
+
+    Returns
+    -------
+    ndarray, shape=(3, 3)
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    v, c = np.cross(a, b), float(a @ b)
+    s = float(np.linalg.norm(v))
+    if s < 1e-14:
+        if c > 0:
+            return np.eye(3)
+        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+        return so3_exp(np.pi * axis / np.linalg.norm(axis))
+    return so3_exp(v / s * np.arctan2(s, c))
+
+
+def equilibrium_attitude(rho: ArrayLike, *, inverted: bool) -> np.ndarray:
+    """A rotation ``R_e`` with ``R_e^T e3 = +-rho/|rho|`` (a member of H or I, (3.12)-(3.13)).
+
+    Parameters
+    ----------
+    rho : array-like, shape=(3,)
+        Centre of mass in the body frame, nonzero.
+    inverted : bool
+        The inverted attitude (``-rho/|rho|``) instead of the hanging one.
+
+    Returns
+    -------
+    ndarray, shape=(3, 3)
+    """
+    rho = np.asarray(rho, dtype=float)
+    a = rho / np.linalg.norm(rho) * (-1.0 if inverted else 1.0)
+    axis = np.cross(a, E3)
+    s, c = np.linalg.norm(axis), float(a @ E3)
+    if s < 1e-14:  # rho along e3: the identity, or the half turn about e1
+        return np.eye(3) if c > 0 else so3_exp([np.pi, 0.0, 0.0])
+    return so3_exp(axis / s * np.arctan2(s, c))
+
+
+def prop9(J: ArrayLike, rho: ArrayLike, a: float, m: float = 1.0, g: float = 9.81
+          ) -> tuple[np.ndarray, float]:
+    """Prop. 9 with the erratum: ``Gamma = -n/|n|``, ``k = omega . Gamma``, n = (J - I/a)^-1 rho.
+
+    Parameters
+    ----------
+    J : array-like, shape=(3, 3)
+        Inertia.
+    rho : array-like, shape=(3,)
+        Centre of mass in the body frame.
+    a : float
+        The family parameter ``alpha`` (not 0, not ``1/J_i``).
+    m, g : float
+        Mass and gravitational acceleration.
+
+    Returns
+    -------
+    Gamma : ndarray, shape=(3,)
+    k : float
+    """
+    n = np.linalg.solve(np.asarray(J, dtype=float) - np.eye(3) / a, np.asarray(rho, float))
+    gamma = -n / np.linalg.norm(n)
+    return gamma, float(np.sqrt(m * g / np.linalg.norm(n)) * n @ gamma)
