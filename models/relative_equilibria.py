@@ -257,7 +257,8 @@ def slice_zeros(
     failures = 0
     for g in np.atleast_2d(np.asarray(guesses, dtype=float)):
         root = newton_on_manifold(fun, sphere, g, tol=tol, max_iterations=max_iterations,
-                                  rank_rtol=rank_rtol, step_tol=1e-15)
+                                  rank_rtol=rank_rtol, step_tol=1e-15,
+                                  raise_on_failure=False)
         if not root.ok:
             failures += 1
             continue

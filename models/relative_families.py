@@ -231,7 +231,7 @@ def trace_relative_equilibria(
             f"end at k = {z.y[3]:g} (Gamma = {np.round(z.y[:3], 6).tolist()})")
     for b, o in zip(branches, origins):
         if b.end not in (EndReason.BOUND, EndReason.STOP_EVENT):
-            notes.append(f"branch from {o} ended by {b.end.value}: {b.end_message}")
+            notes.append(f"branch from {o} ended by {b.end.code}: {b.end_message}")
     return RelativeEquilibria(problem, static, branches, origins, surfaces, ends, k_max,
                               failures, time.perf_counter() - t0, notes)
 

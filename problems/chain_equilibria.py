@@ -147,9 +147,9 @@ def solve(*, quick: bool = False) -> Result:
         "perturbation_rad": PERTURBATION,
         "seed": SEED,
         "per_n": per_n,
-        "pushed": {"status": pushed.status.value, "message": pushed.message,
+        "pushed": {"status": pushed.status.code, "message": pushed.message,
                    "residual": pushed.residual},
-        "far_start": {"status": capped.status.value, "message": capped.message,
+        "far_start": {"status": capped.status.code, "message": capped.message,
                       "residual": capped.residual},
     }
     res.figures["newton_convergence"] = _figure(histories)

@@ -200,7 +200,7 @@ def _check_branch(res: Result, name: str, b: Branch, atlas: RelativeEquilibria,
         "n_points": len(b), "alpha_range": [float(np.min(a)), float(np.max(a))],
         "k_range": [float(np.min(k)), float(np.max(k))],
         "mu_range": [float(np.min(mu)), float(np.max(mu))],
-        "ends": ends, "end_reason": b.end.value,
+        "ends": ends, "end_reason": b.end.code,
         "stability_at_start": describe_label(b.labels[0]) if b.labels else None,
         "stability_changes": changes,
         "case3_events": len(b.specials(PointKind.EVENT, "k1")),
@@ -221,7 +221,7 @@ def _degenerate(res: Result, name: str, base: Any, body: dict[str, Any],
     J, rho, mg = body["J"], body["rho"], 9.81
     Jd = np.diag(J)
     out: dict[str, Any] = {"n_branches": len(atlas.branches),
-                           "branch_ends": [b.end.value for b in atlas.branches],
+                           "branch_ends": [b.end.code for b in atlas.branches],
                            "n_surface_points": len(atlas.surfaces), "notes": atlas.notes}
     bps = [sp for b in atlas.branches for sp in b.specials(PointKind.BRANCH_POINT)]
     out["branch_points_alpha"] = sorted({round(float(alpha(sp.data["k"], sp.data["k1"])), 9)

@@ -43,6 +43,12 @@ from workbench.core.manifolds import (
     sphere_basis,
     vee,
 )
+from workbench.core.status import (
+    Record,
+    SolverResult,
+    StatusEnum,
+    StatusResult,
+)
 from workbench.core.types import (
     Expr,
     Matrix,
@@ -69,11 +75,15 @@ __all__ = [
     "Parameter",
     "ParameterError",
     "ProductManifold",
+    "Record",
     "Rn",
     "S1",
     "S2",
     "SO3",
     "SolverError",
+    "SolverResult",
+    "StatusEnum",
+    "StatusResult",
     "Symbolic",
     "TS2",
     "Vector",

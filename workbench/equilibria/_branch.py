@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from workbench.core.errors import ParameterError
+from workbench.core.status import StatusEnum, StatusResult
 from workbench.core.types import Vector
 from workbench.equilibria._roots import Root, check_count, check_positive
 
@@ -75,8 +76,10 @@ class StepControl:
             raise ParameterError(f"growth must be >= 1; got {self.growth}")
 
 
-class EndReason(Enum):
-    """Why a branch ended.
+class EndReason(StatusEnum):
+    """Why a branch ended; the value is a readable message, ``.code`` the short name.
+
+    Every end but STEP_TOO_SMALL is ``ok`` (the branch was traced as far as asked).
 
     Attributes
     ----------
@@ -95,12 +98,17 @@ class EndReason(Enum):
         pass, or the end of the zero set.
     """
 
-    BOUND = "bound"
-    STOP_EVENT = "stop_event"
-    MAX_POINTS = "max_points"
-    MAX_ARCLENGTH = "max_arclength"
-    CLOSED = "closed"
-    STEP_TOO_SMALL = "step_too_small"
+    BOUND = "a monitor reached its bound"
+    STOP_EVENT = "a terminal event was reached"
+    MAX_POINTS = "the point limit was reached"
+    MAX_ARCLENGTH = "the arclength limit was reached"
+    CLOSED = "the branch returned to its start (a closed curve)"
+    STEP_TOO_SMALL = ("the corrector failed down to min_step: a singular point the method "
+                      "could not pass, or the end of the zero set")
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"BOUND", "STOP_EVENT", "MAX_POINTS", "MAX_ARCLENGTH", "CLOSED"})
 
 
 class PointKind(Enum):
@@ -157,8 +165,8 @@ class SpecialPoint:
 
 
 @dataclass
-class Branch:
-    """A traced branch with its cost and accuracy.
+class Branch(StatusResult):
+    """A traced branch with its cost and accuracy; ``status`` is its :class:`EndReason`.
 
     Attributes
     ----------
@@ -207,6 +215,21 @@ class Branch:
     wall_time: float
     null_dimensions: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
+    @property
+    def status(self) -> EndReason:
+        """Why the branch ended (the status protocol's name for :attr:`end`)."""
+        return self.end
+
+    @property
+    def message(self) -> str:
+        """:attr:`end_message`."""
+        return self.end_message
+
+    @property
+    def iterations(self) -> int:
+        """Corrector iterations, summed over the accepted steps."""
+        return int(np.sum(self.corrector_iterations))
+
     def __len__(self) -> int:
         return len(self.points)
 
@@ -220,7 +243,7 @@ class Branch:
             "n_points": len(self),
             "arclength": float(self.s[-1]) if len(self.s) else 0.0,
             "max_residual": float(np.max(self.residuals)) if len(self) else 0.0,
-            "end": self.end.value,
+            "end": self.end.code,
             "end_message": self.end_message,
             "special": [p.summary() for p in self.special],
             "rejected_steps": self.rejected_steps,
@@ -279,6 +302,6 @@ class BranchSwitch:
     def describe_failures(self) -> str:
         """The failed sides in words (empty when both converged)."""
         return "; ".join(
-            f"side {'+' if i == 0 else '-'}: {r.status.value} ({r.message})"
+            f"side {'+' if i == 0 else '-'}: {r.status.code} ({r.message})"
             for i, r in enumerate(self.sides) if not r.ok
         )

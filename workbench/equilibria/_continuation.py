@@ -129,7 +129,8 @@ def correct_point(
 
     return newton_on_manifold(fun, man, z0, tol=control.tol,
                               max_iterations=control.max_corrector_iterations,
-                              rank_rtol=1e-14, step_tol=control.step_tol, diagnostics=False)
+                              rank_rtol=1e-14, step_tol=control.step_tol, diagnostics=False,
+                              raise_on_failure=False)
 
 
 # ----------------------------------------------------------------------------------------
@@ -187,7 +188,7 @@ class _Tracer:
                              t=prev["t"])
         if not root.ok:
             raise SolverError(f"locating a special point: corrector failed ({root.message})",
-                              status=root.status.value)
+                              status=root.status.code)
         return self.info(root.x, prev["d"])
 
     def locate_scalar(self, prev: dict[str, Any], new: dict[str, Any], h: float,
@@ -303,10 +304,11 @@ def continue_branch(
         return F, A
 
     root = newton_on_manifold(fun, man, y0, tol=c.tol, max_iterations=30,
-                              rank_rtol=c.rank_rtol, step_tol=c.step_tol)
+                              rank_rtol=c.rank_rtol, step_tol=c.step_tol,
+                              raise_on_failure=False)
     if not root.ok:
         raise SolverError(f"continue_branch({problem.name}): the start is not near a zero: "
-                          f"{root.message}", status=root.status.value)
+                          f"{root.message}", status=root.status.code)
     d_hint = None if direction is None else np.asarray(direction, dtype=float).ravel()
     cur = tr.info(root.x, None)
     if cur["nulldim"] != 1:
@@ -519,7 +521,7 @@ def switch_branch(
             f"at s = {point.s:.6g} (y = {np.round(point.y, 6).tolist()}) at distance "
             f"{step:g}: {out.describe_failures()}. Try another step, or pass "
             f"raise_on_failure=False to get the result",
-            status="/".join(r.status.value for r in sides),
+            status="/".join(r.status.code for r in sides),
         )
     return out
 
@@ -579,7 +581,7 @@ def locate_on_branch(
             root = correct_point(problem, y, d, theta * h, control=c)
             if not root.ok:
                 raise SolverError(f"locate_on_branch: corrector failed ({root.message})",
-                                  status=root.status.value)
+                                  status=root.status.code)
             cache[theta] = root.x
             return float(g(root.x))
 

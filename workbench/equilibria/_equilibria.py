@@ -144,14 +144,15 @@ def find_equilibrium(
         return F, A
 
     root = newton_on_manifold(fun, model.manifold, x0, tol=tol, max_iterations=max_iterations,
-                              rank_rtol=rank_rtol, max_step=max_step)
+                              rank_rtol=rank_rtol, max_step=max_step,
+                              raise_on_failure=False)
     eq = Equilibrium(**root.__dict__, model=model.name, u=problem.u,
                      parts={k: np.asarray(v) for k, v in model.manifold.split(root.x).items()})
     if not eq.ok and raise_on_failure:
         raise SolverError(
             f"find_equilibrium({model.name}): {eq.message}. Pass raise_on_failure=False to "
             f"get the last iterate with its status, or start nearer an equilibrium",
-            status=eq.status.value,
+            status=eq.status.code,
         )
     return eq
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any
 
 import casadi as ca
@@ -32,6 +31,7 @@ from workbench.core._evaluator import DenseEvaluator
 from workbench.core._model import Model
 from workbench.core.errors import ModelError
 from workbench.core.manifolds import ProductManifold
+from workbench.core.status import StatusEnum, StatusResult, raise_if
 from workbench.core.types import ArrayLike, Matrix, Vector
 from workbench.core.validate import count as check_count
 from workbench.core.validate import positive as check_positive
@@ -47,8 +47,8 @@ __all__ = [
 ]
 
 
-class RootStatus(Enum):
-    """Outcome of a Newton solve.
+class RootStatus(StatusEnum):
+    """Outcome of a Newton solve; the value is a readable message, ``.code`` the short name.
 
     Attributes
     ----------
@@ -63,14 +63,19 @@ class RootStatus(Enum):
         An iterate left the declared bound or produced non-finite values.
     """
 
-    CONVERGED = "converged"
-    MAX_ITERATIONS = "max_iterations"
-    STAGNATED = "stagnated"
-    DIVERGED = "diverged"
+    CONVERGED = "converged: max |F| <= tol"
+    MAX_ITERATIONS = "the iteration limit was reached with max |F| > tol"
+    STAGNATED = ("stagnated: no step along the Gauss-Newton direction decreases |F| (a local "
+                 "minimum of the residual that is not a zero)")
+    DIVERGED = "diverged: an iterate left the bound or produced non-finite values"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"CONVERGED"})
 
 
 @dataclass
-class Root:
+class Root(StatusResult):
     """Result of :func:`newton_on_manifold`.
 
     Attributes
@@ -115,15 +120,10 @@ class Root:
     history: list[float] = field(default_factory=list)
     constraint_residual: float = 0.0
 
-    @property
-    def ok(self) -> bool:
-        """Whether the solve converged."""
-        return self.status is RootStatus.CONVERGED
-
     def summary(self) -> dict[str, Any]:
         """Plain-data summary (no arrays but the point)."""
         return {
-            "status": self.status.value,
+            "status": self.status.code,
             "message": self.message,
             "residual": self.residual,
             "constraint_residual": self.constraint_residual,
@@ -300,6 +300,7 @@ def newton_on_manifold(
     min_damping: float = 1.0 / 1024,
     step_tol: float | None = None,
     diagnostics: bool = True,
+    raise_on_failure: bool = True,
 ) -> Root:
     """Damped minimum-norm Gauss-Newton for ``F(y) = 0`` on a product manifold.
 
@@ -329,11 +330,21 @@ def newton_on_manifold(
         Also converged when the Newton step norm falls below this and ``max |F|`` is
         below ``100 tol`` (the residual is then at its roundoff level; it is reported as
         it is).
+    diagnostics : bool
+        Compute the singular values, rank and constraint residual at the last iterate.
+    raise_on_failure : bool
+        Raise when the status is not CONVERGED (default); ``False`` returns the last
+        iterate with its status (what a continuation corrector wants).
 
     Returns
     -------
     Root
-        Never raises on non-convergence; the status says what happened.
+        The status says what happened.
+
+    Raises
+    ------
+    SolverError
+        If it did not converge and ``raise_on_failure`` (the root is ``.result``).
     """
     t0 = time.perf_counter()
     y = np.asarray(x0, dtype=float).ravel().copy()
@@ -407,7 +418,7 @@ def newton_on_manifold(
         cres = float(max(manifold.residual_norms(y).values(), default=0.0))
     else:
         s, rank, cres = np.zeros(0), -1, float("nan")
-    return Root(
+    root = Root(
         x=y,
         status=status,
         message=message,
@@ -421,3 +432,4 @@ def newton_on_manifold(
         history=history,
         constraint_residual=cres,
     )
+    return raise_if(root, raise_on_failure)

@@ -34,14 +34,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.status import Record, StatusEnum, StatusResult, raise_if
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice
 from workbench.global_dynamics._sections import (
@@ -57,6 +58,7 @@ __all__ = [
     "Direction",
     "Stepper",
     "OrbitStatus",
+    "OrbitCost",
     "Section",
     "turning_section",
     "turning_section_state",
@@ -74,11 +76,40 @@ Hamiltonian orbits (about 2.5x fewer steps than BDF at the same tolerance).
 """
 
 
-class OrbitStatus(Enum):
-    """How a Poincare orbit ended."""
+class OrbitStatus(StatusEnum):
+    """How a Poincare orbit ended; the value is a readable message."""
 
     COMPLETE = "the requested number of crossings was reached"
     HORIZON = "t_max was reached before the requested number of crossings"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"COMPLETE"})
+
+
+@dataclass(frozen=True)
+class OrbitCost(Record):
+    """What a Poincare orbit cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        Integration and refinement.
+    integrate_seconds, refine_seconds, build_seconds : float
+        The main integration, the crossings' refinement, the functions' construction.
+    steps, rhs_evaluations : int
+        CVODES' steps and vector-field evaluations in the main integration.
+    refinements : int
+        Re-integrations while refining crossings.
+    """
+
+    wall_seconds: float
+    integrate_seconds: float
+    refine_seconds: float
+    build_seconds: float
+    steps: int
+    rhs_evaluations: int
+    refinements: int
 
 
 # ----------------------------------------------------------------------------------------
@@ -117,9 +148,8 @@ def _cvodes_options(stepper: Stepper, rtol: float, atol: float, max_steps: int) 
 
 
 def _positive(name: str, value: float) -> float:
-    if not (np.isfinite(value) and value > 0):
-        raise ParameterError(f"{name} must be positive and finite; got {value!r}")
-    return float(value)
+    """A positive finite number: :func:`workbench.core.validate.positive`."""
+    return validate.positive(name, value)
 
 
 # ----------------------------------------------------------------------------------------
@@ -127,7 +157,7 @@ def _positive(name: str, value: float) -> float:
 
 
 @dataclass
-class PoincareOrbit:
+class PoincareOrbit(StatusResult):
     """Section crossings of one orbit, with their accuracy and the cost.
 
     Attributes
@@ -166,9 +196,10 @@ class PoincareOrbit:
         Time reached.
     options : dict
         Knobs as used.
-    cost : dict
+    cost : OrbitCost
         ``wall_seconds``, ``build_seconds``, ``steps``, ``rhs_evaluations`` (main
-        integration), ``refinements`` (re-integrations), ``refine_seconds``.
+        integration), ``refinements`` (re-integrations), ``refine_seconds`` (a typed
+        record that also reads as a mapping).
     diagnostics : dict
         ``max_event_residual``, ``invariant_initial``, ``max_invariant_error``,
         ``max_refine_error``, ``max_relative_invariant_error`` (relative to ``max(1, |I0|)``),
@@ -193,7 +224,7 @@ class PoincareOrbit:
     status: OrbitStatus
     t_end: float
     options: dict[str, Any] = field(default_factory=dict)
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: OrbitCost | dict[str, Any] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -211,7 +242,7 @@ class PoincareOrbit:
         """Plain account without the per-crossing arrays."""
         return {"model": self.model, "section": self.section, "n_crossings": self.n,
                 "status": self.status.name, "t_end": self.t_end, "options": self.options,
-                "cost": self.cost, "diagnostics": self.diagnostics}
+                "cost": dict(self.cost), "diagnostics": self.diagnostics}
 
 
 def _hermite_root(g0: float, d0: float, g1: float, d1: float, dt: float) -> float:
@@ -267,6 +298,7 @@ def poincare_map(
     max_newton: int = 40,
     invariant: str | None = "energy",
     max_steps: int = 1_000_000,
+    raise_on_failure: bool = True,
 ) -> PoincareOrbit:
     """Integrate an orbit and locate its crossings of a section accurately.
 
@@ -306,6 +338,9 @@ def poincare_map(
         Invariant whose error is reported at each crossing (the energy level).
     max_steps : int
         CVODES' limit on steps per output interval.
+    raise_on_failure : bool
+        Raise when the orbit ends at ``t_max`` before ``n_crossings`` (status HORIZON);
+        ``False`` returns the crossings found with that status.
 
     Returns
     -------
@@ -315,7 +350,7 @@ def poincare_map(
     ------
     SolverError
         If the integrator fails, the constraint residual exceeds ``constraint_tol``, or a
-        crossing cannot be refined.
+        crossing cannot be refined; or (``raise_on_failure``) the status is HORIZON.
     """
     if not isinstance(section, Section):
         raise ModelError(f"section must be a Section; got {type(section).__name__}")
@@ -437,7 +472,7 @@ def poincare_map(
         "suspect_intervals": suspect,
         "rejected_side": rejected,
     }
-    return PoincareOrbit(
+    orbit = PoincareOrbit(
         model=model.name, parameters={k: v.copy() for k, v in model.values.items()},
         section=section.name, slices=dict(model.manifold.slices),
         x0=model.check_state(x0), t=np.array(ts), x=x_arr, event_residual=np.array(res_),
@@ -448,11 +483,12 @@ def poincare_map(
                  "stepper": stepper.value, "stabilization": stabilization,
                  "refine_substeps": int(refine_substeps), "time_tol": time_tol,
                  "n_crossings": int(n_crossings), "t_max": t_max},
-        cost={"wall_seconds": wall + refine_wall, "integrate_seconds": wall,
-              "refine_seconds": refine_wall, "build_seconds": build, "steps": steps,
-              "rhs_evaluations": fevals, "refinements": refinements},
+        cost=OrbitCost(wall_seconds=wall + refine_wall, integrate_seconds=wall,
+                       refine_seconds=refine_wall, build_seconds=build, steps=steps,
+                       rhs_evaluations=fevals, refinements=refinements),
         diagnostics=diag,
     )
+    return raise_if(orbit, raise_on_failure)
 
 
 def _refine(

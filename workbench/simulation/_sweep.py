@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
-from workbench.core.errors import ParameterError, WorkbenchError
+from workbench.core.errors import ParameterError, SolverError, WorkbenchError
+from workbench.core.status import Record, StatusEnum, StatusResult
 from workbench.core.validate import choice
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "StartMethod",
     "Outcome",
     "SweepResult",
+    "SweepCost",
     "SweepError",
     "MissingDependencyError",
     "InlineExecutor",
@@ -52,11 +54,15 @@ __all__ = [
 ]
 
 
-class ItemStatus(Enum):
-    """Outcome of one item."""
+class ItemStatus(StatusEnum):
+    """Outcome of one item (and of a sweep: FAILED when any item failed)."""
 
     OK = "returned a value"
     FAILED = "raised an exception (in fn, in pickling, or the worker died)"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"OK"})
 
 
 class OnError(Enum):
@@ -74,11 +80,12 @@ class StartMethod(Enum):
     FORK = "fork"
 
 
-class SweepError(WorkbenchError, RuntimeError):
-    """Items of a sweep failed; ``result`` holds every outcome."""
+class SweepError(SolverError):
+    """Items of a sweep failed; ``result`` holds every outcome (a :class:`SolverError`)."""
 
     def __init__(self, message: str, *, result: SweepResult) -> None:
         super().__init__(message)
+        self.status = ItemStatus.FAILED.code
         self.result = result
 
 
@@ -87,7 +94,7 @@ class MissingDependencyError(WorkbenchError, ImportError):
 
 
 @dataclass
-class Outcome:
+class Outcome(StatusResult):
     """What one item gave.
 
     Attributes
@@ -119,33 +126,67 @@ class Outcome:
     seconds: float = float("nan")
     worker: str = ""
 
-    @property
-    def ok(self) -> bool:
-        """Whether the item returned a value."""
-        return self.status is ItemStatus.OK
+    def failure_message(self) -> str:  # noqa: D102
+        return f"sweep item {self.index} {self.item!r} failed: {self.error}"
+
+
+@dataclass(frozen=True)
+class SweepCost(Record):
+    """What a sweep cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        Submission to last result.
+    item_seconds : float
+        Sum over the items of their wall time inside the workers.
+    backend : str
+        The executor's kind.
+    workers : int
+        Distinct worker processes seen.
+    speedup : float
+        ``item_seconds / wall_seconds``.
+    n_items, n_failed : int
+        Items run, items failed.
+    """
+
+    wall_seconds: float
+    item_seconds: float
+    backend: str
+    workers: int
+    speedup: float
+    n_items: int
+    n_failed: int
 
 
 @dataclass
-class SweepResult:
+class SweepResult(StatusResult):
     """Outcomes in item order, and what the sweep cost.
 
     Attributes
     ----------
     outcomes : list of Outcome
         One per item, in input order.
-    cost : dict
+    cost : SweepCost
         ``wall_seconds`` (submission to last result), ``item_seconds`` (sum over items),
         ``workers`` (distinct worker processes seen), ``backend``, ``speedup``
-        (``item_seconds / wall_seconds``).
+        (``item_seconds / wall_seconds``), ``n_items``, ``n_failed`` (a typed record that
+        also reads as a mapping).
     """
 
     outcomes: list[Outcome]
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: SweepCost | dict[str, Any] = field(default_factory=dict)
 
     @property
-    def ok(self) -> bool:
-        """Whether every item returned a value."""
-        return all(o.ok for o in self.outcomes)
+    def status(self) -> ItemStatus:
+        """OK when every item returned a value, else FAILED."""
+        return ItemStatus.OK if all(o.ok for o in self.outcomes) else ItemStatus.FAILED
+
+    def raise_for_status(self) -> SweepResult:
+        """Return ``self`` when every item succeeded; otherwise raise :class:`SweepError`."""
+        if not self.ok:
+            raise SweepError(_failure_message(self), result=self)
+        return self
 
     @property
     def failures(self) -> list[Outcome]:
@@ -351,12 +392,12 @@ def sweep(
     wall = time.perf_counter() - t0
     done = [o for o in outcomes if o is not None]
     item_seconds = sum(o.seconds for o in done if o.seconds == o.seconds)
-    result = SweepResult(done, {
-        "wall_seconds": wall, "item_seconds": item_seconds, "backend": backend,
-        "workers": len({o.worker for o in done if o.worker}),
-        "speedup": item_seconds / wall if wall > 0 else float("nan"),
-        "n_items": len(done), "n_failed": sum(not o.ok for o in done),
-    })
+    result = SweepResult(done, SweepCost(
+        wall_seconds=wall, item_seconds=item_seconds, backend=backend,
+        workers=len({o.worker for o in done if o.worker}),
+        speedup=item_seconds / wall if wall > 0 else float("nan"),
+        n_items=len(done), n_failed=sum(not o.ok for o in done),
+    ))
     if on_error is OnError.RAISE and not result.ok:
         raise SweepError(_failure_message(result), result=result)
     return result
