@@ -1,15 +1,9 @@
 """Domains of attraction: certified sublevel sets (Ipopt) and sampled basins (simulation).
 
 Certification (sublevel sets :class:`~workbench.control._lyapunov.SublevelSet` of a Lyapunov
-function inside a domain):
-
-* :func:`optimize` / :func:`optimize_lyapunov` -- extremise a function (``V``) over the
-  state manifold under constraints with Ipopt, from several starts (a local solver: the
-  global optimum is not guaranteed; every start's Ipopt status is reported);
-* :func:`level_in_domain` -- the minimum of ``V`` on the boundary ``b = 0`` of a domain:
-  every level below it gives a sublevel set (its component through the equilibrium)
-  inside ``D``;
-* :func:`~workbench.control._lyapunov.ray_extent` measures a set's size along tangent rays.
+function inside a domain) is in :mod:`workbench.control._certify` (:func:`optimize`,
+:func:`optimize_lyapunov`, :func:`level_in_domain`, re-exported here);
+:func:`~workbench.control._lyapunov.ray_extent` measures a set's size along tangent rays.
 
 Testing and estimation by integrating the closed loop from many initial states:
 
@@ -23,7 +17,6 @@ Testing and estimation by integrating the closed loop from many initial states:
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,9 +24,19 @@ import casadi as ca
 import numpy as np
 from scipy.stats import beta
 
-from workbench.control._lyapunov import Lyapunov, SublevelSet, as_states
+from workbench.control._certify import (
+    Constraint,
+    Extremum,
+    ExtremumStatus,
+    OptimizeCost,
+    level_in_domain,
+    optimize,
+    optimize_lyapunov,
+)
+from workbench.control._lyapunov import SublevelSet, as_states
 from workbench.core._model import Model
-from workbench.core.errors import ParameterError, SolverError
+from workbench.core.errors import ParameterError
+from workbench.core.status import Record, StatusEnum, StatusResult
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice
 from workbench.simulation._simulate import Multistep, closed_loop_function
@@ -41,9 +44,13 @@ from workbench.simulation._simulate import Multistep, closed_loop_function
 __all__ = [
     "Constraint",
     "Extremum",
+    "ExtremumStatus",
+    "OptimizeCost",
     "optimize",
     "optimize_lyapunov",
     "level_in_domain",
+    "ConvergenceStatus",
+    "ConvergenceCost",
     "ConvergenceReport",
     "check_convergence",
     "BasinEstimate",
@@ -78,234 +85,47 @@ def clopper_pearson(k: int, n: int, *, confidence: float = 0.95) -> tuple[float,
 
 
 # ----------------------------------------------------------------------------------------
-# optimisation of V with Ipopt
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """``lower <= g(x, p) <= upper`` for a casadi.Function ``g``.
-
-    Attributes
-    ----------
-    function : casadi.Function
-        ``(x, p) -> g`` (any column size).
-    lower, upper : float or array-like
-        Bounds (``-inf`` / ``inf`` for one-sided, equal for equality).
-    description : str
-        What it says, for reports.
-    """
-
-    function: ca.Function
-    lower: Any
-    upper: Any
-    description: str = ""
-
-
-@dataclass
-class Extremum:
-    """Best point found by :func:`optimize_lyapunov`.
-
-    Attributes
-    ----------
-    value : float
-        ``V`` at the best point.
-    x : ndarray, shape=(ambient_dim,)
-        The best point.
-    status : str
-        Ipopt's return status at the best start.
-    statuses : list of str
-        Return status of every start.
-    n_success : int
-        Starts that Ipopt solved.
-    values : list of float
-        ``V`` at the end of every start (NaN when it failed).
-    constraint_violation : float
-        Max violation of the manifold and user constraints at the best point.
-    cost : dict
-        ``wall_seconds``, ``iterations`` (sum over starts).
-    """
-
-    value: float
-    x: np.ndarray
-    status: str
-    statuses: list[str]
-    n_success: int
-    values: list[float]
-    constraint_violation: float
-    cost: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def spread(self) -> float:
-        """Range of the values reached by the successful starts (0 if they agree)."""
-        v = np.asarray([x for x in self.values if np.isfinite(x)])
-        return float(v.max() - v.min()) if v.size else float("nan")
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain form."""
-        return {"value": self.value, "x": self.x.tolist(), "status": self.status,
-                "statuses": self.statuses, "n_success": self.n_success,
-                "spread": self.spread, "constraint_violation": self.constraint_violation,
-                "cost": self.cost}
-
-
-def optimize(
-    model: Model,
-    objective: ca.Function,
-    starts: ArrayLike,
-    *,
-    maximize: bool = False,
-    constraints: Sequence[Constraint] = (),
-    tol: float = 1e-10,
-    max_iter: int = 500,
-) -> Extremum:
-    """Minimise (or maximise) ``objective(x, p)`` over the state manifold with Ipopt.
-
-    The decision variable is the stored ambient state; the manifold's constraints
-    ``h(x) = 0`` are equality constraints, the user's constraints are added. Ipopt is a
-    local solver: it is run from every start, and every start's status is reported.
-
-    Parameters
-    ----------
-    model : Model
-        The model whose state is optimised (its current parameters are used).
-    objective : casadi.Function
-        ``(x, p) -> scalar``.
-    starts : array-like, shape=(n_starts, ambient_dim)
-        Initial guesses.
-    maximize : bool
-        Maximise instead of minimise.
-    constraints : sequence of Constraint
-        Further constraints.
-    tol : float
-        Ipopt ``tol``.
-    max_iter : int
-        Ipopt ``max_iter``.
-
-    Returns
-    -------
-    Extremum
-
-    Raises
-    ------
-    SolverError
-        If no start succeeds (with every start's Ipopt status).
-    """
-    X0 = as_states(model, starts, "starts")
-    S = model.sym
-    x, p = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
-    F = objective(x, p)
-    xs = ca.SX.sym("x", model.manifold.ambient_dim)  # residual on SX, called on x
-    h = ca.Function("h", [xs], [model.manifold.residual(xs)])
-    gs, lb, ub = [h(x)], [], []
-    nres = gs[0].shape[0]
-    lb.append(np.zeros(nres))
-    ub.append(np.zeros(nres))
-    for c in constraints:
-        gi = c.function(x, p)
-        k = gi.shape[0]
-        gs.append(gi)
-        lb.append(np.broadcast_to(np.asarray(c.lower, float), (k,)))
-        ub.append(np.broadcast_to(np.asarray(c.upper, float), (k,)))
-    lbg, ubg = np.concatenate(lb), np.concatenate(ub)
-    nlp = {"x": x, "p": p, "f": -F if maximize else F, "g": ca.vertcat(*gs)}
-    solver = ca.nlpsol("extremum", "ipopt", nlp, {
-        "ipopt.tol": tol, "ipopt.max_iter": int(max_iter), "ipopt.print_level": 0,
-        "print_time": False, "ipopt.sb": "yes"})
-    gfun = ca.Function("g", [x, p], [nlp["g"]])
-    best: tuple[float, np.ndarray, str] | None = None
-    statuses, values, iters = [], [], 0
-    t0 = time.perf_counter()
-    for x0 in X0:
-        sol = solver(x0=x0, p=model.p, lbg=lbg, ubg=ubg)
-        st = solver.stats()
-        statuses.append(str(st["return_status"]))
-        iters += int(st.get("iter_count", 0))
-        xv = np.asarray(sol["x"]).ravel()
-        if not st["success"]:
-            values.append(float("nan"))
-            continue
-        val = float(objective(xv, model.p))
-        values.append(val)
-        if best is None or (val > best[0] if maximize else val < best[0]):
-            best = (val, xv, statuses[-1])
-    wall = time.perf_counter() - t0
-    if best is None:
-        raise SolverError(
-            f"Ipopt failed from all {len(X0)} starts optimising {objective.name()}",
-            status=", ".join(sorted(set(statuses))))
-    g = np.asarray(gfun(best[1], model.p)).ravel()
-    viol = float(np.max(np.maximum(0.0, np.maximum(lbg - g, g - ubg)))) if g.size else 0.0
-    return Extremum(best[0], best[1], best[2], statuses, int(np.isfinite(values).sum()),
-                    values, viol, {"wall_seconds": wall, "iterations": iters})
-
-
-def optimize_lyapunov(
-    lyapunov: Lyapunov,
-    starts: ArrayLike,
-    *,
-    maximize: bool = False,
-    constraints: Sequence[Constraint] = (),
-    tol: float = 1e-10,
-    max_iter: int = 500,
-) -> Extremum:
-    """Minimise (or maximise) ``V`` over the state manifold: :func:`optimize` with ``V``.
-
-    Parameters
-    ----------
-    lyapunov : Lyapunov
-        The objective ``V``.
-    starts, maximize, constraints, tol, max_iter
-        As in :func:`optimize`.
-
-    Returns
-    -------
-    Extremum
-    """
-    return optimize(lyapunov.model, lyapunov.function(), starts, maximize=maximize,
-                    constraints=constraints, tol=tol, max_iter=max_iter)
-
-
-def level_in_domain(
-    lyapunov: Lyapunov,
-    boundary: ca.Function,
-    starts: ArrayLike,
-    *,
-    tol: float = 1e-10,
-    max_iter: int = 500,
-) -> Extremum:
-    """Minimum of ``V`` on the boundary ``b(x) = 0`` of a domain ``D = {b < 0}``.
-
-    If the equilibrium lies in ``D``, every path from it that leaves ``D`` crosses the
-    boundary, where ``V >= c_min``; so for every ``c <= c_min`` the component of
-    ``{V < c}`` through the equilibrium lies in ``D``. Ipopt is local: the minimum is
-    sought from several starts and their spread is reported.
-
-    Parameters
-    ----------
-    lyapunov : Lyapunov
-    boundary : casadi.Function
-        ``b(x, p)``, scalar.
-    starts : array-like, shape=(n_starts, ambient_dim)
-        Initial guesses (need not satisfy ``b = 0``).
-    tol, max_iter
-        Ipopt options.
-
-    Returns
-    -------
-    Extremum
-    """
-    return optimize_lyapunov(
-        lyapunov, starts, maximize=False, tol=tol, max_iter=max_iter,
-        constraints=[Constraint(boundary, 0.0, 0.0, "boundary of D")])
-
-
-# ----------------------------------------------------------------------------------------
 # Monte-Carlo convergence
 
 
+class ConvergenceStatus(StatusEnum):
+    """Outcome of :func:`check_convergence`; the value is a readable message."""
+
+    ALL_CONVERGED = "every sample converged to the target within the horizon"
+    NOT_ALL_CONVERGED = ("some samples did not converge (not close enough at the horizon, "
+                         "left the domain, or the integrator failed)")
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"ALL_CONVERGED"})
+
+
+@dataclass(frozen=True)
+class ConvergenceCost(Record):
+    """What :func:`check_convergence` cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        Integration of all samples.
+    build_seconds : float
+        Construction of the closed loop and the integrator.
+    per_sample_seconds : float
+        ``wall_seconds / n_samples``.
+    """
+
+    wall_seconds: float
+    build_seconds: float
+    per_sample_seconds: float
+
+
 @dataclass
-class ConvergenceReport:
-    """Outcome of :func:`check_convergence`.
+class ConvergenceReport(StatusResult):
+    """Outcome of :func:`check_convergence`; ``status`` is ALL_CONVERGED or not.
+
+    A measurement, not a solve: :func:`check_convergence` returns it whatever the samples
+    did (the share that converged is the answer); :meth:`raise_for_status` raises when
+    not every sample converged.
 
     Attributes
     ----------
@@ -326,8 +146,8 @@ class ConvergenceReport:
     failure_rate_bound : float
         One-sided Clopper-Pearson upper bound on the probability that a sample from the
         same distribution does not converge.
-    cost : dict
-        ``wall_seconds``, ``build_seconds``.
+    cost : ConvergenceCost
+        ``wall_seconds``, ``build_seconds``, ``per_sample_seconds``.
     """
 
     n_samples: int
@@ -341,12 +161,23 @@ class ConvergenceReport:
     confidence: float
     failure_rate_bound: float
     initial_states: np.ndarray
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: ConvergenceCost | dict[str, Any] = field(default_factory=dict)
 
     @property
     def all_converged(self) -> bool:
         """Whether every sample converged."""
         return self.n_converged == self.n_samples
+
+    @property
+    def status(self) -> ConvergenceStatus:
+        """ALL_CONVERGED when every sample converged, else NOT_ALL_CONVERGED."""
+        return (ConvergenceStatus.ALL_CONVERGED if self.all_converged
+                else ConvergenceStatus.NOT_ALL_CONVERGED)
+
+    def failure_message(self) -> str:  # noqa: D102
+        return (f"{self.n_samples - self.n_converged} of {self.n_samples} samples did not "
+                f"converge (worst final distance {self.worst_distance:.3g} > tolerance "
+                f"{self.tolerance:g})")
 
     @property
     def worst_distance(self) -> float:
@@ -360,7 +191,7 @@ class ConvergenceReport:
                 "worst_initial_state": self.initial_states[self.worst_index].tolist(),
                 "horizon": self.horizon, "tolerance": self.tolerance,
                 "confidence": self.confidence,
-                "failure_rate_bound": self.failure_rate_bound, "cost": self.cost}
+                "failure_rate_bound": self.failure_rate_bound, "cost": dict(self.cost)}
 
 
 def check_convergence(
@@ -463,8 +294,8 @@ def check_convergence(
     bound = 1.0 if n_conv == 0 else float(beta.ppf(confidence, n - n_conv + 1, n_conv))
     return ConvergenceReport(n, n_conv, n_fail, dist, statuses, int(np.argmax(dist)),
                              float(horizon), float(tolerance), float(confidence), bound, X0,
-                             {"wall_seconds": wall, "build_seconds": build,
-                              "per_sample_seconds": wall / n})
+                             ConvergenceCost(wall_seconds=wall, build_seconds=build,
+                                             per_sample_seconds=wall / n))
 
 
 # ----------------------------------------------------------------------------------------

@@ -37,9 +37,10 @@ import scipy.linalg as sla
 from workbench.control.ocp.stepper import Stepper
 from workbench.core._model import Model
 from workbench.core.errors import ParameterError, SolverError
+from workbench.core.status import StatusEnum, StatusResult
 from workbench.core.types import ArrayLike
 
-__all__ = ["TVLQR", "tvlqr", "tvlqr_along", "ClosedLoopRun", "closed_loop",
+__all__ = ["TVLQR", "tvlqr", "tvlqr_along", "ClosedLoopStatus", "ClosedLoopRun", "closed_loop",
            "perturbed_starts"]
 
 
@@ -314,9 +315,21 @@ def tvlqr_along(
     return tvlqr(model, t, np.array(X), u, x_eq=x_eq, u_eq=u_eq, Q=Q, R=R, rtol=rtol)
 
 
+class ClosedLoopStatus(StatusEnum):
+    """Outcome of :func:`closed_loop`; the value is a readable message."""
+
+    REACHED = "ended within tol of the equilibrium (chart max-norm)"
+    MISSED = "ended farther than tol from the equilibrium"
+    INTEGRATION_FAILED = "the integration failed before the end of the run"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"REACHED"})
+
+
 @dataclass
-class ClosedLoopRun:
-    """One closed-loop simulation.
+class ClosedLoopRun(StatusResult):
+    """One closed-loop simulation (a measurement: :func:`closed_loop` never raises on a miss).
 
     Attributes
     ----------
@@ -327,9 +340,9 @@ class ClosedLoopRun:
     u : ndarray, shape=(n - 1, n_inputs)
         Inputs held.
     final_error : float
-        Max-norm of ``chart(x_eq, x)`` at the end.
-    success : bool
-        ``final_error <= tol``.
+        Max-norm of ``chart(x_eq, x)`` at the end (``inf`` when the integration failed).
+    status : ClosedLoopStatus
+        REACHED (``final_error <= tol``), MISSED or INTEGRATION_FAILED.
     max_abs_u : float
         Largest input component applied.
     """
@@ -338,8 +351,13 @@ class ClosedLoopRun:
     x: np.ndarray
     u: np.ndarray
     final_error: float
-    success: bool
+    status: ClosedLoopStatus
     max_abs_u: float
+
+    @property
+    def success(self) -> bool:
+        """``final_error <= tol`` (the same as ``ok``)."""
+        return self.ok
 
 
 def closed_loop(
@@ -396,9 +414,11 @@ def closed_loop(
     Uarr = np.array(us) if us else np.zeros((0, model.n_inputs))
     err = float(np.max(np.abs(np.asarray(model.manifold.chart(controller.x_eq, X[-1]))))) \
         if len(xs) == K + 1 else float("inf")
+    status = (ClosedLoopStatus.INTEGRATION_FAILED if len(xs) != K + 1
+              else ClosedLoopStatus.REACHED if err <= tol else ClosedLoopStatus.MISSED)
     return ClosedLoopRun(
         t=np.arange(len(xs)) * controller.dt, x=X, u=Uarr, final_error=err,
-        success=bool(err <= tol), max_abs_u=float(np.max(np.abs(Uarr))) if len(us) else 0.0,
+        status=status, max_abs_u=float(np.max(np.abs(Uarr))) if len(us) else 0.0,
     )
 
 
