@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from workbench.core import Model, spd3
+from workbench.core import Model, spd3, validate
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.types import ArrayLike
 
@@ -17,25 +17,20 @@ E3 = np.array([0.0, 0.0, 1.0])
 
 
 def positive_scalar(value: float, name: str, condition: str) -> float:
-    """Return ``value`` as a positive finite float, or raise ``ParameterError``."""
+    """Return ``value`` as a positive finite float, or raise ``ParameterError``.
+
+    A thin use of :func:`workbench.core.validate.positive` (bool, str, complex refused).
+    """
     try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a positive number ({condition}); got {value!r}") \
-            from exc
-    if not np.isfinite(v) or v <= 0:
-        raise ParameterError(f"{name} must be positive and finite ({condition}); got {v!r}")
-    return v
+        return validate.positive(name, value)
+    except ParameterError as exc:
+        raise ParameterError(f"{name} must be positive (a positive number, finite; "
+                             f"{condition}); got {value!r}") from exc
 
 
 def spd_matrix(value: ArrayLike, name: str, condition: str) -> np.ndarray:
     """Return ``value`` as a symmetric positive definite 3x3 array, or raise ``ParameterError``."""
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got {value!r}") from exc
-    if a.shape != (3, 3):
-        raise ParameterError(f"{name} must be a 3x3 matrix ({condition}); got shape {a.shape}")
+    a = validate.array(f"{name} (a 3x3 matrix; {condition})", value, shape=(3, 3))
     msg = spd3(a)
     if msg:
         raise ParameterError(f"{name} {msg.replace('; got', f' ({condition}); got', 1)}")

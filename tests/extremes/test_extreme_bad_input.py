@@ -383,7 +383,7 @@ CASES = [
     # --- controllers and Lyapunov functions
     case("damping-indefinite", lambda: C.angular_velocity_feedback(full(), D=-np.eye(3)), P,
          "D", "symmetric positive definite", "-1."),
-    case("damping-str", lambda: C.angular_velocity_feedback(full(), D="D"), P, "D", "3x3", "'D'"),
+    case("damping-str", lambda: C.angular_velocity_feedback(full(), D="D"), P, "D", "(3, 3)", "'D'"),
     case("damping-nan", lambda: C.angular_velocity_feedback(full(), D=np.full((3, 3), NAN)), P,
          "D", "finite"),
     case("damping-wrong-model",

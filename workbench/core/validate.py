@@ -129,7 +129,7 @@ def _scalar(name: str, value: Any, expected: str, error: type[WorkbenchError]) -
         or not isinstance(value, (numbers.Real, np.integer, np.floating))
     )
     if bad:
-        raise error(f"{name} must be {expected}; got {type(value).__name__} {_show(value)}")
+        raise error(f"{name} must be {expected}; got {_show(value)}")
     return float(value)
 
 
@@ -394,22 +394,25 @@ def array(
     WorkbenchError
         Of class ``error``, naming ``name``, what was expected and what was got.
     """
+    what = "a real numeric array"
+    if shape is not None:
+        what += f" of shape {tuple('n' if w == -1 else int(w) for w in shape)}"
+    elif size is not None:
+        what += f" of {size} entries"
     if value is None or isinstance(value, (str, bytes)):
-        raise error(f"{name} must be a real numeric array; got {type(value).__name__} "
-                    f"{_show(value)}")
+        raise error(f"{name} must be {what}; got {type(value).__name__} {_show(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError) as exc:  # ragged nested lists
-        raise error(f"{name} must be a real numeric array; got {_show(value)}") from exc
+        raise error(f"{name} must be {what}; got {_show(value)}") from exc
     kind = raw.dtype.kind
     if kind == "c":
         raise error(f"{name} must be real; got a complex array {_show(value)} (complex "
                     f"numbers are refused, never truncated to their real part)")
     if kind == "b":
-        raise error(f"{name} must be a real numeric array; got booleans {_show(value)}")
+        raise error(f"{name} must be {what}; got booleans {_show(value)}")
     if kind not in "iuf":
-        raise error(f"{name} must be a real numeric array; got {raw.dtype} entries "
-                    f"{_show(value)}")
+        raise error(f"{name} must be {what}; got {raw.dtype} entries {_show(value)}")
     arr = np.array(raw, dtype=float)
     if shape is not None:
         want = tuple(int(s) for s in shape)

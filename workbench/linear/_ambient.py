@@ -23,6 +23,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import BuildRecord, Model
 from workbench.core.errors import ModelError
@@ -108,7 +109,7 @@ def _jacobians(model: Model, controller: ca.Function | None) -> ca.Function:
 def _input(model: Model, u_e: ArrayLike | None) -> Vector:
     if u_e is None:
         return np.zeros(model.n_inputs)
-    uv = np.asarray(u_e, dtype=float).ravel()
+    uv = validate.array("u_e", u_e, finite=False, error=ModelError).ravel()
     if uv.size != model.n_inputs or not np.all(np.isfinite(uv)):
         raise ModelError(
             f"u_e must be {model.n_inputs} finite numbers for model {model.name!r}; got "
@@ -136,8 +137,7 @@ def _check_point(model: Model, x_e: ArrayLike, u_e: ArrayLike | None, tol: float
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     xe = model.check_state(x_e, name="x_e", tol=manifold_tol)
     ue = _input(model, u_e)
-    if not (np.isfinite(tol) and tol > 0):
-        raise ModelError(f"tol must be positive and finite; got {tol!r}")
+    validate.tolerance("tol", tol, error=ModelError)
     return xe, ue
 
 
@@ -153,11 +153,15 @@ def _equilibrium_jacobians(model: Model, x_e: Vector, u_e: Vector,
     f0, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(x_e, u_e, model.p))
     f0 = f0.ravel()
     res = float(np.max(np.abs(f0))) if f0.size else 0.0
-    if res > tol:
+    # relative to the size of the field's terms near x_e: |df/dx| |x_e| (rounding of x_e)
+    scale = float(np.linalg.norm(Jx, 2) * np.linalg.norm(x_e, np.inf)) if Jx.size else 0.0
+    limit = validate.scaled_tolerance(tol, scale)
+    if not res <= limit:
         loop = "closed-loop " if controller is not None else ""
         raise ModelError(
             f"x_e is not an equilibrium of the {loop}field of {model.name!r}: "
-            f"max |f(x_e, u_e)| = {res:.3g} > tol {tol:.1g} (by factor: "
+            f"max |f(x_e, u_e)| = {res:.3g} > tol * max(1, |df/dx| |x_e|) = {limit:.3g} "
+            f"(tol {tol:.1g}; by factor: "
             f"{_describe_residual(model, f0)}). Linearise only at equilibria (find one "
             f"first), or pass a larger tol."
         )
