@@ -19,6 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import S1, S2, SO3, TS2, Rn
@@ -38,22 +39,13 @@ BATCH = 1024
 
 
 def positive_int(value: Any, name: str, minimum: int = 1) -> int:
-    """Return ``value`` as an int ``>= minimum`` or raise ParameterError naming it."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ParameterError(f"{name} must be an integer >= {minimum}; got {value!r}")
-    return int(value)
+    """Return ``value`` as an int ``>= minimum``: :func:`workbench.core.validate.count`."""
+    return validate.count(name, value, minimum=minimum)
 
 
 def positive_float(value: Any, name: str, *, allow_inf: bool = False) -> float:
-    """Return ``value`` as a positive float (finite unless ``allow_inf``) or raise."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a positive number; got {value!r}") from exc
-    if not (v > 0 and (np.isfinite(v) or (allow_inf and v == np.inf))):
-        raise ParameterError(f"{name} must be a positive{'' if allow_inf else ' finite'} "
-                             f"number; got {value!r}")
-    return v
+    """A positive float (finite unless ``allow_inf``): :func:`workbench.core.validate.positive`."""
+    return validate.positive(name, value, allow_inf=allow_inf)
 
 
 def sphere_directions(k: int, n: int, *, seed: int = 0, iterations: int = 50) -> np.ndarray:
