@@ -1,0 +1,45 @@
+"""The engine names the mechanics layer uses, imported in one place.
+
+The layer depends only on the core room (manifolds, models, errors); keeping the imports
+here means a move of the core touches one file.
+"""
+
+from __future__ import annotations
+
+from workbench.core import (
+    SO3,
+    TS2,
+    Context,
+    Model,
+    ModelError,
+    Parameter,
+    ParameterError,
+    ProductManifold,
+    Rn,
+    Symbolic,
+    finite,
+    hat,
+    nonnegative,
+    positive,
+    sphere_basis,
+    vee,
+)
+
+__all__ = [
+    "Context",
+    "Model",
+    "ModelError",
+    "Parameter",
+    "ParameterError",
+    "ProductManifold",
+    "Rn",
+    "SO3",
+    "TS2",
+    "Symbolic",
+    "finite",
+    "hat",
+    "nonnegative",
+    "positive",
+    "sphere_basis",
+    "vee",
+]

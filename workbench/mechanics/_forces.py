@@ -1,0 +1,90 @@
+"""Potentials and loads: gravity, forces at points, moments, forces on R^k, dissipation.
+
+Every load is a *covector on the configuration*: a pair (target expression ``y(c)``,
+weight ``w``) whose virtual work is ``w . delta y``; the generalised force on a factor's
+velocity is ``K(c)^T (dy/dc)^T w`` (see :mod:`._factors`). All loads are reduced with one
+reverse-mode product ``(dy/dc)^T w`` (``casadi.jtimes``, the weights as seeds):
+
+=====================================  =====================  =======================
+load                                   target ``y(c)``        weight ``w``
+=====================================  =====================  =======================
+world force ``F`` at point ``p(c)``    ``p``                  ``F``
+body-frame force ``F_b`` at ``p(c)``   ``p``                  ``R F_b``
+body moment ``M_b`` on attitude ``R``  ``vec(R)``             ``vec(R hat(M_b) / 2)``
+world moment ``tau`` on an S^2 ``q``   ``q``                  ``tau x q``
+force ``F`` on an R^k factor ``x``     ``x``                  ``F``
+=====================================  =====================  =======================
+
+(``M_b . vee(R^T delta R) = <R hat(M_b), delta R> / 2``; ``q x (tau x q)`` is the part of
+``tau`` normal to ``q``.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+from workbench.mechanics._engine import hat
+
+__all__ = ["Load", "force_at", "body_moment", "sphere_moment", "coordinate_force",
+           "gravity_potential", "load_covector"]
+
+
+@dataclass(eq=False)
+class Load:
+    """A generalised force as a covector on the configuration (see the module table).
+
+    Attributes
+    ----------
+    label : str
+        What it is, for the build log and messages.
+    target : casadi.SX, shape=(d, 1)
+        An expression of the configuration.
+    weight : casadi.SX, shape=(d, 1)
+        The covector's weight (may depend on state, velocity, input and parameters).
+    """
+
+    label: str
+    target: ca.SX
+    weight: ca.SX
+
+
+def force_at(label: str, point: ca.SX, force: ca.SX, attitude: ca.SX | None = None) -> Load:
+    """A force at a point, world frame (or body frame when ``attitude`` is given)."""
+    world = force if attitude is None else attitude @ force
+    return Load(label, point, world)
+
+
+def body_moment(label: str, attitude: ca.SX, moment: ca.SX) -> Load:
+    """A moment on a rigid body, body frame."""
+    return Load(label, ca.vec(attitude), ca.vec(0.5 * attitude @ hat(moment)))
+
+
+def sphere_moment(label: str, q: ca.SX, moment: ca.SX) -> Load:
+    """A world moment on an S^2 factor's direction (only its part normal to ``q`` acts)."""
+    return Load(label, q, ca.cross(moment, q))
+
+
+def coordinate_force(label: str, x: ca.SX, force: ca.SX) -> Load:
+    """A force on the coordinates of an R^k factor."""
+    return Load(label, x, force)
+
+
+def gravity_potential(bodies: list, g: ca.SX, direction: ca.SX) -> ca.SX:
+    """``V = -g sum_k m_k direction . p_com,k`` (``direction`` is where gravity pulls)."""
+    V = ca.SX(0)
+    for b in bodies:
+        com = b.com
+        d = direction[: com.shape[0]]
+        V = V - g * b.mass * ca.dot(d, com)
+    return V
+
+
+def load_covector(loads: list[Load], c: ca.SX) -> ca.SX:
+    """``sum_k (d y_k / dc)^T w_k`` with one reverse sweep, shape=(n_c, 1)."""
+    if not loads:
+        return ca.SX.zeros(c.shape[0], 1)
+    targets = ca.vertcat(*[ld.target for ld in loads])
+    weights = ca.vertcat(*[ld.weight for ld in loads])
+    return ca.jtimes(targets, c, weights, True)
