@@ -13,6 +13,7 @@ from workbench.study import (
     compare_counts,
     compare_spectrum,
     compare_stability,
+    decay_rate,
     line_figure,
     match_spectrum,
     sign_pattern,
@@ -104,6 +105,13 @@ def test_counts_and_stability_of_a_saddle():
     assert [c.ok for c in res.comparisons[3:]] == [False, False]
 
 
+def test_decay_rate_finds_the_slowest_exponent():
+    t = np.linspace(0.0, 40.0, 801)
+    z = 0.5 * np.exp(-0.7 * t) + 1e-3 * np.exp(-3.0 * t)  # the slow mode dominates late
+    assert abs(decay_rate(t, z) + 0.7) < 1e-6
+    assert np.isnan(decay_rate(t[:3], z[:3]))  # too few samples in the band
+
+
 def test_sign_pattern_counts_each_class():
     ev = np.array([0.0, 1e-14, -1.0, -2.0, 3.0, -0.5 + 1j, -0.5 - 1j, 0.2 + 2j])
     sp = sign_pattern(ev, 1e-10)
@@ -125,3 +133,49 @@ def test_result_figure_keeps_caption_and_figures_mapping():
     assert len(spec.axes) == 2  # two panels on one row of at most three
     assert np.allclose(spec.axes[0].lines[2].get_ydata(), [1.0, -1.0])  # Im of computed
     assert len(spec.axes[1].lines) == 3  # no reference ring drawn
+
+
+# ----------------------------------------------------------------------------------------
+# cases and isolated runs (the extremes study's machinery)
+
+
+def _child_facts(x):
+    import os
+
+    return os.getpid(), os.environ.get("OPENBLAS_NUM_THREADS"), 2 * x
+
+
+def _child_raises():
+    raise ParameterError("refused in the child")
+
+
+def _child_dies():
+    import os
+
+    os._exit(3)
+
+
+def test_run_isolated_runs_in_a_fresh_single_threaded_process():
+    import os
+
+    from workbench.study import run_isolated
+
+    pid, threads, doubled = run_isolated(_child_facts, 21)
+    assert pid != os.getpid() and threads == "1" and doubled == 42
+    with pytest.raises(ParameterError, match="refused in the child"):
+        run_isolated(_child_raises)
+    from workbench.core.errors import SolverError
+
+    with pytest.raises(SolverError, match="exit code 3"):
+        run_isolated(_child_dies)
+
+
+def test_cases_count_outcomes_over_groups():
+    from workbench.study import CLEAR, CORRECT, DEFECT, Cases, Check
+
+    cases = Cases()
+    cases.run("a", "ok", lambda: Check("did", 0.5, "m", 1.0))
+    cases.run("a", "above", lambda: Check("did", 2.0, "m", 1.0))
+    cases.run("b", "clear", lambda: (_ for _ in ()).throw(ParameterError("no")))
+    assert cases.outcomes() == {CORRECT: 1, DEFECT: 1, CLEAR: 1}
+    assert [r["case"] for r in cases.groups["a"]] == ["ok", "above"]

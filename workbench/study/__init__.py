@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from workbench.study._cases import CLEAR, CORRECT, DEFECT, Cases, Check, run_isolated
 from workbench.study._compare import (
     SpectrumMatch,
     compare_counts,
     compare_spectrum,
     compare_stability,
+    decay_rate,
     match_spectrum,
     sign_pattern,
 )
@@ -32,11 +34,18 @@ from workbench.study._script import run_script
 
 __all__ = [
     "run_script",
+    "CLEAR",
+    "CORRECT",
+    "DEFECT",
+    "Cases",
+    "Check",
+    "run_isolated",
     "Panel",
     "SpectrumMatch",
     "compare_counts",
     "compare_spectrum",
     "compare_stability",
+    "decay_rate",
     "line_figure",
     "match_spectrum",
     "sign_pattern",

@@ -12,7 +12,9 @@ recurring pieces live here, once:
 * :func:`compare_stability` -- the classification and the number of unstable modes of an
   :class:`~workbench.linear.Eigenstructure`;
 * :func:`sign_pattern` -- how many eigenvalues are zero, real negative, real positive, in
-  each open half plane.
+  each open half plane;
+* :func:`decay_rate` -- the exponential rate of a decaying signal, to set beside a
+  spectral abscissa.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ __all__ = [
     "compare_counts",
     "compare_spectrum",
     "compare_stability",
+    "decay_rate",
     "match_spectrum",
     "sign_pattern",
 ]
@@ -237,3 +240,31 @@ def sign_pattern(eigenvalues: ArrayLike, tol: float) -> dict[str, int]:
         "left_half_plane": int(np.sum(re < -tol)),
         "right_half_plane": int(np.sum(re > tol)),
     }
+
+
+def decay_rate(t: ArrayLike, z: ArrayLike, lo: float = 1e-9, hi: float = 1e-2) -> float:
+    """Least-squares slope of ``log z`` over the later half of the samples with lo < z < hi.
+
+    The later half, so that the faster modes have died out and the slowest one dominates;
+    the band keeps out the start (nonlinear) and the integration noise floor.
+
+    Parameters
+    ----------
+    t : array-like, shape=(n,)
+        Sample times.
+    z : array-like, shape=(n,)
+        A positive decaying signal (e.g. the norm of a chart error).
+    lo, hi : float
+        The band of values used.
+
+    Returns
+    -------
+    float
+        The rate (negative for decay); NaN if fewer than 5 samples qualify.
+    """
+    t, z = np.asarray(t, dtype=float), np.asarray(z, dtype=float)
+    idx = np.flatnonzero((z > lo) & (z < hi))
+    idx = idx[len(idx) // 2:]
+    if idx.size < 5:
+        return float("nan")
+    return float(np.polyfit(t[idx], np.log(z[idx]), 1)[0])
