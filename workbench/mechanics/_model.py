@@ -96,7 +96,7 @@ def check_kinetic_energy(der: Derivation, factors: list, x: np.ndarray, p: np.nd
     worst = max(spans, key=lambda s: float(np.linalg.norm(v[s[1] : s[2]])))
     kind = "singular" if abs(eig[0]) <= PD_RTOL * scale else "not positive definite"
     raise ModelError(
-        f"the kinetic energy is {kind} at the state x = {np.array2string(xs, precision=4)}: "
+        f"the kinetic energy is {kind} at the state x = {np.array2string(xs, precision=4, max_line_width=100000)}: "
         f"smallest eigenvalue {eig[0]:.3g} of the mass matrix on the tangent velocities "
         f"(largest {eig[-1]:.3g}); its direction lies mostly in factor {worst[0].name!r} "
         f"({worst[0].velocity_names})")
@@ -115,7 +115,7 @@ def _check_momenta(model: Model, der: Derivation, x: np.ndarray) -> None:
         if abs(rate) > MOMENTUM_RTOL * max(scale, 1e-300) and abs(rate) > 1e-14:
             raise ModelError(
                 f"declared momentum {name!r} is not conserved: dJ/dt = {rate:.3g} at the "
-                f"state x = {np.array2string(x, precision=4)} with u = 0; the Lagrangian or "
+                f"state x = {np.array2string(x, precision=4, max_line_width=100000)} with u = 0; the Lagrangian or "
                 "the loads are not invariant under its generator")
 
 
