@@ -119,9 +119,15 @@ def test_ball_points_at_distance_delta_in_the_eigenspace(rigid):
 
 def test_ball_points_reports_unreachable_radius(sphere):
     model, _, x_e, _ = sphere
-    W = np.eye(4)[:, :2]
-    with pytest.raises(SolverError, match="could not place points"):
-        ball_points(model, x_e, W, sphere_directions(2, 4), delta=0.3, tol=1e-16, max_iter=1)
+    W = np.eye(4)[:, :2]  # configuration only: the distance is sqrt(2) sin(r / 2) <= sqrt(2)
+    with pytest.raises(SolverError, match="could not place seed 0.*raise max_iter") as err:
+        ball_points(model, x_e, W, sphere_directions(2, 4), delta=0.3, max_iter=1)
+    assert err.value.status == "no_radius"
+    with pytest.raises(SolverError, match=r"too large .* >= pi .*use a smaller delta") as err:
+        ball_points(model, x_e, W, sphere_directions(2, 4), delta=1.5)
+    assert err.value.status == "outside_chart"
+    P, r = ball_points(model, x_e, W, sphere_directions(2, 4), delta=1.0)
+    assert_close(r, np.full(4, np.pi / 2), atol=0, rtol=1e-15, what="sqrt(2) sin(r/2) = 1")
 
 
 # ----------------------------------------------------------------------------------------

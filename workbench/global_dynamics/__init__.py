@@ -42,9 +42,12 @@ from workbench.global_dynamics._sections import (
 from workbench.global_dynamics._seeds import (
     ball_points,
     batch_evaluate,
+    chart_increments,
     direction_spread,
     distances,
     equilibrium_distance,
+    rounding_bound,
+    seed_report,
     sphere_directions,
 )
 
@@ -61,6 +64,7 @@ __all__ = [
     "Validation",
     "ball_points",
     "batch_evaluate",
+    "chart_increments",
     "compare_per_point",
     "cone_integral",
     "direction_spread",
@@ -72,6 +76,8 @@ __all__ = [
     "invariant_manifold",
     "lyapunov_exponent",
     "poincare_map",
+    "rounding_bound",
+    "seed_report",
     "sphere_directions",
     "stabilized_field",
     "stable_manifold",

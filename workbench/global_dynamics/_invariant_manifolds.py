@@ -11,7 +11,8 @@ spread evenly over the unit sphere ``S^{k-1}`` of an orthonormal basis ``W`` of 
 (tangent coordinates of the linearisation,
 :func:`~workbench.global_dynamics._seeds.sphere_directions`), are mapped to the
 state manifold by the retraction, ``x_j = retract(x_e, r_j W u_j)``, with each radius
-``r_j`` chosen so that the distance (12) to the equilibrium is exactly ``delta``::
+``r_j`` chosen so that the distance (12) to the equilibrium is exactly ``delta`` (measured
+in the chart of the retraction, so exact to rounding for any orientation of ``x_e``)::
 
     d(x, x_e) = sum over configuration factors sqrt(Psi) + sum over velocity factors |v - v_e|
 
@@ -58,6 +59,7 @@ from workbench.global_dynamics._seeds import (
     distances,
     positive_float,
     positive_int,
+    seed_report,
     sphere_directions,
 )
 from workbench.linear._eigen import Eigenstructure, Subspace, eigenstructure
@@ -230,8 +232,12 @@ class InvariantManifold:
         batch), ``seconds_per_point_step`` (per evaluated one), ``rhs_evaluations``.
     diagnostics : dict
         ``constraint_residual`` (max over all states, per factor), ``seed_distance_error``
-        (max ``|d - delta| / delta``), ``seed_tangency`` (max relative component of the
-        seeds' chart coordinates outside the eigenspace, ``O(delta)``), ``spread`` (see
+        (max ``|d - delta| / delta``, ``d`` measured in the chart the seeds are placed in),
+        ``seed_ambient_distance_error`` (the same from the stored coordinates) and
+        ``seed_rounding_bound`` (what their rounding allows, ``~EPS / delta``; see
+        :func:`~workbench.global_dynamics._seeds.seed_report`), ``seed_tangency`` (max
+        relative component of the seeds' chart coordinates outside the eigenspace,
+        ``O(delta)``), ``spread`` (see
         :func:`direction_spread`), ``newton`` (largest residual), ``n_stopped``,
         ``max_step_displacement`` (largest ``|h| |x-dot|`` at the stored states of running
         trajectories: the resolution of the fixed step), ``structure``.
@@ -539,7 +545,7 @@ def _diagnostics(m: InvariantManifold, scheme: Scheme, max_res: float, h: float
     run[-1] |= True  # the last (or frozen) state of every trajectory
     states = m.x[run]  # every distinct stored state (stopped ones once, when frozen)
     res = batch_evaluate(_residual_function(model), states).max(axis=0)
-    d0 = distances(model, m.seeds, m.x_e)
+    V = m.radii[:, None] * (m.directions @ m.basis.T)
     chart = np.array([model.manifold.chart(m.x_e, s) for s in m.seeds])
     outside = chart - (chart @ m.basis) @ m.basis.T
     tangency = float(np.max(np.linalg.norm(outside, axis=1) / np.linalg.norm(chart, axis=1)))
@@ -548,7 +554,7 @@ def _diagnostics(m: InvariantManifold, scheme: Scheme, max_res: float, h: float
     speed = np.linalg.norm(batch_evaluate(loop, moving, model.p), axis=1)
     return {
         "constraint_residual": {n: float(r) for n, r in zip(model.manifold.names, res)},
-        "seed_distance_error": float(np.max(np.abs(d0 - m.delta)) / m.delta),
+        **seed_report(model, m.x_e, m.seeds, V, m.delta),
         "seed_tangency": tangency,
         "spread": direction_spread(m.directions) if m.n_points >= 2 else {},
         "newton": {"tol": scheme.newton_tol, "max_residual": max_res},

@@ -9,7 +9,12 @@ its TSO(3) analogue. This module provides the three pieces:
 * :func:`sphere_directions` -- ``n`` unit vectors spread evenly over ``S^{k-1}``
   (``k = 1 .. 5`` here; any ``k``), and :func:`direction_spread` to measure how evenly;
 * :func:`equilibrium_distance` -- the distance (12), generalised factor by factor;
-* :func:`ball_points` -- the seeds ``retract(x_e, r_j W u_j)`` with ``d = delta`` exactly.
+* :func:`ball_points` -- the seeds ``retract(x_e, r_j W u_j)`` with ``d = delta`` exactly,
+  placed in the chart of the retraction at ``x_e`` (:func:`chart_increments`): the
+  increment ``x - x_e`` and its distance come from the tangent vector in closed form, so
+  the distance is ``delta`` to rounding for any equilibrium, not only one with exact
+  coordinates. Measured again from the stored coordinates it differs by their rounding,
+  at most :func:`rounding_bound` (``~EPS / delta`` relative); :func:`seed_report` gives both.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ import numpy as np
 from workbench.core import validate
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
-from workbench.core.manifolds import S1, S2, SO3, TS2, Rn
+from workbench.core.manifolds import S1, S2, SO3, TS2, Rn, sphere_basis
 from workbench.core.types import ArrayLike
 
 __all__ = [
@@ -32,6 +37,11 @@ __all__ = [
     "distances",
     "ball_points",
     "batch_evaluate",
+    "chart_increments",
+    "rounding_bound",
+    "seed_report",
+    "EPS",
+    "SEED_TOL",
 ]
 
 BATCH = 1024
@@ -227,11 +237,171 @@ def distances(model: Model, X: ArrayLike, x_e: ArrayLike) -> np.ndarray:
     return batch_evaluate(equilibrium_distance(model), X, xe).reshape(-1)
 
 
+EPS = float(np.finfo(float).eps)
+"""Spacing of float64 numbers at 1 (twice the unit roundoff)."""
+
+SEED_TOL = 16 * EPS
+"""Default relative tolerance of the seeds' chart distance (about 3.6e-15).
+
+The chart distance of a seed is a composition of fewer than 16 correctly rounded
+operations of its tangent coordinates (a norm of at most 3 squares, a square root, the
+sine of a half angle, a product with sqrt(2), a sum over the factors), each adding at most
+``EPS / 2`` relative error; the fixed point ``r <- r delta / d(r)`` settles within that.
+"""
+
+_SQRT2 = float(np.sqrt(2.0))
+
+
+def _rotation_coefficients(t2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sin t / t`` and ``(1 - cos t) / t^2`` of an array of ``t^2`` (series below 1e-6)."""
+    small = t2 < 1e-6  # the series' truncation error is below 1e-19 there
+    safe = np.where(small, 1.0, t2)
+    t = np.sqrt(safe)
+    a = np.where(small, 1 - t2 / 6 + t2**2 / 120, np.sin(t) / t)
+    b = np.where(small, 0.5 - t2 / 24 + t2**2 / 720, 2 * np.sin(t / 2) ** 2 / safe)
+    return a, b
+
+
+def _rotate_minus_identity(xi: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``(exp(hat(xi)) - I) y`` row by row, as ``a xi x y + b xi x (xi x y)`` (no cancellation)."""
+    a, b = _rotation_coefficients(np.einsum("ij,ij->i", xi, xi))
+    k = np.cross(xi, y)
+    return a[:, None] * k + b[:, None] * np.cross(xi, k)
+
+
+def _factor_increment(f: Any, xe: np.ndarray, V: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Increments ``retract(x_e, v) - x_e`` of one factor, their distance (12), their angle.
+
+    The angle is the rotation of the configuration (0 on R^n); the chart of the retraction
+    is one-to-one for angles below pi.
+    """
+    n = V.shape[0]
+    if isinstance(f, Rn):
+        return V.copy(), np.linalg.norm(V, axis=1), np.zeros(n)
+    if isinstance(f, S1):
+        a = V[:, 0]
+        c1, s = -2 * np.sin(a / 2) ** 2, np.sin(a)  # cos a - 1 without cancellation
+        dx = np.column_stack([c1 * xe[0] - s * xe[1], s * xe[0] + c1 * xe[1]])
+        return dx, _SQRT2 * np.abs(np.sin(a / 2)), np.abs(a)
+    if isinstance(f, (S2, TS2)):
+        B = sphere_basis(xe[:3])
+        xi = V[:, :2] @ B.T
+        theta = np.linalg.norm(xi, axis=1)
+        dq = _rotate_minus_identity(xi, np.broadcast_to(xe[:3], xi.shape))
+        d = _SQRT2 * np.sin(theta / 2)  # |Q q_e - q_e| / sqrt(2), Q = exp(hat(xi))
+        if isinstance(f, S2):
+            return dq, d, theta
+        Beta = V[:, 2:] @ B.T  # w = Q (w_e + B eta): w - w_e = (Q - I)(w_e + B eta) + B eta
+        dw = _rotate_minus_identity(xi, xe[3:] + Beta) + Beta
+        return np.hstack([dq, dw]), d + np.linalg.norm(dw, axis=1), theta
+    if isinstance(f, SO3):
+        theta = np.linalg.norm(V, axis=1)
+        a, b = _rotation_coefficients(theta**2)
+        K = np.zeros((n, 3, 3))
+        K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -V[:, 2], V[:, 1], -V[:, 0]
+        K = K - K.transpose(0, 2, 1)
+        dR = SO3.matrix(xe) @ (a[:, None, None] * K + b[:, None, None] * (K @ K))
+        return dR.transpose(0, 2, 1).reshape(n, 9), _SQRT2 * np.sin(theta / 2), theta
+    raise ModelError(f"no chart distance for factor of kind {f.kind}; supported: R^n, S1, S2, "
+                     f"SO3, TS2")
+
+
+def chart_increments(model: Model, x_e: ArrayLike, V: ArrayLike
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``retract(x_e, v) - x_e`` for rows ``v`` of tangent coordinates, without cancellation.
+
+    The retraction of every factor (``exp(hat(xi)) q`` on S^2 and TS^2, ``R exp(hat(v))`` on
+    SO(3), planar rotation on S^1, translation on R^n) is written as ``x_e`` plus an
+    increment computed from ``v`` (``(exp(hat(xi)) - I) y = a xi x y + b xi x (xi x y)``),
+    and the distance (12) of the increment in closed form: ``sqrt(2) sin(theta / 2)`` for a
+    configuration turned by ``theta`` (S^1, S^2, SO(3); ``|q - q_e| / sqrt(2)`` and
+    ``|R - R_e|_F / 2`` both equal it), ``|w - w_e|`` and ``|v|`` for velocities. Both are
+    exact to a few roundings of ``v``, whatever the coordinates of ``x_e``.
+
+    Parameters
+    ----------
+    model : Model
+        The model (factors R^n, S1, S2, SO3, TS2).
+    x_e : array-like, shape=(ambient_dim,)
+        The centre of the chart.
+    V : array-like, shape=(n, dim)
+        Tangent coordinates at ``x_e`` (the coordinates of ``Model.manifold.retract``).
+
+    Returns
+    -------
+    increments : ndarray, shape=(n, ambient_dim)
+        ``retract(x_e, v) - x_e``.
+    distance : ndarray, shape=(n,)
+        Distance (12) of ``retract(x_e, v)`` to ``x_e``.
+    angle : ndarray, shape=(n,)
+        Largest rotation angle of a configuration factor (the chart is one-to-one below pi).
+    """
+    man = model.manifold
+    xe = np.asarray(x_e, dtype=float).ravel()
+    V2 = np.atleast_2d(np.asarray(V, dtype=float))
+    n = V2.shape[0]
+    D, d, angle = np.empty((n, man.ambient_dim)), np.zeros(n), np.zeros(n)
+    for name, f in man.factors:
+        dx, df, th = _factor_increment(f, xe[man.slices[name]], V2[:, man.tangent_slices[name]])
+        D[:, man.slices[name]] = dx
+        d += df
+        angle = np.maximum(angle, th)
+    return D, d, angle
+
+
+def rounding_bound(model: Model, x_e: ArrayLike, delta: float) -> float:
+    """Bound on ``|d(x, x_e) - delta|`` for seeds stored as ``x = fl(x_e + increment)``.
+
+    Storing ``x_e + increment`` rounds each coordinate by at most ``EPS / 2`` of its size,
+    and ``x - x_e`` is then exact (Sterbenz) or rounded relative to itself; the distance (12)
+    weighs a factor's coordinates by ``c = 1 / sqrt(2)`` (S^1, S^2, the ``q`` of TS^2),
+    ``1 / 2`` (SO(3)) or 1 (velocities). So the distance of a stored seed is within
+    ``EPS / 2 * sum_f c_f |x_f|`` of ``delta``, plus the relative rounding of the increment
+    and of the distance itself (a few ``EPS delta``). Returned with a factor 2 on the first
+    term and 16 on the second: ``EPS * (sum_f c_f |x_e,f| + 16 delta)``.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x_e : array-like, shape=(ambient_dim,)
+        The equilibrium.
+    delta : float
+        The distance of the seeds.
+
+    Returns
+    -------
+    float
+        The absolute bound (relative to ``delta``: divide by ``delta``; ``~0.7 EPS / delta``
+        on S^2 and TS^2, ``~0.9 EPS / delta`` on SO(3) x R^3).
+    """
+    xe = np.asarray(x_e, dtype=float).ravel()
+    total = 0.0
+    for name, f in model.manifold.factors:
+        x = xe[model.manifold.slices[name]]
+        if isinstance(f, TS2):
+            total += np.linalg.norm(x[:3]) / _SQRT2 + np.linalg.norm(x[3:])
+        else:
+            c = 0.5 if isinstance(f, SO3) else 1 / _SQRT2 if isinstance(f, (S1, S2)) else 1.0
+            total += c * np.linalg.norm(x)
+    return EPS * (float(total) + 16 * float(delta))
+
+
 def ball_points(
     model: Model, x_e: ArrayLike, W: ArrayLike, directions: ArrayLike, *, delta: float,
-    tol: float = 1e-12, max_iter: int = 50,
+    tol: float = SEED_TOL, max_iter: int = 50,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """States on ``B_delta``: ``retract(x_e, r_j W u_j)`` at distance (12) exactly ``delta``.
+    """States on ``B_delta``: ``retract(x_e, r_j W u_j)`` at distance (12) ``delta``.
+
+    Each seed is placed in the chart of the retraction at ``x_e``: its tangent vector
+    ``xi_j = r_j W u_j`` gives the increment ``retract(x_e, xi_j) - x_e`` and its distance
+    (12) in closed form (:func:`chart_increments`), the radius ``r_j`` is the fixed point
+    of ``r <- r delta / d(r)`` (``d`` is linear in ``r`` to first order), and the seed is
+    stored as ``x_e + increment``. The distance of the placed seed is ``delta`` to
+    ``tol`` (rounding of the chart, whatever the coordinates of ``x_e``); the distance
+    measured again from the stored ambient coordinates differs from it by their rounding
+    only, at most :func:`rounding_bound` (``~EPS / delta`` relative).
 
     Parameters
     ----------
@@ -246,34 +416,82 @@ def ball_points(
     delta : float
         Radius in the distance (12).
     tol : float
-        Largest accepted ``|d - delta| / delta``.
+        Largest accepted ``|d - delta| / delta`` of the chart distance (default
+        :data:`SEED_TOL`, 16 EPS; it cannot usefully be below the chart's rounding, ~8 EPS).
     max_iter : int
-        Iterations of ``r <- r delta / d(r)`` (``d`` is linear in ``r`` to first order).
+        Iterations of ``r <- r delta / d(r)`` (two or three suffice below ``delta = 0.1``).
 
     Returns
     -------
     points : ndarray, shape=(n, ambient_dim)
     radii : ndarray, shape=(n,)
-        ``r_j``, the tangent-coordinate length of ``r_j W u_j`` divided by ``|W u_j|``.
+        ``r_j``: the seeds are ``retract(x_e, r_j W u_j)``.
 
     Raises
     ------
     SolverError
-        If the radii do not reach the tolerance (``delta`` too large for the retraction).
+        ``delta`` is too large for the chart (a configuration would turn by pi or more:
+        status ``outside_chart``; use a smaller ``delta``), or the radii did not settle
+        within ``tol`` in ``max_iter`` iterations (status ``no_radius``).
     """
     delta = positive_float(delta, "delta")
-    man = model.manifold
+    tol = positive_float(tol, "tol")
+    max_iter = positive_int(max_iter, "max_iter")
     xe = np.asarray(x_e, dtype=float).ravel()
     V = np.asarray(directions, dtype=float) @ np.asarray(W, dtype=float).T  # (n, dim)
     r = np.full(V.shape[0], delta)
     for _ in range(max_iter):
-        P = np.array([man.retract(xe, ri * v) for ri, v in zip(r, V)])
-        d = distances(model, P, xe)
+        D, d, angle = chart_increments(model, xe, r[:, None] * V)
         err = np.abs(d - delta) / delta
-        if np.all(err <= tol):
-            return P, r
+        # iterate on to a quarter of tol (the rounding of d is ~3 EPS), accept within tol
+        if np.all(err <= tol / 4) or np.any(angle >= np.pi):
+            break
         r = r * delta / d
-    raise SolverError(
-        f"could not place points at distance delta = {delta:.3g} from the equilibrium: "
-        f"relative error {float(err.max()):.3g} > {tol:.1g} after {max_iter} iterations "
-        f"(delta is too large for the retraction); use a smaller delta", status="no_radius")
+    if np.any(angle >= np.pi):
+        j = int(np.argmax(angle))
+        raise SolverError(
+            f"delta = {delta:.3g} is too large for the chart of the retraction at the "
+            f"equilibrium: seed {j} would turn a configuration by {angle[j]:.4g} rad >= pi "
+            f"(its distance (12) was {d[j]:.4g}), beyond which the chart is not one-to-one; "
+            f"use a smaller delta", status="outside_chart")
+    if not np.all(err <= tol):
+        j = int(np.argmax(err))
+        raise SolverError(
+            f"could not place seed {j} at distance delta = {delta:.3g} from the equilibrium: "
+            f"the relative error of its chart distance is {err[j]:.3g} > tol = {tol:.3g} "
+            f"after max_iter = {max_iter} iterations of r <- r delta / d(r); raise max_iter, "
+            f"or raise tol (the chart distance is exact only to its rounding, about "
+            f"{8 * EPS:.1g} relative)", status="no_radius")
+    return xe + D, r
+
+
+def seed_report(model: Model, x_e: ArrayLike, seeds: ArrayLike, V: ArrayLike, delta: float
+                ) -> dict[str, float]:
+    """How exactly the seeds lie at distance ``delta``: in the chart and from their coordinates.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x_e : array-like, shape=(ambient_dim,)
+        The equilibrium.
+    seeds : array-like, shape=(n, ambient_dim)
+        The stored seeds.
+    V : array-like, shape=(n, dim)
+        Their tangent vectors ``r_j W u_j``.
+    delta : float
+        The intended distance.
+
+    Returns
+    -------
+    dict
+        ``seed_distance_error`` (max relative ``|d - delta|`` of the chart distance),
+        ``seed_ambient_distance_error`` (the same measured from the stored coordinates by
+        :func:`distances`) and ``seed_rounding_bound`` (:func:`rounding_bound` over
+        ``delta``: the ambient error cannot exceed it unless the seeds are wrong).
+    """
+    _, d, _ = chart_increments(model, x_e, V)
+    amb = distances(model, seeds, x_e)
+    return {"seed_distance_error": float(np.max(np.abs(d - delta)) / delta),
+            "seed_ambient_distance_error": float(np.max(np.abs(amb - delta)) / delta),
+            "seed_rounding_bound": rounding_bound(model, x_e, delta) / delta}

@@ -1,0 +1,221 @@
+"""Seeds on B_delta and stable manifolds for saddles in any orientation (issue 19).
+
+The saddles: the inverted equilibrium ``(-q_d, 0)`` of the spherical pendulum under the
+PD law of paper 002 Sec. II-A with a random desired direction ``q_d``, and the saddles
+``R_d exp(pi hat(e_i))`` of the PD law on SO(3) (Sec. III-A) with a random ``R_d`` (all
+seeded). Neither has exact coordinates, which is what made the old seed placement fail.
+
+Tolerances, from rounding (``EPS`` = 2.2e-16):
+
+* the seeds' distance in the chart they are placed in: ``SEED_TOL`` = 16 EPS (the chart
+  distance is a composition of fewer than 16 rounded operations);
+* the distance measured again from the stored coordinates: :func:`rounding_bound`,
+  ``EPS (sum_f c_f |x_e,f| + 16 delta)``, twice the worst storage rounding (each stored
+  coordinate is within EPS / 2 of ``x_e + increment``) plus the relative rounding; about
+  ``0.7 EPS / delta`` relative, i.e. 1.6e-8 at delta = 1e-8 -- no placement can do better,
+  since a stored coordinate near 1 cannot move by less than EPS / 2;
+* agreement with the factor's own retraction: 4 EPS (measured: 1 EPS; both round a
+  rotation of unit vectors);
+* the constraint residual of the seeds: that of ``x_e`` plus 4 EPS (``x_e + increment``
+  with an exact increment lies on the manifold; measured: equal to that of ``x_e``);
+* tangency to the stable eigenspace: the manifold's chart (``B^T (q_e x q)``, ``vee(R_e^T
+  R - R^T R_e) / 2``) differs from the retraction's by ``O(delta)`` (curvature) and its
+  evaluation from stored coordinates by ``O(EPS / delta)``: bounded by ``delta + EPS /
+  delta`` (measured: at most 0.3 of it).
+
+Forward-flow checks: points of the computed manifold are integrated forward with CVODES
+(:func:`validate`): their closest approach to the saddle must be below 1e-3 of their
+start distance and below 10 delta, i.e. back in B_delta (measured: ratios <= 1.5e-9 on S^2
+and <= 2.4e-5 on SO(3), where the slowest stable rate is 0.05; closest 2.4e-11 and 1.8e-6),
+while the same points moved off the manifold by p = 1e-3 (a seeded tangent direction) come
+no closer than p / 10 (their component along the unstable directions does not shrink
+forward; measured >= 4.5e-4) and end far from the saddle (distance > 1; they go to the
+desired equilibrium ``(q_d, 0)`` or ``(R_d, 0)``; measured >= 1.41).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models import controllers as ctl
+from models import pendulum3d as p3
+from models.spherical import spherical_pendulum
+from workbench.core.errors import SolverError
+from workbench.core.manifolds import SO3
+from workbench.global_dynamics._invariant_manifolds import stable_manifold
+from workbench.global_dynamics._manifold_validation import validate
+from workbench.global_dynamics._seeds import (
+    EPS,
+    SEED_TOL,
+    ball_points,
+    distances,
+    rounding_bound,
+    seed_report,
+    sphere_directions,
+)
+from workbench.linear import Subspace, eigenstructure, linearize
+from workbench.simulation import Method
+
+N_ORIENTATIONS = 20
+DELTAS = [1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3]
+S2_MODEL = spherical_pendulum(m=1.0, l=1.0, g=9.81)
+SO3_MODEL = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.3])
+
+
+def flip(i: int) -> np.ndarray:
+    """``exp(pi hat(e_i)) = 2 e_i e_i^T - I``."""
+    e = np.eye(3)[i]
+    return 2 * np.outer(e, e) - np.eye(3)
+
+
+def s2_saddle(k: int):
+    """The k-th seeded random orientation on S^2: (model, controller, saddle, goal)."""
+    q_d = np.random.default_rng([19, 2, k]).standard_normal(3)
+    q_d /= np.linalg.norm(q_d)
+    ctrl = ctl.s2_pd(S2_MODEL, q_d, k_q=1.0, k_w=1.0)
+    return S2_MODEL, ctrl, np.r_[-q_d, np.zeros(3)], np.r_[q_d, np.zeros(3)]
+
+
+def so3_saddle(k: int):
+    """The k-th seeded random saddle ``R_d exp(pi hat(e_i))`` of PD on SO(3)."""
+    rng = np.random.default_rng([19, 3, k])
+    R_d = SO3.matrix(SO3().random_point(rng))
+    i = int(rng.integers(3))
+    ctrl = ctl.so3_pd(SO3_MODEL, R_d, k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
+    x_e = np.r_[SO3.flat(R_d @ flip(i)), np.zeros(3)]
+    return SO3_MODEL, ctrl, x_e, np.r_[SO3.flat(R_d), np.zeros(3)]
+
+
+SADDLES = {"S2": s2_saddle, "SO3": so3_saddle}
+
+
+def stable_basis(model, ctrl, x_e):
+    """Linearised equilibrium and an orthonormal basis of its stable eigenspace."""
+    lin = linearize(model, x_e, controller=ctrl)
+    return lin.x_e, eigenstructure(lin).subspace(Subspace.STABLE)
+
+
+def residual(model, x) -> float:
+    """Largest constraint residual of a state (all factors)."""
+    return float(np.max(np.abs(model.manifold.residual(x))))
+
+
+# ----------------------------------------------------------------------------------------
+# seeds
+
+
+@pytest.mark.parametrize("space", ["S2", "SO3"])
+def test_seeds_at_distance_delta_for_random_saddles(space):
+    for k in range(N_ORIENTATIONS):
+        model, ctrl, x_e, _ = SADDLES[space](k)
+        xe, W = stable_basis(model, ctrl, x_e)
+        assert W.shape[1] >= 2  # a saddle (S^2: 2; SO(3): 3, 4 or 5 stable modes)
+        U = sphere_directions(W.shape[1], 12)
+        for delta in DELTAS:
+            P, r = ball_points(model, xe, W, U, delta=delta)
+            V = r[:, None] * (U @ W.T)
+            rep = seed_report(model, xe, P, V, delta)
+            assert rep["seed_distance_error"] <= SEED_TOL
+            # measured again from the stored coordinates: only their rounding
+            d = distances(model, P, xe)
+            bound = rounding_bound(model, xe, delta)
+            assert np.max(np.abs(d - delta)) <= bound
+            # the factor's own retraction of the same tangent vectors
+            ref = np.array([model.manifold.retract(xe, v) for v in V])
+            assert np.max(np.abs(P - ref)) <= 4 * EPS
+            # on the manifold
+            assert max(residual(model, p) for p in P) <= residual(model, xe) + 4 * EPS
+            # in the stable eigenspace, to the curvature of the chart and the rounding
+            C = np.array([model.manifold.chart(xe, p) for p in P])
+            out = np.linalg.norm(C - (C @ W) @ W.T, axis=1) / np.linalg.norm(C, axis=1)
+            assert np.max(out) <= delta + EPS / delta
+
+
+@pytest.mark.parametrize("q_d", [[0.0, 0.6, 0.8], [0.0, 0.0, 1.0]])
+@pytest.mark.parametrize("delta", [1e-8, 1e-6, 1e-5])
+def test_issue_19_tilted_desired_direction(q_d, delta):
+    """The issue's case: the old placement raised for every delta <= 1e-5 with (0, .6, .8)."""
+    model = S2_MODEL
+    ctrl = ctl.s2_pd(model, q_d, k_q=1.0, k_w=1.0)
+    x_e = np.r_[-np.asarray(q_d), np.zeros(3)]
+    W = stable_manifold(model, x_e, controller=ctrl, delta=delta, n_points=8, horizon=0.5,
+                        step=0.05, output_step=0.5)
+    assert W.diagnostics["seed_distance_error"] <= SEED_TOL
+    assert W.diagnostics["seed_ambient_distance_error"] <= W.diagnostics["seed_rounding_bound"]
+    assert W.diagnostics["seed_rounding_bound"] < EPS / delta  # 0.7 EPS / delta + 16 EPS
+
+
+def test_too_large_delta_names_the_chart_and_the_knob():
+    model, ctrl, x_e, _ = s2_saddle(0)
+    xe, W = stable_basis(model, ctrl, x_e)
+    with pytest.raises(SolverError, match=r"turn a configuration by .* >= pi.*use a smaller "
+                                          r"delta") as err:
+        ball_points(model, xe, W, sphere_directions(2, 4), delta=50.0)
+    assert err.value.status == "outside_chart"
+    with pytest.raises(SolverError, match=r"relative error .* > tol = 1e-17 .* raise max_iter, "
+                                          r"or raise tol") as err:
+        ball_points(model, xe, W, sphere_directions(2, 4), delta=1e-6, tol=1e-17)
+    assert err.value.status == "no_radius"
+
+
+# ----------------------------------------------------------------------------------------
+# stable manifolds at delta = 1e-6, validated by forward flow
+
+# space -> (n_points, horizon, step, validation time, extra time)
+GROW = {"S2": (4, 6.0, 0.01, 6.0, 15.0), "SO3": (8, 10.0, 0.02, 10.0, 30.0)}
+
+
+def grow_and_validate(space: str, k: int, *, n_points: int, horizon: float, step: float,
+                      times: list[float], n_per_time: int, extra: float):
+    model, ctrl, x_e, goal = SADDLES[space](k)
+    W = stable_manifold(model, x_e, controller=ctrl, delta=1e-6, n_points=n_points,
+                        horizon=horizon, step=step, output_step=0.5, method=Method.RKMK4)
+    val = validate(W, times=times, n_per_time=n_per_time, min_distance=1e-3,
+                   extra_time=extra, perturbation=1e-3, seed=k, target=goal)
+    return W, val
+
+
+def check_manifold(W, val) -> dict[str, float]:
+    """The seeds, the constraint, and forward flow: on it to the saddle, off it away."""
+    assert W.diagnostics["seed_distance_error"] <= SEED_TOL
+    assert W.diagnostics["seed_ambient_distance_error"] <= W.diagnostics["seed_rounding_bound"]
+    assert max(W.diagnostics["constraint_residual"].values()) < 1e-13  # RKMK4 stays on it
+    assert np.max(W.distance()[-1]) > 1e-3  # grown well beyond B_delta
+    on_closest = max(r["d_min"] for r in val.on)
+    off_closest = min(r["d_min"] for r in val.off)
+    assert val.worst_ratio < 1e-3  # on the manifold: forward to the saddle ...
+    assert on_closest < 10 * W.delta  # ... back into B_delta (F^t F^-t = id, (10))
+    assert off_closest > 1e-4  # off it by 1e-3: never closer than a tenth of that
+    assert val.least_escape > 1.0  # ... and gone (to the stable equilibrium)
+    return {"on_ratio": val.worst_ratio, "on_closest": on_closest,
+            "off_closest": off_closest, "escape": val.least_escape}
+
+
+@pytest.mark.parametrize("k", range(N_ORIENTATIONS))
+@pytest.mark.parametrize("space", ["S2", "SO3"])
+def test_stable_manifold_random_saddle_forward_flow(space, k):
+    n_points, horizon, step, t_val, extra = GROW[space]
+    W, val = grow_and_validate(space, k, n_points=n_points, horizon=horizon, step=step,
+                               times=[t_val], n_per_time=2, extra=extra)
+    assert len(val.on) == len(val.off) == 2
+    check_manifold(W, val)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("space", ["S2", "SO3"])
+def test_stable_manifolds_random_saddles_sweep(space):
+    """Denser seeds, longer horizons, two validation times, every delta, 20 orientations."""
+    n_points, horizon, step, t_val, extra = GROW[space]
+    for k in range(N_ORIENTATIONS):
+        W, val = grow_and_validate(space, k, n_points=6 * n_points, horizon=horizon + 2.0,
+                                   step=step / 2, times=[t_val, horizon + 2.0], n_per_time=4,
+                                   extra=extra)
+        check_manifold(W, val)
+        model, ctrl, x_e, _ = SADDLES[space](k)
+        for delta in DELTAS:
+            M = stable_manifold(model, x_e, controller=ctrl, delta=delta, n_points=n_points,
+                                horizon=1.0, step=step, output_step=0.5)
+            assert M.diagnostics["seed_distance_error"] <= SEED_TOL
+            assert (M.diagnostics["seed_ambient_distance_error"]
+                    <= M.diagnostics["seed_rounding_bound"])
