@@ -11,6 +11,7 @@ from workbench.study import (
     Panel,
     Result,
     compare_counts,
+    compare_rows,
     compare_spectrum,
     compare_stability,
     decay_rate,
@@ -93,6 +94,21 @@ def test_compare_spectrum_records_worst_or_each():
     compare_spectrum(res, "parts", ref + (3e-5 + 3e-5j), ref, tolerance=5e-5, source="s",
                      parts=True)
     assert res.comparisons[-1].ok and np.isclose(res.comparisons[-1].workbench, 3e-5)
+
+
+def test_compare_rows_records_each_row_with_its_source():
+    res = Result("t", "t")
+    rows = compare_rows(res, [("a", 1.0, 1.0 + 1e-10, 1e-9),
+                              ("b", 2.0, 2.5, 0.1, "own source")], source="default")
+    assert [(c.quantity, c.source, c.ok) for c in rows] == [("a", "default", True),
+                                                            ("b", "own source", False)]
+    rel = compare_rows(res, [("c", 100.0, 101.0, 0.02)], source="s", relative=True)
+    assert rel[0].ok and np.isclose(rel[0].deviation, 0.01)
+    with pytest.raises(ParameterError, match="source"):
+        compare_rows(res, [("d", 0.0, 0.0, 1.0)])
+    with pytest.raises(ParameterError, match="row"):
+        compare_rows(res, [("e", 0.0, 0.0)], source="s")
+    assert len(res.comparisons) == 3
 
 
 def test_counts_and_stability_of_a_saddle():

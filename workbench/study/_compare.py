@@ -8,6 +8,8 @@ recurring pieces live here, once:
   one to one, whatever the order of either list);
 * :func:`compare_spectrum` -- records that match as comparisons (one for the worst
   eigenvalue, or one per eigenvalue);
+* :func:`compare_rows` -- a table of comparisons, one row each (quantity, reference,
+  workbench, tolerance, and optionally the source);
 * :func:`compare_counts` -- exact integer comparisons (dimensions, numbers of modes);
 * :func:`compare_stability` -- the classification and the number of unstable modes of an
   :class:`~workbench.linear.Eigenstructure`;
@@ -19,7 +21,7 @@ recurring pieces live here, once:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +35,7 @@ from workbench.study._result import Comparison, Result
 __all__ = [
     "SpectrumMatch",
     "compare_counts",
+    "compare_rows",
     "compare_spectrum",
     "compare_stability",
     "decay_rate",
@@ -161,6 +164,43 @@ def _short(z: complex) -> str:
     if abs(z.imag) <= 1e-15 * max(1.0, abs(z)):
         return f"{z.real:.6g}"
     return f"{z.real:.6g}{z.imag:+.6g}i"
+
+
+def compare_rows(res: Result, rows: Iterable[Sequence[Any]], *, source: str | None = None,
+                 relative: bool = False) -> list[Comparison]:
+    """Record a table of comparisons, one per row.
+
+    Parameters
+    ----------
+    res : Result
+        Where the comparisons go.
+    rows : iterable of tuple
+        ``(quantity, reference, workbench, tolerance)`` or
+        ``(quantity, reference, workbench, tolerance, source)``.
+    source : str, optional
+        The source of the rows that give none.
+    relative : bool
+        Whether deviations and tolerances are relative (for every row).
+
+    Returns
+    -------
+    list of Comparison
+
+    Raises
+    ------
+    ParameterError
+        If a row has neither its own source nor a default, or has the wrong length.
+    """
+    out = []
+    for row in rows:
+        if len(row) not in (4, 5) or (len(row) == 4 and source is None):
+            raise ParameterError("a comparison row is (quantity, reference, workbench, "
+                                 f"tolerance[, source]) with a source somewhere; got {row!r}")
+        quantity, reference, workbench, tolerance = row[:4]
+        out.append(res.compare(quantity, reference, workbench, tolerance=tolerance,
+                               source=row[4] if len(row) == 5 else source,
+                               relative=relative))
+    return out
 
 
 def compare_counts(res: Result, label: str, checks: Mapping[str, tuple[int, int]], *,
