@@ -19,7 +19,8 @@ from workbench.core import Context, Model
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import SO3, Rn
 
-__all__ = ["cart_lyapunov", "hanging_set_level", "velocity_feedback_lyapunov"]
+__all__ = ["cart_lyapunov", "hanging_distance", "hanging_set_level",
+           "velocity_feedback_lyapunov"]
 
 
 def velocity_feedback_lyapunov(model: Model) -> Lyapunov:
@@ -57,6 +58,31 @@ def velocity_feedback_lyapunov(model: Model) -> Lyapunov:
 
     return Lyapunov(model, V, name="V30", description="paper 001 (30)",
                     equation=r"V = \tfrac12[\omega^TJ\omega + mg\|\rho\|\|\Gamma-\Gamma_h\|^2]")
+
+
+def hanging_distance(model: Model) -> ca.Function:
+    """``(x, p) -> angle(Gamma, Gamma_h) + |omega|`` on the reduced 3D pendulum (radians).
+
+    A distance to the hanging equilibrium ``(Gamma_h, 0)``, ``Gamma_h = rho / |rho|`` (the
+    values of ``model``), with the angle by ``atan2`` (accurate near 0 and pi); for
+    convergence checks of paper 001's feedbacks.
+
+    Parameters
+    ----------
+    model : Model
+        The reduced model on S^2 x R^3 (factors ``Gamma``, ``omega``).
+
+    Returns
+    -------
+    casadi.Function
+        ``hanging_distance(x, p) -> d``.
+    """
+    x = ca.SX.sym("x", model.manifold.ambient_dim)
+    p = ca.SX.sym("p", model.n_params)
+    gam, w = x[0:3], x[3:6]
+    gh = ca.DM(model.values["rho"] / np.linalg.norm(model.values["rho"]))
+    ang = ca.atan2(ca.norm_2(ca.cross(gam, gh)), ca.dot(gam, gh))
+    return ca.Function("hanging_distance", [x, p], [ang + ca.norm_2(w)], ["x", "p"], ["d"])
 
 
 def hanging_set_level(model: Model, *, eps: float = 0.0) -> float:

@@ -1,33 +1,25 @@
 """Saturated angular-velocity feedback stabilises the hanging manifold (paper 001 Sec. 7).
 
-The 3D pendulum of paper 001 Section 7 (J = [[30, 20, 7], [20, 40, 0], [7, 0, 50]],
-m = 100, rho = (0, 0, 0.2), g = 10) under u = -k P omega / (1 + |P omega|) (34) with
-P = diag(5, 10, 15), k = 10, from the printed R(0) (projected onto SO(3) explicitly, the
-projection reported: the printed matrix is rounded, see the errata) and omega(0) = 0.
-
-Input consistency (a note, not a comparison): Theta(0) (the angle between Gamma = R^T e3
-and Gamma_h, computed from the two vectors) against the printed 179.2 deg.
-
-Measured: Theta and |omega| at the horizon; max |u| against
-the bound k; V of (30) along the trajectory (non-increasing) and V-dot from the graph
-(non-positive); membership of x(0) in N (33). Then Theorem 1 and Theorem 2 by sampling:
-states drawn from N, and states drawn over all of TSO(3)/S^1 = S^2 x R^3 (seeded), all
-converge to the hanging equilibrium; a state on the inverted equilibrium does not.
-Figures like Figs. 3-5 (omega, Theta, |u|) and V(t).
+A 3D pendulum damped only through its angular velocity, with a torque that never exceeds
+its bound, is released from almost upside down (paper 001 Section 7, Figs. 3-5). It swings
+down to hanging as Theorem 3 says, its Lyapunov function never rises, and random states
+(from the paper's set N and from anywhere) all converge to hanging, as Theorems 1 and 2
+say; only the inverted equilibrium itself stays. The printed initial attitude is not quite
+a rotation matrix, and the paper's final angle is reproduced only from the unrepaired
+matrix (an erratum).
 """
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
 from models import controllers as ctl
 from models import pendulum3d as p3
+from models.lyapunov_functions import hanging_distance
 from workbench.control import SublevelSet, check_convergence
-from workbench.core import Model
 from workbench.core.manifolds import SO3
 from workbench.simulation import simulate
-from workbench.study import Result
+from workbench.study import Panel, Result, line_figure
 
 TITLE = "Saturated velocity feedback stabilises the hanging manifold; almost-global (paper 001)"
 
@@ -46,16 +38,6 @@ def angle_deg(gamma: np.ndarray, gamma_h: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(np.linalg.norm(np.cross(g, gamma_h), axis=1), g @ gamma_h))
 
 
-def hanging_distance(model: Model) -> ca.Function:
-    """``(x, p) -> angle(Gamma, Gamma_h) + |omega|`` on the reduced model (radians)."""
-    x = ca.SX.sym("x", model.manifold.ambient_dim)
-    p = ca.SX.sym("p", model.n_params)
-    gam, w = x[0:3], x[3:6]
-    gh = ca.DM(model.values["rho"] / np.linalg.norm(model.values["rho"]))
-    ang = ca.atan2(ca.norm_2(ca.cross(gam, gh)), ca.dot(gam, gh))
-    return ca.Function("hanging_distance", [x, p], [ang + ca.norm_2(w)], ["x", "p"], ["d"])
-
-
 def solve(*, quick: bool = False) -> Result:
     """Run the problem.
 
@@ -67,6 +49,23 @@ def solve(*, quick: bool = False) -> Result:
     Returns
     -------
     Result
+
+    Notes
+    -----
+    The 3D pendulum of paper 001 Section 7 (J = [[30, 20, 7], [20, 40, 0], [7, 0, 50]], m =
+    100, rho = (0, 0, 0.2), g = 10) under u = -k P omega / (1 + |P omega|) (34) with P =
+    diag(5, 10, 15), k = 10, from the printed R(0) (projected onto SO(3) explicitly, the
+    projection reported: the printed matrix is rounded, see the errata) and omega(0) = 0.
+
+    Input consistency (a note, not a comparison): Theta(0) (the angle between Gamma = R^T e3
+    and Gamma_h, computed from the two vectors) against the printed 179.2 deg.
+
+    Measured: Theta and |omega| at the horizon; max |u| against the bound k; V of (30) along
+    the trajectory (non-increasing) and V-dot from the graph (non-positive); membership of
+    x(0) in N (33). Then Theorem 1 and Theorem 2 by sampling: states drawn from N, and
+    states drawn over all of TSO(3)/S^1 = S^2 x R^3 (seeded), all converge to the hanging
+    equilibrium; a state on the inverted equilibrium does not. Figures like Figs. 3-5
+    (omega, Theta, |u|) and V(t).
     """
     res = Result("velocity_feedback_hanging", TITLE, quick=quick)
     horizon = 60.0 if quick else 100.0
@@ -180,30 +179,20 @@ def solve(*, quick: bool = False) -> Result:
                                "Gamma uniform on S^2, omega ~ N(0, I) rad/s, seed 2007"},
         "trajectory": tr.summary(),
     }
-    res.figures["figs_3_5"] = _figure(tr.t, tr.x[:, 9:], theta, unorm, Vt)
+    res.figure("figs_3_5", line_figure([
+        Panel("angular velocity (Fig. 3)", {f"omega_{i + 1}": (t, np.degrees(tr.x[:, 9 + i]))
+                                            for i in range(3)}, xlabel="t [s]", ylabel="deg/s"),
+        Panel("attitude error Theta (Fig. 4)", {"Theta": (t, theta)}, xlabel="t [s]",
+              ylabel="deg"),
+        Panel("|u| (Fig. 5) and its bound k", {"|u|": (t, unorm), "k": (t[[0, -1]], [K_SAT] * 2)},
+              xlabel="t [s]", ylabel="N m"),
+        Panel("Lyapunov function V (30)", {"V": (t, np.maximum(Vt, 1e-300))}, xlabel="t [s]",
+              yscale="log")]), caption=(
+        "The 3D pendulum of paper 001 Section 7 under the saturated velocity feedback (34), "
+        "from the printed (projected) initial attitude 179.2 deg from hanging: angular "
+        "velocity, attitude error, torque within its bound k, and the Lyapunov function, "
+        "which never rises (paper 001 Figs. 3-5)."))
     return res.finish()
-
-
-def _figure(t, w, theta, unorm, V):  # noqa: ANN001, ANN202
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(2, 2, figsize=(9, 6))
-    for k in range(3):
-        ax[0, 0].plot(t, np.degrees(w[:, k]), label=f"omega_{k + 1}")
-    ax[0, 0].set(title="angular velocity (Fig. 3)", xlabel="t [s]", ylabel="deg/s")
-    ax[0, 0].legend()
-    ax[0, 1].plot(t, theta)
-    ax[0, 1].set(title="attitude error Theta (Fig. 4)", xlabel="t [s]", ylabel="deg")
-    ax[1, 0].plot(t, unorm)
-    ax[1, 0].axhline(K_SAT, ls="--", c="k", lw=0.8)
-    ax[1, 0].set(title="|u| (Fig. 5), bound k dashed", xlabel="t [s]", ylabel="N m")
-    ax[1, 1].semilogy(t, np.maximum(V, 1e-300))
-    ax[1, 1].set(title="Lyapunov function V (30)", xlabel="t [s]")
-    fig.tight_layout()
-    return fig
 
 
 if __name__ == "__main__":
