@@ -11,8 +11,8 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
+from models.chain_cart_reference import paper_matrices as chain_paper_matrices
 from models.spherical import spherical_pendulum
-from problems.chain_linearization import paper_matrices as chain_paper_matrices
 from workbench.core.errors import ModelError
 from workbench.core.manifolds import hat, so3_exp
 from workbench.linear._controllability import (
