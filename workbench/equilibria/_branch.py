@@ -1,7 +1,8 @@
 """Branches of zeros: what a continuation returns, and the knobs it takes.
 
-:class:`StepControl` holds every knob of :func:`workbench.equilibria._continuation.continue_branch` that
-trades speed for accuracy; :class:`Branch` is a traced branch with its cost and accuracy;
+:class:`StepControl` holds every knob of
+:func:`workbench.equilibria._continuation.continue_branch` that trades speed for accuracy;
+:class:`Branch` is a traced branch with its cost and accuracy;
 :class:`SpecialPoint` a located event, bound, branch point or change of classification;
 :class:`BranchSwitch` the starts on the other branch through a branch point.
 """

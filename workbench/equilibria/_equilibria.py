@@ -1,7 +1,7 @@
 """Equilibria of models: ``f(x, u) = 0`` by Newton on the state manifold.
 
-:func:`find_equilibrium` applies :func:`workbench.equilibria._roots.newton_on_manifold` to the model's
-cached ``f`` and ``f_x`` graphs (the retraction keeps every iterate on the manifold; the
+:func:`find_equilibrium` applies :func:`workbench.equilibria._roots.newton_on_manifold` to
+the model's cached ``f`` and ``f_x`` graphs (the retraction keeps every iterate on the manifold; the
 minimum-norm step handles non-isolated equilibria, whose local dimension it reports);
 :func:`enumerate_equilibria` solves from a list of guesses, for models whose structure names
 the candidates (the ``2^n`` vertical configurations of a chain), and keeps the distinct
