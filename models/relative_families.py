@@ -198,7 +198,7 @@ def trace_relative_equilibria(
     pending_ends = list(ends)
 
     def run(y: Vector, d: Vector, origin: str) -> None:
-        b = continue_branch(problem, y, direction=d, **opts)
+        b = continue_branch(problem, y, direction=d, raise_on_failure=False, **opts)
         branches.append(b)
         origins.append(origin)
         for sp in b.specials(PointKind.BRANCH_POINT):
