@@ -37,6 +37,7 @@ from workbench.codegen.build import (
     compile_sources,
 )
 from workbench.codegen.csource import CSources, generate
+from workbench.codegen.feedback import export_feedback, feedback_controller
 from workbench.codegen.spec import Binding, Entry, ExportableController
 
 __all__ = [
@@ -58,5 +59,7 @@ __all__ = [
     "compile_controller",
     "compile_sources",
     "export_c",
+    "export_feedback",
+    "feedback_controller",
     "generate",
 ]
