@@ -17,8 +17,8 @@ import scipy.linalg as sla
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.core.manifolds import so3_exp
-from workbench.linear import Stability, eigenstructure, linearize
+from models.so3_pd_reference import PRINTED, printed_stable_subspace
+from workbench.linear import eigenstructure, linearize
 from workbench.study import Result, compare_spectrum, compare_stability, spectrum_figure
 
 TITLE = "Geometric PD on SO(3): eigenvalue tables and saddle structure (paper 002 Sec. III)"
@@ -26,40 +26,6 @@ TITLE = "Geometric PD on SO(3): eigenvalue tables and saddle structure (paper 00
 BODY = {"J": np.diag([3.0, 2.0, 1.0]), "rho": np.array([0.0, 0.0, 0.3]), "m": 1.0, "g": 9.81}
 G_DIAG = [0.9, 1.0, 1.1]
 K_R = K_OMEGA = 1.0
-# Sec. III-C: (eigenvalue, axis j of v = e_j + lambda e_{j+3}); axis None: no eigenvector
-# printed. (19) v6 uses the erratum (axis 3, printed e2).
-TABLES: dict[str, tuple[list[tuple[complex, int | None]], Stability, int, str]] = {
-    "I": ([(-0.1667 + 0.5676j, None), (-0.1667 - 0.5676j, None), (-0.25 + 0.6614j, None),
-           (-0.25 - 0.6614j, None), (-0.5 + 0.8367j, None), (-0.5 - 0.8367j, None)],
-          Stability.STABLE_FOCUS, 0, "Sec. III-C 1)"),
-    "exp(pi e1^)": ([(-0.7813, 1), (-0.5854, 2), (-1.0477, 3), (0.4480, 1), (0.0854, 2),
-                     (0.0477, 3)], Stability.SADDLE, 3, "(17)"),
-    "exp(pi e2^)": ([(-0.3775, 1), (-1.0, 2), (-0.9472, 3), (-0.0528, 3), (0.0442, 1),
-                     (0.5, 2)], Stability.SADDLE, 2, "(18)"),
-    "exp(pi e3^)": ([(-0.0613, 1), (-0.2721, 1), (-0.1382, 2), (-0.3618, 2), (-1.5954, 3),
-                     (0.5954, 3)], Stability.SADDLE, 1, "(19) with erratum v6"),
-}
-ATTITUDES = {"I": np.eye(3), "exp(pi e1^)": so3_exp([np.pi, 0, 0]),
-             "exp(pi e2^)": so3_exp([0, np.pi, 0]), "exp(pi e3^)": so3_exp([0, 0, np.pi])}
-
-
-def printed_stable_subspace(lams: list[float], *, erratum: bool = True) -> np.ndarray:
-    """Tangent of the printed E^s_loc(exp(pi e3^)) in (eta, delta Omega), shape (6, 5).
-
-    ``eta = (a1 + a2, a3 + a4, a5)``, ``Omega = (l1 a1 + l2 a2, l3 a3 + l4 a4, +-l5 a5)``.
-    """
-    s5 = 1.0 if erratum else -1.0
-    cols = []
-    for i in range(5):
-        a = np.zeros(5)
-        a[i] = 1.0
-        eta = [a[0] + a[1], a[2] + a[3], a[4]]
-        om = [lams[0] * a[0] + lams[1] * a[1], lams[2] * a[2] + lams[3] * a[3],
-              s5 * lams[4] * a[4]]
-        cols.append(np.r_[eta, om])
-    return np.column_stack(cols)
-
-
 def _axis_vector(j: int, lam: complex) -> np.ndarray:
     v = np.zeros(6, dtype=complex)
     v[j - 1], v[j + 2] = 1.0, lam
@@ -103,8 +69,8 @@ def solve(*, quick: bool = False) -> Result:
     k = ctl.so3_pd(model, np.eye(3), k_R=K_R, k_Omega=K_OMEGA, G=G_DIAG)
     values: dict[str, Any] = {}
     spectra: dict[str, Any] = {}
-    for name, (table, kind, n_unst, src) in TABLES.items():
-        x_e = model.state(R=ATTITUDES[name], omega=np.zeros(3))
+    for name, (R_e, table, kind, n_unst, src) in PRINTED.items():
+        x_e = model.state(R=R_e, omega=np.zeros(3))
         with res.timed("linearise + eigenstructure"):
             lin = linearize(model, x_e, controller=k)
             es = eigenstructure(lin)
