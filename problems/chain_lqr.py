@@ -13,7 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from models.chain_cart import chain_cart, link_state
+from models.chain_cart import chain_cart
+from models.chain_cart_reference import (
+    attitude_errors,
+    equilibrium,
+    lqr_weights,
+    printed_initial_states,
+)
 from workbench.linear import eigenstructure, linearize, lqr, mechanical_order
 from workbench.simulation import simulate
 from workbench.study import Panel, Result, decay_rate, line_figure
@@ -22,43 +28,6 @@ TITLE = "LQR for the 5-link chain on a cart: gains, spectra, nonlinear closed lo
 
 N_LINKS = 5
 PARAMS = {"m": 0.5, "masses": 0.1, "lengths": 0.1, "g": 9.81}
-E3 = np.array([0.0, 0.0, 1.0])
-DEG = np.pi / 180
-
-
-def weights(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Section 5: ``Q = diag[8 I2, I_2n, 8 I2, I_2n]``, ``R = I2`` (paper order)."""
-    q = np.r_[8.0, 8.0, np.ones(2 * n), 8.0, 8.0, np.ones(2 * n)]
-    return np.diag(q), np.eye(2)
-
-
-def initial_conditions() -> dict[str, np.ndarray]:
-    """The printed initial states of Figs. 3 and 4 (stored ambient coordinates).
-
-    Fig. 3, (27): x = (0.2, 0.1), x-dot = (0, -0.1), q_i = (-1)^i e3 for i <= 4,
-    q5 = (sin 1 deg, 0, -cos 1 deg), omega_i = 0. Fig. 4: the same x, x-dot, omega and
-    q1 = -(sin 6, 0, cos 6), q2 = q3 = -(0, sin 4, cos 4) (printed with a spurious fourth
-    entry), q4 = (sin 5 cos 4, -sin 5 sin 4, cos 5), q5 = (-sin 35, 0, cos 35) (degrees).
-    """
-    cart = [np.array([0.2, 0.1]), np.array([0.0, -0.1])]
-    q3 = [(-1.0) ** i * E3 for i in range(1, 5)] + [np.array([np.sin(DEG), 0, -np.cos(DEG)])]
-    s, c = np.sin, np.cos
-    q4 = [-np.array([s(6 * DEG), 0.0, c(6 * DEG)]),
-          -np.array([0.0, s(4 * DEG), c(4 * DEG)]),
-          -np.array([0.0, s(4 * DEG), c(4 * DEG)]),
-          np.array([s(5 * DEG) * c(4 * DEG), -s(5 * DEG) * s(4 * DEG), c(5 * DEG)]),
-          np.array([-s(35 * DEG), 0.0, c(35 * DEG)])]
-    return {"fig3": np.concatenate(cart + [link_state(q) for q in q3]),
-            "fig4": np.concatenate(cart + [link_state(q) for q in q4])}
-
-
-def errors(x: np.ndarray, s: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """``e_q = sum_i |q_i - s_i e3|`` and ``e_omega = sum_i |omega_i|`` along a trajectory."""
-    X = np.atleast_2d(x)
-    eq = sum(np.linalg.norm(X[:, 4 + 6 * i:7 + 6 * i] - s[i] * E3, axis=1)
-             for i in range(len(s)))
-    ew = sum(np.linalg.norm(X[:, 7 + 6 * i:10 + 6 * i], axis=1) for i in range(len(s)))
-    return eq, ew
 
 
 def solve(*, quick: bool = False) -> Result:
@@ -97,9 +66,9 @@ def solve(*, quick: bool = False) -> Result:
     n = N_LINKS
     model = chain_cart(n, **PARAMS)
     res.use(model)
-    Q, R = weights(n)
+    Q, R = lqr_weights(n)
     pos, vel = mechanical_order(model, {"x": "v"})
-    x0s = initial_conditions()
+    x0s = printed_initial_states()
     horizon, tol = (25.0, 1e-9) if quick else (40.0, 1e-11)
     t = np.linspace(0.0, horizon, int(20 * horizon) + 1)
     cases = {"hanging (Fig. 3)": ((1.0,) * 5, "fig3"),
@@ -108,7 +77,7 @@ def solve(*, quick: bool = False) -> Result:
                               "rtol": tol}
     panels: list[Panel] = []
     for name, (s, ic) in cases.items():
-        x_e = np.concatenate([np.zeros(4)] + [link_state(si * E3) for si in s])
+        x_e = equilibrium(n, s)
         with res.timed("linearise + LQR"):
             lin = linearize(model, x_e).permuted(pos + vel)
             design = lqr(lin, Q, R)
@@ -127,7 +96,7 @@ def solve(*, quick: bool = False) -> Result:
                     tolerance=1e-12, source="(19) linearises to -K (Appendix A.5)")
         with res.timed(f"simulate {ic}"):
             tr = simulate(model, x0s[ic], t, controller=law, rtol=tol, atol=tol)
-        eq, ew = errors(tr.x, s)
+        eq, ew = attitude_errors(tr.x, s)
         z = np.array([np.linalg.norm(lin.chart(row)) for row in tr.x])
         rate = decay_rate(tr.t, z, lo=1e3 * tol)  # above the integration noise floor
         res.compare(f"{name}: final e_q", 0.0, float(eq[-1]), tolerance=1e-2 if quick else 1e-7,
