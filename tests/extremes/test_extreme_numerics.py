@@ -19,7 +19,7 @@ from models.relative_equilibria import (
     sphere_points,
     static_equilibria,
 )
-from problems.extremes import J_CYL, RHO_HAT, frequencies, prop9, spectrum_error
+from problems._extremes.common import J_CYL, RHO_HAT, frequencies, prop9, spectrum_error
 from workbench import linearize, simulate, so3_exp
 from workbench.core.errors import SolverError
 from workbench.core.manifolds import ProductManifold, Rn

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from problems import extremes
-from problems.extremes import CLEAR, CORRECT, DEFECT, Cases, Check
 from workbench.app.report.tables import MAX_ROWS, value_tables
 from workbench.core.errors import ModelError, SolverError
+from workbench.study import CLEAR, CORRECT, DEFECT, Cases, Check
 
 GROUPS = ("near_balanced", "ill_conditioned", "fast_and_slow", "continuation", "large_chains",
           "optimisation", "bad_input")

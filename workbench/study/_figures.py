@@ -42,6 +42,8 @@ class Panel:
         As ``yscale``.
     marker : str
         A matplotlib marker for every curve (``""``: lines only).
+    linestyle : str
+        A matplotlib line style for every curve (``""``: markers only).
     """
 
     title: str
@@ -51,6 +53,7 @@ class Panel:
     yscale: str = "linear"
     xscale: str = "linear"
     marker: str = ""
+    linestyle: str = "-"
 
 
 def _pyplot() -> Any:
@@ -96,7 +99,8 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
     fig, axes = _grid(len(panels), ncols, size)
     for ax, p in zip(axes, panels):
         for label, (x, y) in p.curves.items():
-            ax.plot(np.asarray(x), np.asarray(y), marker=p.marker or None, label=label)
+            ax.plot(np.asarray(x), np.asarray(y), marker=p.marker or None,
+                    linestyle=p.linestyle or "none", label=label)
         ax.set(title=p.title, xlabel=p.xlabel, ylabel=p.ylabel, xscale=p.xscale,
                yscale=p.yscale)
         ax.grid(True, alpha=0.3)

@@ -9,8 +9,8 @@
   axes ``R(t) e_i`` (the columns of ``R``) on one sphere, coloured by ``|Omega|`` (paper
   002 Fig. 3 convention); an axis that does not move is a single point;
 * :func:`s2_manifold_figure`, :func:`so3_manifold_figure` -- a computed invariant manifold
-  (:class:`~workbench.global_dynamics._invariant_manifolds.InvariantManifold`) at several parameter values
-  ``t``, one panel each (paper 002 Figs. 1, 2, 4, 5), with the equilibria marked.
+  (:class:`~workbench.global_dynamics.InvariantManifold`) at several parameter
+  values ``t``, one panel each (paper 002 Figs. 1, 2, 4, 5), with the equilibria marked.
 
 Every function takes the matplotlib objects it draws into, or makes a figure; nothing is
 shown or saved here. Use a non-interactive backend (Agg) in scripts.

@@ -1,0 +1,205 @@
+"""Tables of cases: run a call at an extreme, classify what it did, tabulate it.
+
+A *case* is a call of a public entry point under a name. It either returns a
+:class:`Check` (what the workbench did, an error estimate, what the error measures and
+the tolerance it is held to) or raises. :class:`Cases` runs cases and keeps one table
+(list of rows) per group; the outcome of a row is
+
+* :data:`CORRECT` -- a finite error at or below its tolerance;
+* :data:`CLEAR` -- a documented :class:`~workbench.core.errors.WorkbenchError` with its
+  message (a clear failure);
+* :data:`DEFECT` -- anything else: an undocumented exception, an error above its tolerance
+  or not finite, or a result where a clear failure was expected.
+
+:func:`run_isolated` runs a function in a fresh process (one BLAS thread), for cases whose
+peak memory is measured per case.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from multiprocessing import get_context
+from typing import Any
+
+from workbench.core.errors import SolverError, WorkbenchError
+
+__all__ = ["CLEAR", "CORRECT", "DEFECT", "Cases", "Check", "run_isolated"]
+
+CORRECT, CLEAR, DEFECT = "correct", "clear failure", "DEFECT"
+
+
+@dataclass
+class Check:
+    """What a case returns when the workbench produced a result.
+
+    Attributes
+    ----------
+    did : str
+        What the workbench did and found, in words.
+    error : float
+        The error estimate.
+    measure : str
+        What the error is (against what).
+    tolerance : float
+        Largest error for which the case counts as correct.
+    extra : dict
+        Further columns (peak memory, stage times).
+    """
+
+    did: str
+    error: float
+    measure: str
+    tolerance: float
+    extra: dict[str, Any] | None = None
+
+
+class Cases:
+    """Runs case functions and collects one table (list of rows) per group.
+
+    Attributes
+    ----------
+    groups : dict of str to list of dict
+        The rows of each group, in the order the cases ran; every row has ``case``,
+        ``did``, ``outcome``, ``error``, ``measure``, ``tolerance`` and ``cost [s]``.
+    """
+
+    def __init__(self) -> None:
+        self.groups: dict[str, list[dict[str, Any]]] = {}
+
+    def run(self, group: str, case: str, fn: Callable[[], Check], *,
+            expect_failure: bool = False) -> Check | None:
+        """Run ``fn`` and tabulate its outcome.
+
+        Parameters
+        ----------
+        group : str
+            The table the row goes to.
+        case : str
+            The row's name.
+        fn : callable
+            Runs the case: returns a :class:`Check` or raises.
+        expect_failure : bool
+            The case must fail clearly; a result is then a defect.
+
+        Returns
+        -------
+        Check or None
+            What ``fn`` returned (None if it raised).
+        """
+        t0 = time.perf_counter()
+        out: Check | None = None
+        row: dict[str, Any] = {"case": case}
+        try:
+            out = fn()
+        except WorkbenchError as exc:
+            row.update(did=f"{type(exc).__name__}: {exc}", outcome=CLEAR, error=None,
+                       measure="", tolerance=None)
+        except Exception as exc:  # noqa: BLE001 - anything else is the defect we look for
+            row.update(did=f"{type(exc).__name__}: {exc} | "
+                           f"{traceback.format_exc(limit=2).splitlines()[-3]}",
+                       outcome=DEFECT, error=None, measure="undocumented exception",
+                       tolerance=None)
+        else:
+            ok = math.isfinite(out.error) and out.error <= out.tolerance
+            row.update(did=out.did, outcome=CORRECT if ok else DEFECT, error=out.error,
+                       measure=out.measure if ok else f"ABOVE TOLERANCE: {out.measure}",
+                       tolerance=out.tolerance)
+            row.update(out.extra or {})
+        if expect_failure and row["outcome"] == CORRECT:
+            row.update(outcome=DEFECT, measure="expected a clear failure, got a result")
+        row["cost [s]"] = time.perf_counter() - t0
+        self.groups.setdefault(group, []).append(row)
+        return out
+
+    def outcomes(self) -> dict[str, int]:
+        """How many rows have each outcome, over every group."""
+        counts: dict[str, int] = {}
+        for rows in self.groups.values():
+            for r in rows:
+                counts[r["outcome"]] = counts.get(r["outcome"], 0) + 1
+        return counts
+
+
+_ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+@contextmanager
+def _environment(values: dict[str, str]) -> Iterator[None]:
+    old = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _child(conn: Any, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        conn.send((True, fn(*args)))
+    except BaseException as exc:  # noqa: BLE001 - handed to the parent, which re-raises it
+        conn.send((False, exc))
+    finally:
+        conn.close()
+
+
+def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = 3600.0) -> Any:
+    """Call ``fn(*args)`` in a fresh (spawned) process with one BLAS thread; return its value.
+
+    The process starts from nothing, so its peak resident memory (``resource.getrusage``
+    read inside ``fn``) is that of this call alone.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (it is pickled by reference); its arguments and return
+        value must pickle.
+    *args
+        Its arguments.
+    timeout : float
+        Seconds to wait for the result; the process is then terminated.
+
+    Returns
+    -------
+    Any
+        What ``fn`` returned.
+
+    Raises
+    ------
+    SolverError
+        If the process dies without a result or times out; an exception raised by ``fn``
+        itself is raised again here.
+    """
+    ctx = get_context("spawn")
+    receive, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(send, fn, args), daemon=True)
+    with _environment(_ONE_THREAD):
+        proc.start()
+    send.close()
+    try:
+        if not receive.poll(timeout):
+            proc.terminate()
+            raise SolverError(f"{fn.__name__}{args}: no result within {timeout:g} s; the "
+                              "process was terminated", status="timeout")
+        try:
+            ok, value = receive.recv()
+        except EOFError:
+            proc.join()
+            raise SolverError(f"{fn.__name__}{args}: the process ended (exit code "
+                              f"{proc.exitcode}) without a result", status="process died"
+                              ) from None
+    finally:
+        receive.close()
+        proc.join()
+    if not ok:
+        raise value
+    return value
