@@ -1,13 +1,11 @@
 """Invariants of the 3D pendulum and the agreement of its three models (paper 000).
 
-The body of paper 000 Section 5.6 (m = 1, J = diag(0.13, 0.28, 0.17), rho = (0, 0, 0.3),
-R0 = I, omega0 = c (1, 1, 1)) is simulated on TSO(3), on S^2 x R^3 and on TS^2 (Routh,
-with the reconstruction of Prop. 17), uncontrolled. Measured: conservation of the energy
-E and of the vertical angular momentum h (Prop. 1); Gamma = R^T e3 of the full model
-against the reduced model; (R, omega) reconstructed from the Routh model against the full
-model; and, for the special cases of Section 4.1, the period of the planar pendulum
-against the complete elliptic integral, and the spherical case against the reduced 3D
-pendulum with an axisymmetric body.
+The uncontrolled 3D pendulum is simulated in its three forms: the full attitude model, the
+reduced model of the direction of gravity in the body, and the Routh model, from which the
+full motion is rebuilt. Energy and the vertical angular momentum are conserved to
+integration accuracy, and all three forms trace the same motion; the planar special case
+swings with the period of the elliptic-integral formula, and the spherical special case
+moves as the axisymmetric 3D pendulum does.
 """
 
 from __future__ import annotations
@@ -16,9 +14,11 @@ import numpy as np
 from scipy.special import ellipk
 
 from models import pendulum3d as p3
+from workbench.core.errors import SolverError
 from workbench.core.manifolds import SO3
+from workbench.global_dynamics import Section, poincare_map
 from workbench.simulation import simulate
-from workbench.study import Result
+from workbench.study import Panel, Result, compare_rows, line_figure
 
 TITLE = "3D pendulum invariants; full, Lagrange-Poincare and Routh models agree (paper 000)"
 
@@ -27,45 +27,31 @@ BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": np.array([0.0, 0.0, 0.3]), "m":
 E3 = np.array([0.0, 0.0, 1.0])
 
 
-def planar_period(
-    *, Jt: float, rho_s: float, theta0: float, m: float = 1.0, g: float = 9.81,
-    rtol: float = 1e-13,
-) -> dict[str, float]:
+def planar_period(*, Jt: float, rho_s: float, theta0: float, m: float = 1.0, g: float = 9.81,
+                  rtol: float = 1e-13) -> dict[str, float]:
     """Period of the planar special case, measured by simulation, and its closed form.
 
     The pendulum starts at rest at angle ``theta0`` (``p = (-sin theta0, cos theta0)``).
-    The period is located without the closed form: ``omega_y`` starts at zero and changes
-    sign at every turning point, so the second sign change on a grid spanning several
-    linearised periods brackets the period; it is then refined by Newton steps
-    ``T <- T - omega_y(T) / omega_y-dot(T)`` on re-simulations.
+    The period is measured without the closed form: the time between the first and the
+    third crossing of the bottom (``p_x = 0``), located by the Poincare map's event
+    detection within a horizon of several linearised periods.
 
     Returns
     -------
     dict
-        ``measured``, ``closed_form`` (4 sqrt(Jt/(m g rho_s)) K(sin^2(theta0/2))) and
-        ``newton_steps``.
+        ``measured``, ``closed_form`` (4 sqrt(Jt/(m g rho_s)) K(sin^2(theta0/2))) and the
+        ``crossing_times``.
     """
     model = p3.planar(Jt=Jt, rho_s=rho_s, m=m, g=g)
     x0 = model.state(p=[-np.sin(theta0), np.cos(theta0)], omega_y=[0.0])
     w0 = np.sqrt(m * g * rho_s / Jt)
-    grid = np.linspace(0.0, 2 * 2 * np.pi / w0 * (1 + theta0**2), 4001)
-    tr = simulate(model, x0, grid, rtol=rtol, atol=rtol)
-    w = tr.x[:, 2]
-    idx = [k for k in range(1, len(grid) - 1) if np.sign(w[k]) != np.sign(w[k + 1])]
-    if len(idx) < 2:
-        raise RuntimeError(f"no full period within {grid[-1]:.3g} s for theta0 = {theta0}")
-    T = float(grid[idx[1]])
-    steps = 0
-    for steps in range(1, 20):  # noqa: B007
-        end = simulate(model, x0, [0.0, T], rtol=rtol, atol=rtol).final
-        dw = model.rhs(end)[2]
-        dT = -end[2] / dw
-        T += dT
-        if abs(dT) < 1e-14 * T:
-            break
-    k2 = np.sin(theta0 / 2) ** 2
-    closed = 4.0 / w0 * float(ellipk(k2))
-    return {"measured": T, "closed_form": closed, "newton_steps": steps}
+    o = poincare_map(model, x0, Section("bottom", lambda ctx: ctx["p"][0]), n_crossings=3,
+                     t_max=2 * 2 * np.pi / w0 * (1 + theta0**2), rtol=rtol, atol=rtol)
+    if o.n < 3:
+        raise SolverError(f"no full period within the horizon for theta0 = {theta0} "
+                          f"({o.n} crossings of the bottom)", status="crossings")
+    return {"measured": float(o.t[2] - o.t[0]), "crossing_times": o.t[:3].tolist(),
+            "closed_form": 4.0 / w0 * float(ellipk(np.sin(theta0 / 2) ** 2))}
 
 
 def solve(*, quick: bool = False) -> Result:
@@ -79,6 +65,17 @@ def solve(*, quick: bool = False) -> Result:
     Returns
     -------
     Result
+
+    Notes
+    -----
+    The body of paper 000 Section 5.6 (m = 1, J = diag(0.13, 0.28, 0.17), rho = (0, 0, 0.3),
+    R0 = I, omega0 = c (1, 1, 1)) is simulated on TSO(3), on S^2 x R^3 and on TS^2 (Routh,
+    with the reconstruction of Prop. 17), uncontrolled. Measured: conservation of the energy
+    E and of the vertical angular momentum h (Prop. 1); Gamma = R^T e3 of the full model
+    against the reduced model; (R, omega) reconstructed from the Routh model against the
+    full model; and, for the special cases of Section 4.1, the period of the planar pendulum
+    against the complete elliptic integral, and the spherical case against the reduced 3D
+    pendulum with an axisymmetric body.
     """
     res = Result("pendulum3d_invariants", TITLE, quick=quick)
     c = 1.0
@@ -107,19 +104,16 @@ def solve(*, quick: bool = False) -> Result:
     R_err = float(np.max(np.abs(R_rec - tr_full.part("R"))))
     w_err = float(np.max(np.abs(w_rec - tr_full.x[:, 9:])))
 
-    res.compare("relative drift of E, full model", 0.0, drift["energy"]["max_rel"],
-                tolerance=1e-9, source="Prop. 1 (E conserved)")
-    res.compare("relative drift of h, full model", 0.0, drift["h"]["max_rel"],
-                tolerance=1e-9, source="Prop. 1 (h conserved)")
-    res.compare("max |Gamma_full - Gamma_reduced|", 0.0, gamma_err, tolerance=1e-9,
-                source="Prop. 4 (Gamma = R^T e3)")
-    res.compare("max |R_full - R_reconstructed|", 0.0, R_err, tolerance=1e-7,
-                source="Prop. 17 (5.10)-(5.14)")
-    res.compare("max |omega_full - omega_reconstructed|", 0.0, w_err, tolerance=1e-7,
-                source="Prop. 17 (5.14)")
-    res.compare("relative drift of Routh energy (5.16)", 0.0,
-                tr_routh.diagnostics["invariant_drift"]["energy"]["max_rel"], tolerance=1e-9,
-                source="Prop. 19")
+    compare_rows(res, [
+        ("relative drift of E, full model", 0.0, drift["energy"]["max_rel"], 1e-9,
+         "Prop. 1 (E conserved)"),
+        ("relative drift of h, full model", 0.0, drift["h"]["max_rel"], 1e-9,
+         "Prop. 1 (h conserved)"),
+        ("max |Gamma_full - Gamma_reduced|", 0.0, gamma_err, 1e-9, "Prop. 4 (Gamma = R^T e3)"),
+        ("max |R_full - R_reconstructed|", 0.0, R_err, 1e-7, "Prop. 17 (5.10)-(5.14)"),
+        ("max |omega_full - omega_reconstructed|", 0.0, w_err, 1e-7, "Prop. 17 (5.14)"),
+        ("relative drift of Routh energy (5.16)", 0.0,
+         tr_routh.diagnostics["invariant_drift"]["energy"]["max_rel"], 1e-9, "Prop. 19")])
 
     # special cases of Section 4.1
     with res.timed("planar period"):
@@ -140,7 +134,7 @@ def solve(*, quick: bool = False) -> Result:
                 source="Prop. 6")
 
     res.values = {
-        "body": {k: np.asarray(v).tolist() for k, v in BODY.items()},
+        "body": BODY,
         "c": c,
         "horizon_s": horizon,
         "tolerance": tol,
@@ -152,31 +146,20 @@ def solve(*, quick: bool = False) -> Result:
         "routh": tr_routh.summary(),
         "planar_period": per,
     }
-    res.figures["invariant_drift"] = _figure(tr_full, gamma_full)
+    tt = tr_full.t[1:]
+    E, h = tr_full.invariant_series("energy"), tr_full.invariant_series("h")
+    res.figure("invariant_drift", line_figure([
+        Panel("invariant drift, cvodes rtol = 1e-12", {
+            "|E - E0|/|E0|": (tt, np.abs(E[1:] - E[0]) / abs(E[0]) + 1e-18),
+            "|h - h0|/|h0|": (tt, np.abs(h[1:] - h[0]) / abs(h[0]) + 1e-18)},
+            xlabel="t [s]", yscale="log"),
+        Panel("reduced attitude Gamma = R^T e3", {f"Gamma_{k + 1}": (tr_full.t, gamma_full[:, k])
+                                                  for k in range(3)}, xlabel="t [s]")]),
+        caption="The free 3D pendulum of paper 000 Section 5.6 (c = 1): relative drift of "
+                "the energy E and of the vertical angular momentum h, both conserved "
+                "(Prop. 1), at the integration tolerance (left); the direction of gravity "
+                "in the body frame along the motion (right).")
     return res.finish()
-
-
-def _figure(tr, gamma):  # noqa: ANN001, ANN202
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    E = tr.invariant_series("energy")
-    h = tr.invariant_series("h")
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.2))
-    ax[0].semilogy(tr.t[1:], np.abs(E[1:] - E[0]) / abs(E[0]) + 1e-18, label="|E - E0|/|E0|")
-    ax[0].semilogy(tr.t[1:], np.abs(h[1:] - h[0]) / abs(h[0]) + 1e-18, label="|h - h0|/|h0|")
-    ax[0].set_xlabel("t [s]")
-    ax[0].set_title("invariant drift, cvodes rtol = 1e-12")
-    ax[0].legend()
-    for k, lab in enumerate(("Gamma_1", "Gamma_2", "Gamma_3")):
-        ax[1].plot(tr.t, gamma[:, k], label=lab, lw=0.8)
-    ax[1].set_xlabel("t [s]")
-    ax[1].set_title("reduced attitude Gamma = R^T e3")
-    ax[1].legend()
-    fig.tight_layout()
-    return fig
 
 
 if __name__ == "__main__":
