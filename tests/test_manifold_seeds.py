@@ -159,6 +159,52 @@ def test_too_large_delta_names_the_chart_and_the_knob():
     assert err.value.status == "no_radius"
 
 
+def test_s2_manifolds_in_any_orientation_are_rotated_copies():
+    """PD on S^2 is rotation-equivariant: W^s of (-q_d, 0) is R W^s of (-e3, 0), R e3 = q_d.
+
+    The stable eigenvalue is double (-1.618), so every seed's distance profile d(t) is the
+    same for every orientation, and each trajectory stays on a great circle through q_e
+    (paper 002 Sec. II-D 3). Both are measured on tilted saddles against q_d = e3.
+
+    Tolerance: each step rounds the O(1) coordinates of a tilted state by ~EPS, i.e. by
+    EPS / d relative to its distance d to the saddle, and a relative error along the
+    manifold persists backward; summed over the steps while d = delta exp(lam t) grows,
+    that is EPS / (delta lam h) (1.4e-8 here; measured 7e-9, growing as 1 / h). At e3 the
+    small coordinates are exact to their own size, hence ~1e-15 there.
+    """
+    opts = {"delta": 1e-6, "n_points": 6, "horizon": 8.0, "step": 0.01, "output_step": 0.5,
+            "method": Method.RKMK4}
+    ref = stable_manifold(S2_MODEL, np.r_[0.0, 0.0, -1.0, np.zeros(3)],
+                          controller=ctl.s2_pd(S2_MODEL, [0, 0, 1], k_q=1.0, k_w=1.0),
+                          **opts).distance()[:, 0]
+    assert ref[-1] > 1e-1  # grown by five orders of magnitude
+    for k in range(5):
+        model, ctrl, x_e, _ = s2_saddle(k)
+        W = stable_manifold(model, x_e, controller=ctrl, **opts)
+        d = W.distance()
+        lam, h = (1 + np.sqrt(5)) / 2, opts["step"]  # stable rate: s^2 + s - 1 = 0
+        assert np.max(np.abs(d - ref[:, None]) / ref[:, None]) < 4 * EPS / (1e-6 * lam * h)
+        q = W.x[:, :, :3]
+        for j in range(W.n_points):
+            n = np.linalg.svd(q[:, j])[2][-1]
+            assert np.max(np.abs(q[:, j] @ n)) < 1e-10  # a great circle
+            assert abs(n @ x_e[:3]) < 1e-10  # through the saddle
+
+
+def test_so3_stable_eigenspace_in_body_coordinates_does_not_depend_on_R_d():
+    """PD on SO(3) is left-invariant: at R_d exp(pi hat(e_i)) the stable eigenspace in the
+    body tangent coordinates is that of R_d = I (the projectors agree to rounding)."""
+    for k in range(N_ORIENTATIONS):
+        model, ctrl, x_e, goal = so3_saddle(k)
+        R_d = SO3.matrix(goal[:9])
+        i = int(np.argmax(np.diag(R_d.T @ SO3.matrix(x_e[:9]))))  # the flipped axis
+        _, W = stable_basis(model, ctrl, x_e)
+        ctrl0 = ctl.so3_pd(model, np.eye(3), k_R=1.0, k_Omega=1.0, G=[0.9, 1.0, 1.1])
+        _, W0 = stable_basis(model, ctrl0, np.r_[SO3.flat(flip(i)), np.zeros(3)])
+        assert W.shape == W0.shape
+        assert np.max(np.abs(W @ W.T - W0 @ W0.T)) < 1e-10
+
+
 # ----------------------------------------------------------------------------------------
 # stable manifolds at delta = 1e-6, validated by forward flow
 
