@@ -31,7 +31,7 @@ from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
 from workbench.core import Model
 from workbench.simulation import Method, simulate
-from workbench.simulation.accuracy import Sweep, long_time, work_precision
+from workbench.simulation.accuracy import AccuracySweep, long_time, work_precision
 from workbench.study import Result
 
 TITLE = "Work-precision of casadi and geometric integrators; bounded energy of variational ones"
@@ -70,14 +70,14 @@ def chain_initial_state(model: Model) -> np.ndarray:
     return model.state(x=[0.2, 0.1], v=[0.0, -0.1], **links)
 
 
-def _sweeps(quick: bool, steps: list[float], geometric: list[Method]) -> list[Sweep]:
+def _sweeps(quick: bool, steps: list[float], geometric: list[Method]) -> list[AccuracySweep]:
     rtols = [10.0**-k for k in range(3, 13)]
     if quick:
         rtols = rtols[::2] + [1e-12]
-    out = [Sweep(Method.CVODES, rtols),
-           Sweep(Method.RK, steps),
-           Sweep(Method.COLLOCATION, steps[:3 if quick else 4], {"degree": 2})]
-    out += [Sweep(m, steps) for m in geometric]
+    out = [AccuracySweep(Method.CVODES, rtols),
+           AccuracySweep(Method.RK, steps),
+           AccuracySweep(Method.COLLOCATION, steps[:3 if quick else 4], {"degree": 2})]
+    out += [AccuracySweep(m, steps) for m in geometric]
     return out
 
 
@@ -173,7 +173,7 @@ def solve(*, quick: bool = False) -> Result:
     csteps = [0.004, 0.002, 0.001, 0.0005] + ([] if quick else [0.00025])
     csweeps = _sweeps(quick, csteps, [Method.RKMK4])
     # casadi's collocation costs ~50x more per step on the chain: fewer steps
-    csweeps[2] = Sweep(Method.COLLOCATION, csteps[:1 if quick else 3], {"degree": 2})
+    csweeps[2] = AccuracySweep(Method.COLLOCATION, csteps[:1 if quick else 3], {"degree": 2})
     with res.timed("work-precision chain n=3"):
         wpc = work_precision(chain, y0, Tc, csweeps, repeats=repeats)
     _independent_check(res, wpc, chain, y0, "chain n=3", 1e-7)
@@ -188,13 +188,13 @@ def solve(*, quick: bool = False) -> Result:
     x_hang = body.state(R=np.eye(3), omega=np.zeros(3))
     period = slowest_period(body, x_hang)
     h = 0.01
-    settings = [Sweep(Method.LGVI, [h]), Sweep(Method.RK, [h]), Sweep(Method.RKMK4, [h]),
-                Sweep(Method.CVODES, [1e-8])]
+    settings = [AccuracySweep(Method.LGVI, [h]), AccuracySweep(Method.RK, [h]),
+                AccuracySweep(Method.RKMK4, [h]), AccuracySweep(Method.CVODES, [1e-8])]
     lt = _long(res, body, x0, period, n_periods, settings, name="pendulum3d", spacing=0.1)
     # casadi's collocation costs ~50x more per step: a tenth of the periods, at 4 h
     n_coll = max(10, n_periods // 10)
     lt_coll = _long(res, body, x0, period, n_coll,
-                    [Sweep(Method.COLLOCATION, [4 * h], {"degree": 2})],
+                    [AccuracySweep(Method.COLLOCATION, [4 * h], {"degree": 2})],
                     name="pendulum3d collocation", spacing=0.2)
     sph = spherical_pendulum()
     q0 = np.array([np.sin(2.0), 0.0, np.cos(2.0)])
@@ -202,8 +202,8 @@ def solve(*, quick: bool = False) -> Result:
     sph_period = 2 * np.pi * np.sqrt(1.0 / 9.81)
     hs = 0.02
     lts = _long(res, sph, s0, sph_period, n_periods,
-                [Sweep(Method.S2_VARIATIONAL, [hs]), Sweep(Method.RK, [hs]),
-                 Sweep(Method.RKMK4, [hs])], name="spherical", spacing=0.1)
+                [AccuracySweep(Method.S2_VARIATIONAL, [hs]), AccuracySweep(Method.RK, [hs]),
+                 AccuracySweep(Method.RKMK4, [hs])], name="spherical", spacing=0.1)
     res.use(sph)
 
     lgvi_run = lt.run("lgvi")

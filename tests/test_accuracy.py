@@ -12,10 +12,11 @@ from models.spherical import spherical_pendulum
 from workbench.core.errors import ModelError, ParameterError
 from workbench.simulation._simulate import Method
 from workbench.simulation.accuracy import (
+    AccuracySweep,
     Cost,
     Knob,
     Run,
-    Sweep,
+    RunStatus,
     WorkPrecision,
     long_time,
     work_precision,
@@ -35,10 +36,10 @@ def x0(sphere):
 
 @pytest.fixture(scope="module")
 def wp(sphere, x0):
-    sweeps = [Sweep(Method.CVODES, [1e-4, 1e-7, 1e-10]),
-              Sweep(Method.RK, [0.05, 0.025, 0.0125]),
-              Sweep(Method.S2_VARIATIONAL, [0.05, 0.025, 0.0125]),
-              Sweep(Method.RKMK4, [0.05, 0.025, 0.0125])]
+    sweeps = [AccuracySweep(Method.CVODES, [1e-4, 1e-7, 1e-10]),
+              AccuracySweep(Method.RK, [0.05, 0.025, 0.0125]),
+              AccuracySweep(Method.S2_VARIATIONAL, [0.05, 0.025, 0.0125]),
+              AccuracySweep(Method.RKMK4, [0.05, 0.025, 0.0125])]
     return work_precision(sphere, x0, 2.0, sweeps, n_samples=5)
 
 
@@ -75,7 +76,8 @@ def test_runs_measure_energy_constraint_and_cost(wp):
 
 
 def _run(label, err, wall, evals=None, status="ok", step=None):
-    return Run(label, label, "step", 0.1, step, err, None, 0.0, wall, evals, None, status)
+    return Run(label, label, "step", 0.1, step, err, None, 0.0, wall, evals, None,
+               *RunStatus.of(status))
 
 
 def test_fastest_and_winners_pick_the_cheapest_run_reaching_the_accuracy(wp):
@@ -94,18 +96,20 @@ def test_fastest_and_winners_pick_the_cheapest_run_reaching_the_accuracy(wp):
 
 
 def test_failed_runs_are_recorded_not_raised(sphere, x0):
-    cheap = [Sweep(Method.CVODES, [1e-12], label="ref"), Sweep(Method.RK, [1e-3], label="chk")]
-    res = work_precision(sphere, x0, 2.0, [Sweep(Method.S2_VARIATIONAL, [2.0, 0.05])],
+    cheap = [AccuracySweep(Method.CVODES, [1e-12], label="ref"),
+             AccuracySweep(Method.RK, [1e-3], label="chk")]
+    res = work_precision(sphere, x0, 2.0, [AccuracySweep(Method.S2_VARIATIONAL, [2.0, 0.05])],
                          n_samples=2, reference=cheap)
     assert res.reference.labels == ["ref", "chk"] and res.reference.error_estimate < 1e-9
     bad, good = res.runs
-    assert not bad.ok and "no solution" in bad.status and bad.final_error == math.inf
+    assert not bad.ok and bad.status is RunStatus.FAILED and "no solution" in bad.message
+    assert bad.final_error == math.inf
     assert good.ok
 
 
 def test_long_time_bounded_against_drifting(sphere, x0):
-    lt = long_time(sphere, x0, 200.0, [Sweep(Method.S2_VARIATIONAL, [0.05]),
-                                       Sweep(Method.RK, [0.05])], n_samples=2001)
+    lt = long_time(sphere, x0, 200.0, [AccuracySweep(Method.S2_VARIATIONAL, [0.05]),
+                                       AccuracySweep(Method.RK, [0.05])], n_samples=2001)
     vi, rk = (r.summary() for r in lt.runs)
     assert abs(vi["energy_exponent"]) < 0.1 and vi["energy_growth"] < 1.5
     assert rk["energy_exponent"] > 0.5 and rk["energy_growth"] > 3.0
@@ -116,12 +120,12 @@ def test_long_time_bounded_against_drifting(sphere, x0):
 
 
 @pytest.mark.parametrize(("make", "match"), [
-    (lambda: Sweep(Method.RK, []), "at least one"),
-    (lambda: Sweep(Method.RK, [0.1, -0.1]), "positive finite"),
-    (lambda: Sweep(Method.RK, [0.0]), "positive finite"),
-    (lambda: Sweep(Method.RK, [float("nan")]), "positive finite"),
-    (lambda: Sweep("euler", [0.1]), "Sweep.method"),
-    (lambda: Sweep(Method.RK, [0.1], {"step": 0.2}), "must not set"),
+    (lambda: AccuracySweep(Method.RK, []), "at least one"),
+    (lambda: AccuracySweep(Method.RK, [0.1, -0.1]), "positive finite"),
+    (lambda: AccuracySweep(Method.RK, [0.0]), "positive finite"),
+    (lambda: AccuracySweep(Method.RK, [float("nan")]), "positive finite"),
+    (lambda: AccuracySweep("euler", [0.1]), "AccuracySweep.method"),
+    (lambda: AccuracySweep(Method.RK, [0.1], {"step": 0.2}), "must not set"),
 ])
 def test_bad_sweeps_are_rejected(make, match):
     with pytest.raises(ParameterError, match=match):
@@ -129,17 +133,17 @@ def test_bad_sweeps_are_rejected(make, match):
 
 
 def test_sweep_knobs_and_orders():
-    assert Sweep(Method.CVODES, [1e-6]).knob is Knob.RTOL
-    assert Sweep(Method.CVODES, [1e-6]).order is None
-    assert Sweep(Method.COLLOCATION, [0.1], {"degree": 3}).order == 6
-    assert Sweep(Method.COLLOCATION, [0.1], {"degree": 3}).label == "collocation d=3"
-    assert Sweep(Method.LGVI, [0.1]).keywords(0.1) == {"method": Method.LGVI, "step": 0.1}
+    assert AccuracySweep(Method.CVODES, [1e-6]).knob is Knob.RTOL
+    assert AccuracySweep(Method.CVODES, [1e-6]).order is None
+    assert AccuracySweep(Method.COLLOCATION, [0.1], {"degree": 3}).order == 6
+    assert AccuracySweep(Method.COLLOCATION, [0.1], {"degree": 3}).label == "collocation d=3"
+    assert AccuracySweep(Method.LGVI, [0.1]).keywords(0.1) == {"method": Method.LGVI, "step": 0.1}
 
 
 def test_bad_measurement_input_is_rejected(sphere, x0):
-    ok = [Sweep(Method.RK, [0.1])]
+    ok = [AccuracySweep(Method.RK, [0.1])]
     with pytest.raises(ParameterError, match="must not exceed the horizon"):
-        work_precision(sphere, x0, 1.0, [Sweep(Method.RK, [2.0])])
+        work_precision(sphere, x0, 1.0, [AccuracySweep(Method.RK, [2.0])])
     with pytest.raises(ParameterError, match="horizon"):
         work_precision(sphere, x0, -1.0, ok)
     with pytest.raises(ParameterError, match="labels must be unique"):
@@ -151,7 +155,7 @@ def test_bad_measurement_input_is_rejected(sphere, x0):
     with pytest.raises(ModelError, match="energy must name"):
         work_precision(sphere, x0, 1.0, ok, energy="momentum")
     with pytest.raises(ParameterError, match="one knob value"):
-        long_time(sphere, x0, 1.0, [Sweep(Method.RK, [0.1, 0.05])])
+        long_time(sphere, x0, 1.0, [AccuracySweep(Method.RK, [0.1, 0.05])])
 
 
 @pytest.mark.slow
@@ -164,7 +168,8 @@ def test_ten_thousand_periods_lgvi_bounded_rk_drifts():
     x0 = body.state(R=np.eye(3), omega=C_CHAOTIC * np.ones(3))
     period = slowest_period(body, body.state(R=np.eye(3), omega=np.zeros(3)))
     horizon = round(10_000 * period / 0.2) * 0.2
-    lt = long_time(body, x0, horizon, [Sweep(Method.LGVI, [0.01]), Sweep(Method.RK, [0.01])],
+    lt = long_time(body, x0, horizon,
+                   [AccuracySweep(Method.LGVI, [0.01]), AccuracySweep(Method.RK, [0.01])],
                    n_samples=int(round(horizon / 0.2)) + 1)
     vi, rk = (r.summary() for r in lt.runs)
     assert abs(vi["energy_exponent"]) < 0.1 and vi["energy_growth"] < 1.2

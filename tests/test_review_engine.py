@@ -34,7 +34,7 @@ from workbench.linear._eigen import eigenstructure
 from workbench.linear._linearize import linearize, linearize_ambient
 from workbench.linear._lqr import geometric_feedback, lqr
 from workbench.simulation._simulate import Method, constraint_residuals, simulate
-from workbench.simulation.accuracy import Sweep, WorkPrecision
+from workbench.simulation.accuracy import AccuracySweep, WorkPrecision
 from workbench.simulation.integrators import integrate, rkmk4
 
 
@@ -103,7 +103,8 @@ def _distance():
      .subspace("middle"), "which", "['stable', 'unstable', 'centre']", "'middle'"),
     (lambda m, x0: lqr(np.zeros((1, 1)), [[1.0]], [[1.0]], B=[[1.0]], require="stable"),
      "require", "['controllable', 'stabilizable']", "'stable'"),
-    (lambda m, x0: Sweep("rk45", [0.1]), "Sweep.method", "['cvodes', 'rk', ", "'rk45'"),
+    (lambda m, x0: AccuracySweep("rk45", [0.1]), "AccuracySweep.method", "['cvodes', 'rk', ",
+     "'rk45'"),
     (lambda m, x0: generate(None, binding="baked"), "binding", "['", "'baked'"),
     (lambda m, x0: compile_sources(None, optimization="O9"), "optimization", "['", "'O9'"),
     (lambda m, x0: agreement(None, None, np.zeros((1, 3)), binding="frozen", through="air"),

@@ -72,7 +72,7 @@ from workbench.global_dynamics._phase import first_self_intersection, holonomy_a
 from workbench.global_dynamics._poincare import poincare_map, stabilized_field, turning_section
 from workbench.linear.symbolic import exact_number, symbolic_linearization
 from workbench.simulation._sweep import grid, sweep
-from workbench.simulation.accuracy import Sweep, work_precision
+from workbench.simulation.accuracy import AccuracySweep, work_precision
 from workbench.simulation.integrators import integrate, lgvi
 from workbench.study._result import Result
 
@@ -443,7 +443,7 @@ CASES = [
     case("sweep-items", lambda: sweep(lambda: 1, [1, 2]), P, "items[0]", "dict", "1"),
     case("sweep-workers", lambda: sweep(lambda: 1, [{}], workers=0), P, "workers", "0"),
     case("grid-axis", lambda: grid(a=3), P, "'a'", "sequence", "3"),
-    case("accuracy-sweep-values", lambda: Sweep("cvodes", ("speed",)), P,
+    case("accuracy-sweep-values", lambda: AccuracySweep("cvodes", ("speed",)), P,
          "values", "numbers", "'speed'"),
     case("work_precision-horizon", lambda: work_precision(full(), x_full(), 0.0, []), P,
          "horizon", "positive", "0"),

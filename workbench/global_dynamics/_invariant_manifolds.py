@@ -69,7 +69,7 @@ from workbench.simulation.integrators import lgvi, rkmk4, s2_variational
 from workbench.simulation.integrators.common import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
-    Scheme,
+    DiscreteFlow,
     controller_key,
 )
 
@@ -90,7 +90,7 @@ VECTORISED_METHODS = (Method.RKMK4, Method.LGVI, Method.S2_VARIATIONAL, Method.R
 # the vectorised stepper
 
 
-def _rk4_scheme(model: Model, controller: ca.Function | None) -> Scheme:
+def _rk4_scheme(model: Model, controller: ca.Function | None) -> DiscreteFlow:
     loop = closed_loop_function(model, controller)
     S = model.sym
     x, p, h = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("h")
@@ -105,7 +105,7 @@ def _rk4_scheme(model: Model, controller: ca.Function | None) -> Scheme:
     step = ca.Function("rk4_step", [x, p, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4),
                                                S.zeros(1), S.zeros(1)],
                        ["x", "p", "h"], ["x_next", "residual", "iterations"])
-    return Scheme(name="rk4", step=step, order=4, newton_tol=0.0, newton_max_iter=0,
+    return DiscreteFlow(name="rk4", step=step, order=4, newton_tol=0.0, newton_max_iter=0,
                   evaluations_per_step=4,
                   structure={"manifold": "not preserved (ambient RK4): the drift is the "
                              "constraint residual", "symplectic": False, "symmetric": False,
@@ -113,7 +113,7 @@ def _rk4_scheme(model: Model, controller: ca.Function | None) -> Scheme:
 
 
 def _scheme(model: Model, controller: ca.Function | None, method: Method, newton_tol: float,
-            newton_max_iter: int) -> Scheme:
+            newton_max_iter: int) -> DiscreteFlow:
     if method is Method.RKMK4:
         return rkmk4(model, controller)
     if method is Method.LGVI:
@@ -124,7 +124,7 @@ def _scheme(model: Model, controller: ca.Function | None, method: Method, newton
     return _rk4_scheme(model, controller)
 
 
-def _guarded_step(model: Model, scheme: Scheme, key: str) -> ca.Function:
+def _guarded_step(model: Model, scheme: DiscreteFlow, key: str) -> ca.Function:
     """``(x, p, h, x_e, dmax) -> (x_next, residual, active)``, frozen once ``d > dmax``."""
 
     def make() -> ca.Function:
@@ -505,7 +505,7 @@ def invariant_manifold(
     return out
 
 
-def _step_failure(scheme: Scheme, model: Model, which: Subspace, j: int, n_points: int,
+def _step_failure(scheme: DiscreteFlow, model: Model, which: Subspace, j: int, n_points: int,
                   t0: float, dt: float, h: float, nxt: np.ndarray, res: np.ndarray,
                   bad: np.ndarray) -> SolverError:
     k = int(np.flatnonzero(bad)[0])
@@ -538,7 +538,7 @@ def _residual_function(model: Model) -> ca.Function:
     return ca.Function("factor_residuals", [x], [ca.vertcat(*parts)])
 
 
-def _diagnostics(m: InvariantManifold, scheme: Scheme, max_res: float, h: float
+def _diagnostics(m: InvariantManifold, scheme: DiscreteFlow, max_res: float, h: float
                  ) -> dict[str, Any]:
     model = m.model
     run = np.repeat(m.t[:, None], m.n_points, axis=1) < m.stop_time[None, :]

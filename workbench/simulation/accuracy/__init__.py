@@ -1,8 +1,8 @@
 """Work-precision measurement: accuracy against cost, and long-time behaviour.
 
 :func:`work_precision` runs a model from one initial state over one horizon with a set of
-methods, each swept over its accuracy knob (a :class:`Sweep`: cvodes' ``rtol``, the step
-of the fixed-step methods), and measures for every run the error at the final time
+methods, each swept over its accuracy knob (an :class:`AccuracySweep`: cvodes' ``rtol``, the
+step of the fixed-step methods), and measures for every run the error at the final time
 against a high-accuracy reference, the energy error and the constraint residual over the
 run, against wall time and vector-field evaluations. The reference is the first of a few
 independent high-accuracy runs; their spread is its error estimate, reported with it.
@@ -20,7 +20,7 @@ to the initial energy.
 """
 
 from workbench.simulation.accuracy.long_time import LongRun, LongTime, long_time
-from workbench.simulation.accuracy.sweep import Knob, Sweep
+from workbench.simulation.accuracy.sweep import AccuracySweep, Knob, RunStatus
 from workbench.simulation.accuracy.work_precision import (
     Cost,
     Reference,
@@ -33,8 +33,9 @@ from workbench.simulation.accuracy.work_precision import (
 __all__ = [
     "Knob",
     "Cost",
-    "Sweep",
+    "AccuracySweep",
     "Run",
+    "RunStatus",
     "Reference",
     "WorkPrecision",
     "LongRun",

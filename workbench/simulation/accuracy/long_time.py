@@ -18,9 +18,11 @@ import numpy as np
 
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError
+from workbench.core.status import StatusResult
 from workbench.core.types import ArrayLike
 from workbench.simulation.accuracy.sweep import (
-    Sweep,
+    AccuracySweep,
+    RunStatus,
     _check_common,
     _check_sweeps,
     _energy_and_residual,
@@ -32,13 +34,13 @@ __all__ = ["LongRun", "LongTime", "long_time"]
 
 
 @dataclass
-class LongRun:
+class LongRun(StatusResult):
     """One method over a long horizon.
 
     Attributes
     ----------
     label, method : str
-        Sweep label and method.
+        AccuracySweep label and method.
     value : float
         Its knob value.
     t : ndarray, shape=(n_samples,)
@@ -51,8 +53,10 @@ class LongRun:
         Integration wall time.
     steps : int or None
         Steps taken.
-    status : str
-        ``"ok"`` or the failure message.
+    status : RunStatus
+        OK or FAILED.
+    message : str
+        Why it failed (empty when OK).
     """
 
     label: str
@@ -63,7 +67,8 @@ class LongRun:
     constraint: np.ndarray
     wall_seconds: float
     steps: int | None
-    status: str = "ok"
+    status: RunStatus = RunStatus.OK
+    message: str = ""
 
     def summary(self, *, fraction: float = 0.1) -> dict[str, Any]:
         """Maxima early and late, and the growth exponent of the energy error.
@@ -84,8 +89,8 @@ class LongRun:
         """
         out: dict[str, Any] = {"label": self.label, "method": self.method,
                                "value": self.value, "wall_seconds": self.wall_seconds,
-                               "steps": self.steps, "status": self.status}
-        if self.status != "ok":
+                               "steps": self.steps, "status": "ok" if self.ok else self.message}
+        if not self.ok:
             return out
         n = len(self.t)
         k = max(1, int(round(fraction * n)))
@@ -151,7 +156,7 @@ class LongTime:
 
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
         for r in self.runs:
-            if r.status != "ok":
+            if not r.ok:
                 continue
             tt = r.t[1:] / time_unit
             lab = f"{r.label} ({'rtol' if r.method == 'cvodes' else 'h'} = {r.value:g})"
@@ -172,7 +177,7 @@ def long_time(
     model: Model,
     x0: ArrayLike,
     horizon: float,
-    settings: Sequence[Sweep],
+    settings: Sequence[AccuracySweep],
     *,
     controller: ca.Function | None = None,
     n_samples: int = 1001,
@@ -188,7 +193,7 @@ def long_time(
         Initial state.
     horizon : float
         Final time.
-    settings : sequence of Sweep
+    settings : sequence of AccuracySweep
         One method each, with exactly one knob value.
     controller : casadi.Function, optional
         Feedback in the loop.
@@ -219,10 +224,10 @@ def long_time(
         tr, walls, status = _run(model, x0v, t, s, v, controller, 1)
         if tr is None:
             runs.append(LongRun(s.label, s.method.value, v, t, None, np.zeros(0), math.nan,
-                                None, status))
+                                None, *RunStatus.of(status)))
             continue
         E, resid = _energy_and_residual(tr, energy)
         runs.append(LongRun(s.label, s.method.value, v, t,
                             None if E is None else _relative(E), resid, walls[0],
-                            tr.cost.get("steps"), status))
+                            tr.cost.get("steps"), *RunStatus.of(status)))
     return LongTime(model.name, T, runs)

@@ -1,7 +1,9 @@
 """Sweeps of a method's accuracy knob, and the measurements shared by the studies.
 
-A :class:`Sweep` names a method of :func:`~workbench.simulation._simulate.simulate` and the values of
-its accuracy knob (cvodes' ``rtol``, the step of the fixed-step methods). The helpers here
+An :class:`AccuracySweep` names a method of :func:`~workbench.simulation._simulate.simulate`
+and the values of its accuracy knob (cvodes' ``rtol``, the step of the fixed-step methods;
+not to be confused with :func:`workbench.simulation.sweep`, a parameter sweep over worker
+processes). The helpers here
 run one knob value and measure a trajectory's energy error and constraint residual.
 """
 
@@ -18,14 +20,15 @@ import numpy as np
 
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.status import StatusEnum
 from workbench.core.validate import choice
 from workbench.simulation._simulate import Method, Trajectory, constraint_residuals, simulate
 
-__all__ = ["Knob", "Sweep"]
+__all__ = ["Knob", "AccuracySweep", "RunStatus"]
 
 
 class Knob(str, Enum):
-    """The accuracy knob a :class:`Sweep` varies."""
+    """The accuracy knob a :class:`AccuracySweep` varies."""
 
     RTOL = "rtol"
     STEP = "step"
@@ -36,7 +39,7 @@ _FORBIDDEN = {"method", "rtol", "atol", "step", "controller"}
 
 
 @dataclass(frozen=True)
-class Sweep:
+class AccuracySweep:
     """One method and the values of its accuracy knob.
 
     Parameters
@@ -58,26 +61,26 @@ class Sweep:
     label: str = ""
 
     def __post_init__(self) -> None:
-        method = choice(Method, self.method, "Sweep.method")
+        method = choice(Method, self.method, "AccuracySweep.method")
         object.__setattr__(self, "method", method)
         try:
             vals = tuple(float(v) for v in np.atleast_1d(np.asarray(self.values, dtype=float)))
         except (TypeError, ValueError) as exc:
             raise ParameterError(
-                f"Sweep.values ({self.knob.value} of {method.value}) must be numbers; got "
-                f"{self.values!r}"
+                f"AccuracySweep.values ({self.knob.value} of {method.value}) must be numbers; "
+                f"got {self.values!r}"
             ) from exc
         if not vals or not all(np.isfinite(v) and v > 0 for v in vals):
             raise ParameterError(
-                f"Sweep.values ({self.knob.value} of {method.value}) must be positive finite "
-                f"numbers, at least one; got {list(vals)}"
+                f"AccuracySweep.values ({self.knob.value} of {method.value}) must be positive "
+                f"finite numbers, at least one; got {list(vals)}"
             )
         object.__setattr__(self, "values", vals)
         bad = sorted(_FORBIDDEN & set(self.options))
         if bad:
             raise ParameterError(
-                f"Sweep.options must not set {bad}: the method and knob are the sweep's own, "
-                f"the controller is work_precision's"
+                f"AccuracySweep.options must not set {bad}: the method and knob are the sweep's "
+                f"own, the controller is work_precision's"
             )
         object.__setattr__(self, "options", dict(self.options))
         if not self.label:
@@ -135,9 +138,10 @@ def _check_common(model: Model, horizon: float, energy: str | None, n_samples: i
     return T
 
 
-def _check_sweeps(sweeps: Sequence[Sweep], horizon: float, n_samples: int) -> None:
-    if not sweeps or not all(isinstance(s, Sweep) for s in sweeps):
-        raise ParameterError(f"sweeps must be a non-empty sequence of Sweep; got {sweeps!r}")
+def _check_sweeps(sweeps: Sequence[AccuracySweep], horizon: float, n_samples: int) -> None:
+    if not sweeps or not all(isinstance(s, AccuracySweep) for s in sweeps):
+        raise ParameterError(
+            f"sweeps must be a non-empty sequence of AccuracySweep; got {sweeps!r}")
     labels = [s.label for s in sweeps]
     if len(set(labels)) != len(labels):
         raise ParameterError(f"sweep labels must be unique; got {labels}")
@@ -150,7 +154,23 @@ def _check_sweeps(sweeps: Sequence[Sweep], horizon: float, n_samples: int) -> No
                 )
 
 
-def _run(model: Model, x0: np.ndarray, t: np.ndarray, sweep: Sweep, value: float,
+class RunStatus(StatusEnum):
+    """Outcome of one run of a sweep; the value is a readable message."""
+
+    OK = "integrated to the final time"
+    FAILED = "the integration failed (the run's message says why)"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"OK"})
+
+    @classmethod
+    def of(cls, outcome: str) -> tuple[RunStatus, str]:
+        """``(status, message)`` from :func:`_run`'s ``"ok"`` or ``"failed: ..."``."""
+        return (cls.OK, "") if outcome == "ok" else (cls.FAILED, outcome)
+
+
+def _run(model: Model, x0: np.ndarray, t: np.ndarray, sweep: AccuracySweep, value: float,
          controller: ca.Function | None, repeats: int) -> tuple[Trajectory | None, list[float],
                                                                 str]:
     walls: list[float] = []

@@ -1,10 +1,10 @@
 """Work-precision measurement: error, energy error and constraint residual against cost.
 
 :func:`work_precision` runs a model from one initial state over one horizon with a set of
-:class:`~workbench.simulation.accuracy.sweep.Sweep` and measures, for every run, the error at the
-final time against a high-accuracy reference, the energy error and the constraint residual,
-against wall time and vector-field evaluations. The reference is the first of a few
-high-accuracy runs; their spread is its error estimate, reported with it.
+:class:`~workbench.simulation.accuracy.sweep.AccuracySweep` and measures, for every run, the
+error at the final time against a high-accuracy reference, the energy error and the
+constraint residual, against wall time and vector-field evaluations. The reference is the
+first of a few high-accuracy runs; their spread is its error estimate, reported with it.
 """
 
 from __future__ import annotations
@@ -20,11 +20,13 @@ import numpy as np
 
 from workbench.core._model import Model
 from workbench.core.errors import ParameterError
+from workbench.core.status import StatusResult
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice
 from workbench.simulation._simulate import Method, simulate
 from workbench.simulation.accuracy.sweep import (
-    Sweep,
+    AccuracySweep,
+    RunStatus,
     _check_common,
     _check_sweeps,
     _energy_and_residual,
@@ -43,7 +45,7 @@ class Cost(str, Enum):
 
 
 @dataclass
-class Run:
+class Run(StatusResult):
     """One point of a work-precision diagram.
 
     Attributes
@@ -66,8 +68,10 @@ class Run:
         Vector-field evaluations, where the method counts them.
     steps : int or None
         Steps taken.
-    status : str
-        ``"ok"`` or the failure message.
+    status : RunStatus
+        OK or FAILED.
+    message : str
+        Why it failed (empty when OK).
     """
 
     label: str
@@ -81,16 +85,12 @@ class Run:
     wall_seconds: float
     evaluations: int | None
     steps: int | None
-    status: str = "ok"
-
-    @property
-    def ok(self) -> bool:
-        """Whether the run succeeded."""
-        return self.status == "ok"
+    status: RunStatus = RunStatus.OK
+    message: str = ""
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain form (one table row)."""
-        return dict(self.__dict__)
+        """Plain form (one table row; ``status`` is ``"ok"`` or the failure message)."""
+        return {**self.__dict__, "status": "ok" if self.ok else self.message}
 
 
 @dataclass
@@ -120,15 +120,15 @@ class Reference:
                 "wall_seconds": self.wall_seconds, "x_final": self.x_final.tolist()}
 
 
-def default_reference(horizon: float) -> tuple[Sweep, ...]:
+def default_reference(horizon: float) -> tuple[AccuracySweep, ...]:
     """The default reference: RK4 at ``step = horizon / 2^16``, checked at twice that step.
 
     The difference of the two (Richardson) over-estimates the reference's own error by
     about ``2^4``; pass a problem-specific ``reference`` to :func:`work_precision` when the
     time scale of the motion makes these steps too coarse or too fine.
     """
-    return (Sweep(Method.RK, (horizon / 2**16,), label="reference rk h=T/2^16"),
-            Sweep(Method.RK, (horizon / 2**15,), label="check rk h=T/2^15"))
+    return (AccuracySweep(Method.RK, (horizon / 2**16,), label="reference rk h=T/2^16"),
+            AccuracySweep(Method.RK, (horizon / 2**15,), label="check rk h=T/2^15"))
 
 
 @dataclass
@@ -160,7 +160,7 @@ class WorkPrecision:
         return [r.as_dict() for r in self.runs]
 
     def labels(self) -> list[str]:
-        """Sweep labels in order."""
+        """AccuracySweep labels in order."""
         return list(self.orders_theory)
 
     def fastest(self, accuracy: float, *, cost: Cost = Cost.WALL) -> Run | None:
@@ -278,10 +278,10 @@ def work_precision(
     model: Model,
     x0: ArrayLike,
     horizon: float,
-    sweeps: Sequence[Sweep],
+    sweeps: Sequence[AccuracySweep],
     *,
     controller: ca.Function | None = None,
-    reference: Sequence[Sweep] | None = None,
+    reference: Sequence[AccuracySweep] | None = None,
     n_samples: int = 11,
     repeats: int = 1,
     energy: str | None = "energy",
@@ -296,13 +296,13 @@ def work_precision(
         Initial state (on the manifold).
     horizon : float
         Final time ``T``; runs go from 0 to ``T``.
-    sweeps : sequence of Sweep
+    sweeps : sequence of AccuracySweep
         Methods and knob values; step sizes must not exceed ``T`` and should divide the
         sample spacing ``T / (n_samples - 1)`` (otherwise the step is rounded down to
         one that does, and the step used is reported).
     controller : casadi.Function, optional
         Feedback in the loop for every run.
-    reference : sequence of Sweep, optional
+    reference : sequence of AccuracySweep, optional
         Reference runs, one value each (default :func:`default_reference`); the first is
         the reference, the spread of all is its error estimate.
     n_samples : int
@@ -347,7 +347,7 @@ def work_precision(
             tr, walls, status = _run(model, x0v, t, s, v, controller, int(repeats))
             if tr is None:
                 runs.append(Run(s.label, s.method.value, s.knob.value, v, None, math.inf, None,
-                                math.nan, math.nan, None, None, status))
+                                math.nan, math.nan, None, None, *RunStatus.of(status)))
                 continue
             E, resid = _energy_and_residual(tr, energy)
             runs.append(Run(

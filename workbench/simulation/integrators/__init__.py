@@ -5,19 +5,20 @@
 * :func:`rkmk4`: explicit Runge-Kutta-Munthe-Kaas method of order 4 for any model on
   R^n, S1, S2, SO3 and TS2 factors.
 
-Each returns a :class:`Scheme` (one step as a casadi.Function, cached in the model's build
-log) that :func:`integrate` runs forward or backward in time; they are first-class
-methods of :func:`workbench.simulation._simulate.simulate` (``Method.LGVI``, ``Method.S2_VARIATIONAL``,
-``Method.RKMK4``). The casadi-backed methods (cvodes, rk, collocation) live in
-:mod:`workbench.simulation._simulate`.
+Each returns a :class:`DiscreteFlow` (the discrete flow map ``Phi_h``: one step as a
+casadi.Function, cached in the model's build log) that :func:`integrate` runs forward or
+backward in time; they are first-class methods of
+:func:`workbench.simulation._simulate.simulate` (``Method.LGVI``,
+``Method.S2_VARIATIONAL``, ``Method.RKMK4``). The casadi-backed methods (cvodes, rk,
+collocation) live in :mod:`workbench.simulation._simulate`.
 """
 
 from workbench.simulation.integrators.common import (
     CHUNK,
     NEWTON_MAX_ITER,
     NEWTON_TOL,
+    DiscreteFlow,
     Integration,
-    Scheme,
     integrate,
 )
 from workbench.simulation.integrators.lgvi import lgvi
@@ -29,7 +30,7 @@ __all__ = [
     "NEWTON_MAX_ITER",
     "NEWTON_TOL",
     "Integration",
-    "Scheme",
+    "DiscreteFlow",
     "integrate",
     "lgvi",
     "rkmk4",

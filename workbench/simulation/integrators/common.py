@@ -1,6 +1,6 @@
 """Pieces shared by the fixed-step geometric integrators.
 
-A geometric integrator is described by a :class:`Scheme`: one casadi.Function
+A geometric integrator is described by a :class:`DiscreteFlow`: one casadi.Function
 ``step(x, p, h) -> (x_next, residual, iterations)`` that advances the stored ambient state
 by one step of signed size ``h`` (negative for backward integration), built from the
 model's graph, plus what it preserves and what one step costs. :func:`integrate` runs a
@@ -38,7 +38,7 @@ from workbench.core.types import ArrayLike
 from workbench.core.validate import count, positive
 
 __all__ = [
-    "Scheme",
+    "DiscreteFlow",
     "Integration",
     "NEWTON_TOL",
     "NEWTON_MAX_ITER",
@@ -62,8 +62,12 @@ CHUNK = 512
 
 
 @dataclass(frozen=True)
-class Scheme:
-    """A one-step method on a model's manifold, as one casadi.Function.
+class DiscreteFlow:
+    """The discrete flow map ``Phi_h`` of a one-step method on a model's manifold.
+
+    One casadi.Function ``x_(k+1) = Phi_h(x_k)`` with what it preserves and what a step
+    costs (named for the map it computes; the OCP's ``Scheme`` is the choice of
+    collocation points).
 
     Attributes
     ----------
@@ -119,7 +123,7 @@ class Integration:
         outside Newton solves), ``newton_iterations`` (total), ``seconds_per_step``.
     diagnostics : dict
         ``newton`` (tolerance, largest residual, iterations per step: max and mean) and
-        ``structure`` (the scheme's :attr:`Scheme.structure`).
+        ``structure`` (the scheme's :attr:`DiscreteFlow.structure`).
     """
 
     t: np.ndarray
@@ -331,7 +335,7 @@ def check_step(
 
 def integrate(
     model: Model,
-    scheme: Scheme,
+    scheme: DiscreteFlow,
     x0: ArrayLike,
     t: ArrayLike,
     *,
@@ -344,7 +348,7 @@ def integrate(
     ----------
     model : Model
         The model the scheme was built for (its parameter values are used).
-    scheme : Scheme
+    scheme : DiscreteFlow
         The one-step method.
     x0 : array-like, shape=(ambient_dim,)
         Initial state (already validated on the manifold by the caller).

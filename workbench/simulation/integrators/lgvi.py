@@ -33,7 +33,7 @@ from workbench.core.manifolds import SO3, Rn, _exp_coefficients, hat, so3_exp
 from workbench.simulation.integrators.common import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
-    Scheme,
+    DiscreteFlow,
     check_newton_options,
     compile_step,
     controller_key,
@@ -117,7 +117,7 @@ def lgvi(
     newton_tol: float = NEWTON_TOL,
     newton_max_iter: int = NEWTON_MAX_ITER,
     jit: bool = False,
-) -> Scheme:
+) -> DiscreteFlow:
     """The Lie group variational integrator for a rigid-body model on TSO(3).
 
     Parameters
@@ -137,7 +137,7 @@ def lgvi(
 
     Returns
     -------
-    Scheme
+    DiscreteFlow
         Order 2; the step function is cached in the model's build log.
 
     Raises
@@ -163,7 +163,7 @@ def lgvi(
 
     step = model._build(key, make)
     closed = controller is not None
-    return Scheme(
+    return DiscreteFlow(
         name="lgvi",
         step=step,
         order=2,

@@ -39,7 +39,7 @@ from workbench.core._model import Model
 from workbench.core.errors import ModelError
 from workbench.core.manifolds import S1, S2, SO3, TS2, Factor, Rn, so3_exp, vee
 from workbench.simulation.integrators.common import (
-    Scheme,
+    DiscreteFlow,
     compile_step,
     controller_key,
     feedback_function,
@@ -148,7 +148,7 @@ def rkmk4(
     controller: ca.Function | None = None,
     *,
     jit: bool = False,
-) -> Scheme:
+) -> DiscreteFlow:
     """The explicit RKMK4 Lie-group method for any model on R^n, S1, S2, SO3, TS2 factors.
 
     Parameters
@@ -162,7 +162,7 @@ def rkmk4(
 
     Returns
     -------
-    Scheme
+    DiscreteFlow
         Order 4, explicit (residual 0, no Newton iterations), 4 evaluations per step.
 
     Raises
@@ -179,7 +179,7 @@ def rkmk4(
         return compile_step(fn) if jit else fn
 
     step = model._build(key, make)
-    return Scheme(
+    return DiscreteFlow(
         name="rkmk4",
         step=step,
         order=4,

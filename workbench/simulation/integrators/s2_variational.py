@@ -31,7 +31,7 @@ from workbench.core.manifolds import TS2
 from workbench.simulation.integrators.common import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
-    Scheme,
+    DiscreteFlow,
     check_newton_options,
     compile_step,
     controller_key,
@@ -87,7 +87,7 @@ def s2_variational(
     newton_tol: float = NEWTON_TOL,
     newton_max_iter: int = NEWTON_MAX_ITER,
     jit: bool = False,
-) -> Scheme:
+) -> DiscreteFlow:
     """The variational integrator on S^2 for a model on TS^2 such as the spherical pendulum.
 
     Parameters
@@ -107,7 +107,7 @@ def s2_variational(
 
     Returns
     -------
-    Scheme
+    DiscreteFlow
         Order 2.
 
     Raises
@@ -131,7 +131,7 @@ def s2_variational(
 
     step = model._build(key, make)
     closed = controller is not None
-    return Scheme(
+    return DiscreteFlow(
         name="s2_variational",
         step=step,
         order=2,
