@@ -35,6 +35,8 @@ desired equilibrium ``(q_d, 0)`` or ``(R_d, 0)``; measured >= 1.41).
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -42,13 +44,14 @@ from models import controllers as ctl
 from models import pendulum3d as p3
 from models.spherical import spherical_pendulum
 from workbench.core.errors import SolverError
-from workbench.core.manifolds import SO3
+from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn
 from workbench.global_dynamics._invariant_manifolds import stable_manifold
 from workbench.global_dynamics._manifold_validation import validate
 from workbench.global_dynamics._seeds import (
     EPS,
     SEED_TOL,
     ball_points,
+    chart_increments,
     distances,
     rounding_bound,
     seed_report,
@@ -130,6 +133,24 @@ def test_seeds_at_distance_delta_for_random_saddles(space):
             C = np.array([model.manifold.chart(xe, p) for p in P])
             out = np.linalg.norm(C - (C @ W) @ W.T, axis=1) / np.linalg.norm(C, axis=1)
             assert np.max(out) <= delta + EPS / delta
+
+
+@pytest.mark.parametrize("scale", [1e-8, 1e-5, 1e-2, 0.5])
+def test_chart_increments_are_the_retraction_for_every_factor(scale):
+    """x_e + increment is the factors' own retraction, and its distance the distance (12)."""
+    man = ProductManifold([("x", Rn(2)), ("p", S1()), ("q", S2()), ("v", TS2()),
+                           ("R", SO3()), ("w", Rn(3))])
+    model = SimpleNamespace(manifold=man)  # chart_increments reads the manifold only
+    rng = np.random.default_rng([19, 7])
+    for _ in range(10):
+        x_e = man.random_point(rng, scale=2.0)  # TS2 with w != 0: a chart, not a saddle
+        V = scale * rng.standard_normal((5, man.dim))
+        D, d, angle = chart_increments(model, x_e, V)
+        ref = np.array([man.retract(x_e, v) for v in V])
+        assert np.max(np.abs(x_e + D - ref)) <= 8 * EPS * (1 + np.max(np.abs(x_e)))
+        amb = distances(model, x_e + D, x_e)
+        assert np.max(np.abs(amb - d)) <= rounding_bound(model, x_e, float(d.max()))
+        assert np.all(angle <= np.linalg.norm(V, axis=1))
 
 
 @pytest.mark.parametrize("q_d", [[0.0, 0.6, 0.8], [0.0, 0.0, 1.0]])
