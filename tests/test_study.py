@@ -143,6 +143,10 @@ def test_result_figure_keeps_caption_and_figures_mapping():
     res.figure("lines", fig, caption="Two panels.")
     assert res.figures["lines"] is fig and res.as_dict()["captions"] == {"lines": "Two panels."}
     assert len([a for a in fig.axes if a.get_visible()]) == 2
+    many = line_figure([Panel("c", {"k": ([0, 1, 2], np.ones((3, 4))), "l": ([0, 2], [1, 2])})])
+    ax = many.axes[0]
+    assert len(ax.lines) == 5 and len({ln.get_color() for ln in ax.lines[:4]}) == 1
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["k", "l"]
     with pytest.raises(ParameterError, match="caption"):
         res.figure("bad", fig, caption="  ")
     spec = spectrum_figure({"hanging": ([1j, -1j], [1j, -1j]), "alone": ([-1.0], None)})

@@ -32,7 +32,8 @@ class Panel:
     title : str
         The panel's title.
     curves : mapping of str to (array-like, array-like)
-        ``label -> (x, y)``; ``y`` may have several columns (one line each).
+        ``label -> (x, y)``; ``y`` may have several columns (one line each, drawn in
+        one colour under one legend entry; e.g. many trajectories of one kind).
     xlabel, ylabel : str
         Axis labels with units.
     yscale : str
@@ -99,8 +100,11 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
     fig, axes = _grid(len(panels), ncols, size)
     for ax, p in zip(axes, panels):
         for label, (x, y) in p.curves.items():
-            ax.plot(np.asarray(x), np.asarray(y), marker=p.marker or None,
-                    linestyle=p.linestyle or "none", label=label)
+            lines = ax.plot(np.asarray(x), np.asarray(y), marker=p.marker or None,
+                            linestyle=p.linestyle or "none")
+            for line in lines[1:]:  # columns of a 2D y: one colour, one legend entry
+                line.set_color(lines[0].get_color())
+            lines[0].set_label(label)
         ax.set(title=p.title, xlabel=p.xlabel, ylabel=p.ylabel, xscale=p.xscale,
                yscale=p.yscale)
         ax.grid(True, alpha=0.3)
