@@ -17,7 +17,7 @@ from workbench.control import SublevelSet
 from workbench.global_dynamics import distances, invariant_manifold, validate
 from workbench.linear import Subspace
 from workbench.simulation import Method
-from workbench.study import Result, compare_counts
+from workbench.study import Panel, Result, compare_counts, line_figure, s2_manifold_figure
 
 TITLE = "A slice of the stable manifold M_i of the inverted equilibrium avoids N (paper 001)"
 
@@ -131,38 +131,19 @@ def solve(*, quick: bool = False) -> Result:
         "1e-6 in the stable eigenspace up to t = T; every point of it has V > 2 m g |rho|. "
         "Near the equilibrium the margin is quadratic in the distance (V restricted to the "
         "stable subspace is positive definite there), which the scaled margin measures.")
-    res.figure("slice_of_M_i", _figure(W, margin), caption=(
+    res.figure("slice_of_M_i", s2_manifold_figure(W, [W.t[-1]], factor="Gamma", ncols=1, marks={
+        "Gamma_h": gamma_h, "Gamma_i": -gamma_h}), caption=(
         "A slice of the stable manifold M_i of the inverted equilibrium under the saturated "
-        "feedback (34): the reduced attitude Gamma(t) of its points on the sphere, coloured "
-        "by |omega| (left), and the margin V - 2 m g |rho| by which each stays outside N "
-        "(33), growing backward in time (right; always positive)."))
+        "feedback (34): the reduced attitude Gamma(t) of its points, from Gamma_i backward "
+        "in time, coloured by |omega|; none of it enters N (33) around Gamma_h."))
+    m = np.maximum(margin[:, ::max(1, W.n_points // 40)], 1e-16)  # at most ~40 trajectories
+    res.figure("margin_to_N", line_figure([Panel("margin to N (33) along the slice", {
+        "V - 2 m g |rho|": (W.t, m)}, xlabel="t (backward) [s]", yscale="log")], ncols=1),
+        caption=(
+        "The margin V - 2 m g |rho| by which points of the slice of M_i stay outside N (33), "
+        "along up to 40 of its trajectories: positive everywhere, quadratic in the distance "
+        "near the equilibrium and growing backward in time (paper 001 Remark 5)."))
     return res.finish()
-
-
-def _figure(W, margin):  # noqa: ANN001, ANN202
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from workbench.study import mark_directions, sphere_axes, sphere_curves
-
-    fig = plt.figure(figsize=(10, 4.2))
-    ax = sphere_axes(fig, 121, elev=10)
-    G = W.part("Gamma")
-    w = np.linalg.norm(W.part("omega"), axis=2)
-    coll = sphere_curves(ax, [G[:, j] for j in range(W.n_points)],
-                         [w[:, j] for j in range(W.n_points)], vmin=0.0)
-    mark_directions(ax, [[0, 0, 1], [0, 0, -1]], ["Gamma_h", "Gamma_i"])
-    ax.set_title(f"Gamma(t) on M_i, 0 <= t <= {W.t[-1]:g} s", fontsize=9)
-    fig.colorbar(coll, ax=ax, shrink=0.6, label="|omega| [rad/s]")
-    ax2 = fig.add_subplot(122)
-    for j in range(0, W.n_points, max(1, W.n_points // 40)):
-        ax2.semilogy(W.t, np.maximum(margin[:, j], 1e-16), lw=0.6)
-    ax2.set(xlabel="t (backward) [s]", ylabel="V - 2 m g |rho|",
-            title="margin to N (33) along the slice")
-    fig.tight_layout()
-    return fig
 
 
 if __name__ == "__main__":
