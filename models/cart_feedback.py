@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +22,8 @@ from workbench.core import Context, Model
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import TS2, Rn
 
-__all__ = ["CartGains", "cart_domain", "cart_inverted_feedback", "cart_inverted_law"]
+__all__ = ["CartGains", "cart_domain", "cart_domain_proposal", "cart_inverted_feedback",
+           "cart_inverted_law"]
 
 C2 = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # C = [e1, e2], R^2 -> R^3
 
@@ -163,3 +165,38 @@ def cart_domain(model: Model, *, k_w: float, k_q: float) -> ca.Function:
     _require_cart(model, "domain D of paper 003 (43)")
     s = CartGains(1.0, 1.0, k_w, k_q).s
     return state_function(model, "cart_domain_D", lambda ctx: ctx["link1"][2] + s, out="b")
+
+
+def cart_domain_proposal(s: float, *, x_box: float, v_box: float, w_box: float
+                         ) -> Callable[[np.random.Generator, int], np.ndarray]:
+    """A sampler of states of the one-link cart in the domain (43) ``D = {q1 . e3 < -s}``.
+
+    ``q1`` is area-uniform on the spherical cap ``q1 . e3 < -s``; ``omega1`` is drawn
+    uniform in ``[-w_box, w_box]^3`` and projected onto ``T_q S^2`` (every tangent vector
+    of the box is reached); ``x`` and ``x-dot`` are uniform in their boxes.
+
+    Parameters
+    ----------
+    s : float
+        ``sqrt((1 + k_w)/k_q)`` (:attr:`CartGains.s`), in [0, 1).
+    x_box, v_box, w_box : float
+        Half-widths of the boxes of ``x``, ``x-dot`` and ``omega1``.
+
+    Returns
+    -------
+    callable
+        ``draw(rng, k) -> ndarray, shape=(k, 10)``, stored states of
+        :func:`models.chain_cart.chain_cart` with ``n = 1``.
+    """
+
+    def draw(rng: np.random.Generator, k: int) -> np.ndarray:
+        q3 = rng.uniform(-1.0, -s, k)  # area-uniform on a spherical cap
+        phi = rng.uniform(0.0, 2 * np.pi, k)
+        r = np.sqrt(1 - q3**2)
+        q = np.c_[r * np.cos(phi), r * np.sin(phi), q3]
+        w = rng.uniform(-w_box, w_box, (k, 3))
+        w -= np.sum(w * q, axis=1, keepdims=True) * q
+        return np.c_[rng.uniform(-x_box, x_box, (k, 2)), rng.uniform(-v_box, v_box, (k, 2)),
+                     q, w]
+
+    return draw
