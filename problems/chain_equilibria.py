@@ -123,8 +123,7 @@ def solve(*, quick: bool = False) -> Result:
 
     # hard cases
     model = chain_cart(2, **PARAMS)
-    hanging = np.concatenate([np.zeros(4), link_state(E3), link_state(E3)])
-    pushed = find_equilibrium(model, hanging, u=[1.0, 0.0], raise_on_failure=False)
+    pushed = find_equilibrium(model, equilibrium(2, (1, 1)), u=[1.0, 0.0], raise_on_failure=False)
     res.compare("constant push u = (1, 0): status STAGNATED (no equilibrium exists)", 1.0,
                 float(pushed.status is RootStatus.STAGNATED), tolerance=0,
                 source="dp_x/dt = u_x != 0")
@@ -140,10 +139,7 @@ def solve(*, quick: bool = False) -> Result:
         "perturbation_tangent_coordinates": PERTURBATION,
         "seed": SEED,
         "per_n": per_n,
-        "pushed": {"status": pushed.status.code, "message": pushed.message,
-                   "residual": pushed.residual},
-        "far_start": {"status": capped.status.code, "message": capped.message,
-                      "residual": capped.residual},
+        "pushed": pushed.summary(), "far_start": capped.summary(),
     }
     res.figure("newton_convergence", line_figure([Panel(
         "Newton on (S^2)^n x R^2 from perturbed vertical configurations", histories,
