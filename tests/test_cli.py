@@ -50,6 +50,9 @@ def test_help_everywhere(capsys, sub):
         (["run", "no_such_problem"], "unknown problem 'no_such_problem'"),
         (["report", "no_such_problem"], "unknown problem(s) 'no_such_problem'"),
         (["report", "--bogus"], "unrecognized arguments: --bogus"),
+        (["report", "--jobs", "0"], "--jobs: expected a whole number >= 1; got '0'"),
+        (["report", "--timeout", "-5"], "--timeout: expected a positive number; got '-5'"),
+        (["report", "--timeout", "nan"], "--timeout: expected a positive number; got 'nan'"),
         (["run"], "the following arguments are required: name"),
         ([], "the following arguments are required: COMMAND"),
         (["frobnicate"], "invalid choice: 'frobnicate'"),
@@ -83,13 +86,25 @@ def test_entry_point_exit_status_and_one_line():
     assert proc.stderr.strip().count("\n") == 0 and "unknown problem(s) 'nope'" in proc.stderr
 
 
-def test_report_writes_html_with_progress(capsys, tmp_path):
-    code, out, err = call(capsys, "report", "pendulum3d_invariants", "--quick", "--html",
-                          "--out", str(tmp_path))
+def test_report_writes_html_with_progress_and_reuses_it(capsys, tmp_path, monkeypatch):
+    from workbench.app.report import cache
+
+    # the cache key hashes the engine's sources: others editing the shared checkout while
+    # this test runs must not change it, so the engine hashed here is an empty one
+    (tmp_path / "root" / "workbench").mkdir(parents=True)
+    monkeypatch.setattr(cache, "ROOT", tmp_path / "root")
+    out_dir, cache_dir = tmp_path / "out", tmp_path / "cache"
+    argv = ("report", "pendulum3d_invariants", "--quick", "--html", "--out", str(out_dir),
+            "--cache", str(cache_dir))
+    code, out, err = call(capsys, *argv)
     assert code == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["report-quick.html"]
-    assert f"wrote {tmp_path / 'report-quick.html'}" in out
+    assert sorted(p.name for p in out_dir.iterdir()) == ["report-quick.html"]
+    assert f"wrote {out_dir / 'report-quick.html'}" in out
     assert "[1/1] pendulum3d_invariants" in err  # per-problem progress on stderr
+    assert "elapsed" in err
+    assert "1 run, 0 re-used" in out and "peak memory" in out  # the cost, at the end
+    code, out, err = call(capsys, *argv)
+    assert code == 0 and "re-used" in err and "0 run, 1 re-used" in out
 
 
 def test_bench_lists_and_runs_scripts(capsys, tmp_path, monkeypatch):

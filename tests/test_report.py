@@ -215,14 +215,14 @@ class TableGrabber(HTMLParser):
 
 
 def comparison_rows(path: Path) -> list[list[str]]:
-    g = TableGrabber("comparison")
+    g = TableGrabber("full")  # the appendix's full table (the headline one omits sources)
     g.feed(path.read_text())
     return [r for r in g.rows if r and r[0] != "quantity"]
 
 
 def test_failing_problem_is_reported_not_fatal(tmp_path):
     rep = build_report(quick=True, formats=[Format.HTML], out_dir=tmp_path,
-                       catalogue=make_catalogue(1.0), progress=False)
+                       catalogue=make_catalogue(1.0), progress=False, cache_dir=None)
     assert [r.name for r in rep.runs] == ["broken", "good"]
     assert rep.failed == ["broken"] and not rep.ok
     assert rep.runs[1].status is Status.OK
@@ -236,7 +236,7 @@ def test_paper_vs_workbench_table_is_computed(tmp_path):
     out1, out2 = tmp_path / "l1", tmp_path / "l2"
     for length, out in ((1.0, out1), (2.0, out2)):
         build_report(["good"], formats=[Format.HTML], out_dir=out,
-                     catalogue=make_catalogue(length), progress=False)
+                     catalogue=make_catalogue(length), progress=False, cache_dir=None)
     (r1,), (r2,) = comparison_rows(out1 / "report.html"), comparison_rows(out2 / "report.html")
     assert r1[0] == r2[0] == "hanging frequency sqrt(g/l) [rad/s]"
     assert r1[2] == r2[2] == "3.1321"  # the printed value is the same
@@ -249,13 +249,13 @@ def test_paper_vs_workbench_table_is_computed(tmp_path):
 def test_bad_input_fails_before_anything_runs(tmp_path):
     cat = make_catalogue(1.0)
     with pytest.raises(ReportInputError, match="unknown problem"):
-        build_report(["nope"], out_dir=tmp_path, catalogue=cat, progress=False)
+        build_report(["nope"], out_dir=tmp_path, catalogue=cat, progress=False, cache_dir=None)
     blocker = tmp_path / "file"
     blocker.write_text("x")
     with pytest.raises(ReportInputError, match="not a directory|Not a directory"):
-        build_report(out_dir=blocker / "sub", catalogue=cat, progress=False)
+        build_report(out_dir=blocker / "sub", catalogue=cat, progress=False, cache_dir=None)
     with pytest.raises(ReportInputError, match="not a directory"):
-        build_report(out_dir=blocker, catalogue=cat, progress=False)
+        build_report(out_dir=blocker, catalogue=cat, progress=False, cache_dir=None)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
 
 
@@ -269,7 +269,7 @@ def test_no_partial_files_when_pdf_fails(tmp_path, monkeypatch):
     monkeypatch.setattr(pdf, "render_pdf", fail)
     with pytest.raises(ReportError):
         build_report(["good"], out_dir=tmp_path, catalogue=make_catalogue(1.0),
-                     progress=False)
+                     progress=False, cache_dir=None)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"]
 
 
@@ -368,7 +368,8 @@ def render_pdf_pages(pdf: Path, tmp_path: Path, *, first: int, last: int) -> lis
 def quick_report(tmp_path_factory):
     """The quick report of one real problem and the synthetic ones, HTML and PDF."""
     out = tmp_path_factory.mktemp("report")
-    rep = build_report(["pendulum3d_invariants"], quick=True, out_dir=out, progress=False)
+    rep = build_report(["pendulum3d_invariants"], quick=True, out_dir=out, progress=False,
+                       cache_dir=tmp_path_factory.mktemp("cache"))
     return rep, out
 
 
@@ -379,8 +380,12 @@ def test_html_parses_cleanly_and_is_self_contained(quick_report):
     assert p.counts.get("math", 0) >= 10  # equations, parameters, vector fields
     assert p.counts.get("table", 0) >= 8
     text = (out / "report-quick.html").read_text()
-    for c in rep.runs[0].result.comparisons:
-        assert html.escape(c.quantity) in text
+    for quantity, *_ in rep.runs[0].summary["headline"]:
+        assert html.escape(quantity) in text
+    # a document first: the plain-language summary and the first page's sections
+    assert html.escape(rep.document.problems[0].summary) in text
+    assert "Errata of the papers that this report confirms" in text
+    assert text.count("<details") == len(rep.runs)  # the appendix, folded
 
 
 def test_html_renders_in_chromium_with_figures_and_tables(quick_report, tmp_path):
@@ -405,12 +410,13 @@ def test_pdf_pages_text_and_rendering(quick_report, tmp_path):
     n = pdf_pages(pdf)
     assert n >= 3
     text = pdf_text(pdf)
-    result = rep.runs[0].result
-    assert re.sub(r"\s+", " ", result.title) in text
+    run = rep.runs[0]
+    assert re.sub(r"\s+", " ", run.title) in text
+    assert "Appendix: full tables" in text
     assert "Paper vs workbench" in text and "Cost and accuracy" in text
     assert "Functions built" in text and "pendulum3d_full.f" in text
-    for c in result.comparisons[:3]:
-        assert c.quantity in text
+    for quantity, *_ in run.summary["headline"][:3]:
+        assert quantity in text
     pages = render_pdf_pages(pdf, tmp_path, first=1, last=min(n, 3))
     for img in pages:
         assert pixels_near(img, (255, 255, 255), tol=3) < 0.995 * img.shape[0] * img.shape[1]
@@ -421,7 +427,7 @@ def test_pdf_pages_text_and_rendering(quick_report, tmp_path):
 def test_report_lists_every_problem_of_the_catalogue(tmp_path):
     cat = make_catalogue(1.0)
     rep = build_report(quick=True, formats=[Format.PDF], out_dir=tmp_path, catalogue=cat,
-                       progress=False)
+                       progress=False, cache_dir=None)
     text = pdf_text(tmp_path / "report-quick.pdf")
     for name in cat.names():
         assert name in text and cat.title(name) in text
@@ -435,7 +441,7 @@ def test_report_lists_every_problem_of_the_catalogue(tmp_path):
 @pytest.mark.slow
 def test_full_report_of_every_problem(tmp_path):
     names = problems.names()  # before: others may add problems while the report runs
-    rep = build_report(out_dir=tmp_path, progress=False)
+    rep = build_report(out_dir=tmp_path, progress=False, cache_dir=tmp_path / "cache")
     assert [r.name for r in rep.runs] == names
     p = check_html(tmp_path / "report.html")
     assert p.counts.get("section", 0) >= len(names)

@@ -66,6 +66,26 @@ def _writable_json(path: str) -> Path:
     return p
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1; got {text!r}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number; got {text!r}")
+    return value
+
+
 def _run(args: argparse.Namespace) -> int:
     problems = _problems()
     targets = problems.names() if args.name == "all" else [args.name]
@@ -112,22 +132,21 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from workbench.app.report import DEFAULT_OUT, Format, build_report
+    from workbench.app.report import DEFAULT_CACHE, DEFAULT_OUT, Format, build_report
 
     formats = [f for f, on in ((Format.HTML, args.html), (Format.PDF, args.pdf)) if on]
     if not formats:
         formats = [Format.HTML, Format.PDF]
-    t0 = time.perf_counter()
+    cache = None if args.no_cache else (args.cache or DEFAULT_CACHE)
     rep = build_report(args.names or None, quick=args.quick, formats=formats,
-                       out_dir=args.out or DEFAULT_OUT, progress=not args.no_progress)
-    total = time.perf_counter() - t0
+                       out_dir=args.out or DEFAULT_OUT, progress=not args.no_progress,
+                       jobs=args.jobs, timeout=args.timeout, cache_dir=cache)
     for fmt_, path in rep.paths.items():
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
-    stages = ", ".join(f"{k} {v:.1f} s" for k, v in rep.seconds.items())
-    print(f"{len(rep.runs)} problems in {total:.1f} s ({stages})")
+    print(rep.summary_line())
     if rep.failed:
-        print(f"error: problems failed (shown in the report): {', '.join(rep.failed)}",
-              file=sys.stderr)
+        print(f"error: problems failed or timed out (shown in the report): "
+              f"{', '.join(rep.failed)}", file=sys.stderr)
     if rep.out_of_tolerance:
         print("error: comparisons out of tolerance in: " + ", ".join(rep.out_of_tolerance),
               file=sys.stderr)
@@ -214,8 +233,11 @@ def build_parser() -> argparse.ArgumentParser:
     p_rep = sub.add_parser(
         "report", help="run problems and write their HTML and/or PDF report",
         description="Run the problems (all, or NAMES) and write one report: a self-contained "
-        "HTML file and/or a PDF, in DIR. A problem that fails appears in the report with "
-        "its error. Exit status 1 if a problem failed or a comparison is out of tolerance.",
+        "HTML file and/or a PDF, in DIR. Problems run in parallel processes, each with a time "
+        "limit, and are re-used from the cache when nothing they depend on changed. A problem "
+        "that fails or times out appears in the report with its error. Ends with the total "
+        "time and peak memory. Exit status 1 if a problem failed or a comparison is out of "
+        "tolerance.",
     )
     p_rep.add_argument("names", nargs="*", metavar="NAME",
                        help="problems to include (default: all; see 'workbench list')")
@@ -226,6 +248,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="output directory (default: reports/out/ of the repository)")
     p_rep.add_argument("--no-progress", action="store_true",
                        help="do not show per-problem progress on stderr")
+    p_rep.add_argument("--jobs", type=_positive_int, default=None, metavar="N",
+                       help="problems run at the same time (default: the number of cores)")
+    p_rep.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
+                       help="time limit of one problem (default 600 quick, 1200 full)")
+    p_rep.add_argument("--cache", metavar="DIR", default=None,
+                       help="cache of the problems' results (default: reports/out/cache/); "
+                       "a problem is re-used when nothing it depends on changed")
+    p_rep.add_argument("--no-cache", action="store_true",
+                       help="run every problem and cache nothing")
     p_rep.set_defaults(func=_report)
     p_bench = sub.add_parser(
         "bench", help="run the benchmark scripts and print their output",

@@ -1,13 +1,18 @@
-"""Build a report: run the problems, assemble the document, write HTML and/or PDF.
+"""Build a report: run (or re-use) the problems, assemble the document, write HTML and PDF.
 
-Output files are written completely or not at all (a temporary name, then a rename), and
-the output directory is checked before any problem runs.
+Problems run in parallel processes and are re-used from the on-disk cache when nothing
+they depend on changed (:mod:`~workbench.app.report.runner`). Output files are written
+completely or not at all (a unique temporary name in the target folder, then a rename),
+and the output directory is checked before any problem runs. The run ends by printing its
+total wall time and peak memory.
 """
 
 from __future__ import annotations
 
 import os
+import resource
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -16,15 +21,20 @@ from pathlib import Path
 from types import ModuleType
 from typing import TextIO
 
-from workbench.app.report.collect import ProblemRun, Status, run_problems
-from workbench.app.report.document import Document, document
+from workbench.app.report.collect import Status
 from workbench.app.report.errors import ReportInputError
+from workbench.app.report.frontpage import Document, document
+from workbench.app.report.progress import RunStats
+from workbench.app.report.runner import Outcome, run_all
 
-__all__ = ["Format", "Report", "DEFAULT_OUT", "build_report", "check_out_dir", "rebuild",
-           "write_atomic"]
+__all__ = ["Format", "Report", "DEFAULT_OUT", "DEFAULT_CACHE", "build_report", "check_out_dir",
+           "rebuild", "write_atomic"]
 
 DEFAULT_OUT = Path(__file__).resolve().parents[3] / "reports" / "out"
 """Default output directory (``reports/out/`` of the repository; git-ignored)."""
+
+DEFAULT_CACHE = DEFAULT_OUT / "cache"
+"""Default cache of the problems' outcomes (``reports/out/cache/``; git-ignored)."""
 
 
 class Format(str, Enum):
@@ -42,23 +52,26 @@ class Report:
     ----------
     document : Document
         What was typeset.
-    runs : list of ProblemRun
-        The problems' runs (results, errors, timings).
+    runs : list of Outcome
+        The problems' outcomes (status, errors, timings, memory; run or re-used).
     paths : dict of Format to Path
         The files written.
     seconds : dict of str to float
-        Wall time of each stage: ``problems``, ``document``, ``html``, ``pdf``.
+        Wall time of each stage: ``problems``, ``document``, ``html``, ``pdf``, ``total``.
+    stats : RunStats or None
+        What running the problems cost (processes, re-used, peak memory).
     """
 
     document: Document
-    runs: list[ProblemRun]
+    runs: list[Outcome]
     paths: dict[Format, Path] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
+    stats: RunStats | None = None
 
     @property
     def failed(self) -> list[str]:
-        """Names of the problems that raised."""
-        return [r.name for r in self.runs if r.status is Status.FAILED]
+        """Names of the problems that raised, died or timed out."""
+        return [r.name for r in self.runs if r.status in (Status.FAILED, Status.TIMED_OUT)]
 
     @property
     def out_of_tolerance(self) -> list[str]:
@@ -69,6 +82,24 @@ class Report:
     def ok(self) -> bool:
         """Whether every problem ran and every comparison is within tolerance."""
         return all(r.status is Status.OK for r in self.runs)
+
+    def summary_line(self) -> str:
+        """Total wall time and peak memory of the whole report, in one line."""
+        own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        peak = max(own, self.stats.peak_total_mb if self.stats else 0.0)
+        total = self.seconds.get("total", 0.0)
+        stages = ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items() if k != "total")
+        return (f"report: {len(self.runs)} problems in {total:.1f} s ({stages}); peak memory "
+                f"{peak:.0f} MB (the report's processes together, sampled)"
+                + (f"; {self.stats.line()}" if self.stats else ""))
+
+    def __str__(self) -> str:
+        counts: dict[str, int] = {}
+        for r in self.runs:
+            counts[r.status.value] = counts.get(r.status.value, 0) + 1
+        files = ", ".join(str(p) for p in self.paths.values()) or "nothing written"
+        return (f"Report of {len(self.runs)} problems ("
+                + ", ".join(f"{n} {k}" for k, n in counts.items()) + f"): {files}")
 
 
 def check_out_dir(out_dir: str | Path) -> Path:
@@ -87,10 +118,10 @@ def check_out_dir(out_dir: str | Path) -> Path:
     except OSError as exc:
         raise ReportInputError(
             f"--out: cannot create directory {str(path)!r} ({exc.strerror})") from exc
-    probe = path / f".write-probe-{os.getpid()}"
     try:
-        probe.write_bytes(b"")
-        probe.unlink()
+        fd, probe = tempfile.mkstemp(prefix=".write-probe-", dir=path)
+        os.close(fd)
+        os.unlink(probe)
     except OSError as exc:
         raise ReportInputError(
             f"--out: cannot write to directory {str(path)!r} ({exc.strerror})") from exc
@@ -98,24 +129,40 @@ def check_out_dir(out_dir: str | Path) -> Path:
 
 
 def write_atomic(path: Path, data: bytes | str) -> Path:
-    """Write a whole file under a temporary name, then rename it into place."""
-    tmp = path.with_name(f".{path.name}.partial-{os.getpid()}")
+    """Write a whole file under a unique temporary name beside it, then rename it into place."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
-        if isinstance(data, str):
-            tmp.write_text(data, encoding="utf-8")
-        else:
-            tmp.write_bytes(data)
-        tmp.replace(path)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data.encode("utf-8") if isinstance(data, str) else data)
+        os.replace(tmp, path)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        if os.path.exists(tmp):
+            os.unlink(tmp)
     return path
 
 
 def _catalogue() -> ModuleType:
-    from workbench.app import registry as problems
+    from workbench.app import registry
 
-    return problems
+    return registry
+
+
+def _write(doc: Document, out: Path, stem: str, formats: Sequence[Format],
+           seconds: dict[str, float]) -> dict[Format, Path]:
+    paths: dict[Format, Path] = {}
+    if Format.HTML in formats:
+        from workbench.app.report.html import render_html
+
+        t0 = time.perf_counter()
+        paths[Format.HTML] = write_atomic(out / f"{stem}.html", render_html(doc))
+        seconds["html"] = time.perf_counter() - t0
+    if Format.PDF in formats:
+        from workbench.app.report.pdf import render_pdf
+
+        t0 = time.perf_counter()
+        paths[Format.PDF] = write_atomic(out / f"{stem}.pdf", render_pdf(doc))
+        seconds["pdf"] = time.perf_counter() - t0
+    return paths
 
 
 def build_report(
@@ -128,8 +175,11 @@ def build_report(
     catalogue: ModuleType | None = None,
     progress: bool = True,
     stream: TextIO | None = None,
+    jobs: int | None = None,
+    timeout: float | None = None,
+    cache_dir: str | Path | None = DEFAULT_CACHE,
 ) -> Report:
-    """Run problems and write their report.
+    """Run (or re-use) problems and write their report.
 
     Parameters
     ----------
@@ -144,12 +194,17 @@ def build_report(
     stem : str, optional
         File name without suffix (default ``"report"``, or ``"report-quick"``).
     catalogue : module, optional
-        The problem catalogue (``names()``, ``load(name)``); default the ``problems``
-        package.
+        The problem catalogue (``names()``, ``load(name)``); default the problem registry.
     progress : bool
-        Show per-problem progress on ``stream``.
+        Print per-problem progress and the final cost on ``stream``.
     stream : file, optional
         Where progress goes (default ``sys.stderr``).
+    jobs : int, optional
+        Problems run at the same time (default: the number of cores).
+    timeout : float, optional
+        Wall-time limit of one problem [s] (default 600 quick, 1200 full).
+    cache_dir : path or None
+        Cache of the problems' outcomes; None runs every problem and caches nothing.
 
     Returns
     -------
@@ -158,8 +213,10 @@ def build_report(
     Raises
     ------
     ReportInputError
-        For an unknown problem or an unusable output directory (before anything runs).
+        For an unknown problem, a bad knob or an unusable output directory (before
+        anything runs).
     """
+    t_start = time.perf_counter()
     catalogue = catalogue or _catalogue()
     known = list(catalogue.names())
     names = list(known if not names else names)
@@ -175,45 +232,37 @@ def build_report(
                                f"{list(formats)!r}") from exc
     if not formats:
         raise ReportInputError("no output format chosen (HTML, PDF or both)")
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+        raise ReportInputError(f"--jobs must be a whole number >= 1; got {jobs!r}")
+    if timeout is not None and not (isinstance(timeout, (int, float)) and timeout > 0
+                                    and timeout < float("inf")):
+        raise ReportInputError(f"--timeout must be a positive number of seconds; got "
+                               f"{timeout!r}")
     out = check_out_dir(out_dir)
+    cache = None if cache_dir is None else check_out_dir(cache_dir)
     stem = stem or ("report-quick" if quick else "report")
     stream = stream or sys.stderr
     seconds: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    runs = run_problems(names, quick=quick, catalogue=catalogue, progress=progress,
-                        stream=stream)
+    outcomes, stats = run_all(names, quick=quick, catalogue=catalogue, jobs=jobs,
+                              timeout=timeout, cache_dir=cache, stream=stream,
+                              progress=progress)
     seconds["problems"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    doc = document(runs, quick=quick, seconds=seconds["problems"])
+    modules = {n: catalogue.load(n) for n in names}
+    doc = document(outcomes, quick=quick, seconds=seconds["problems"], modules=modules,
+                   run_note=stats.line())
     seconds["document"] = time.perf_counter() - t0
-    report = Report(doc, runs, seconds=seconds)
-    if Format.HTML in formats:
-        from workbench.app.report.html import render_html
-
-        t0 = time.perf_counter()
-        report.paths[Format.HTML] = write_atomic(out / f"{stem}.html", render_html(doc))
-        seconds["html"] = time.perf_counter() - t0
-    if Format.PDF in formats:
-        from workbench.app.report.pdf import render_pdf
-
-        t0 = time.perf_counter()
-        report.paths[Format.PDF] = write_atomic(out / f"{stem}.pdf", render_pdf(doc))
-        seconds["pdf"] = time.perf_counter() - t0
+    report = Report(doc, outcomes, seconds=seconds, stats=stats)
+    report.paths = _write(doc, out, stem, formats, seconds)
+    seconds["total"] = time.perf_counter() - t_start
+    if progress:
+        print(report.summary_line(), file=stream, flush=True)
     return report
 
 
 def rebuild(doc: Document, *, formats: Sequence[Format], out_dir: str | Path,
             stem: str) -> dict[Format, Path]:
     """Write an already assembled document (no problem is run)."""
-    out = check_out_dir(out_dir)
-    paths: dict[Format, Path] = {}
-    if Format.HTML in formats:
-        from workbench.app.report.html import render_html
-
-        paths[Format.HTML] = write_atomic(out / f"{stem}.html", render_html(doc))
-    if Format.PDF in formats:
-        from workbench.app.report.pdf import render_pdf
-
-        paths[Format.PDF] = write_atomic(out / f"{stem}.pdf", render_pdf(doc))
-    return paths
+    return _write(doc, check_out_dir(out_dir), stem, [Format(f) for f in formats], {})

@@ -18,6 +18,7 @@ from enum import Enum
 from types import ModuleType
 from typing import Any, TextIO
 
+from workbench.app.report.figures import FigureData, auto_caption, readable
 from workbench.core._model import Model
 from workbench.study._result import Result
 
@@ -34,12 +35,15 @@ class Status(str, Enum):
     OUT_OF_TOLERANCE
         Ran; some comparison outside its tolerance.
     FAILED
-        Raised an exception (shown in the report).
+        Raised an exception, or its process died (shown in the report).
+    TIMED_OUT
+        Stopped at its time limit (shown in the report).
     """
 
     OK = "ok"
     OUT_OF_TOLERANCE = "out of tolerance"
     FAILED = "failed"
+    TIMED_OUT = "timed out"
 
 
 @dataclass
@@ -57,8 +61,8 @@ class ProblemRun:
         ``None`` when the problem failed.
     models : list of Model
         The Model objects the problem used (empty when it failed).
-    figures : dict of str to str
-        SVG text of each figure, by name.
+    figures : dict of str to FigureData
+        Each figure as SVG text with its caption and printed size, by name.
     error : str
         ``"ExceptionType: message"`` when failed.
     traceback : str
@@ -71,7 +75,7 @@ class ProblemRun:
     seconds: float
     result: Result | None = None
     models: list[Model] = field(default_factory=list)
-    figures: dict[str, str] = field(default_factory=dict)
+    figures: dict[str, FigureData] = field(default_factory=dict)
     error: str = ""
     traceback: str = ""
 
@@ -152,7 +156,10 @@ def run_problem(name: str, *, quick: bool, catalogue: ModuleType) -> ProblemRun:
     )
     for fname, fig in result.figures.items():
         try:
-            run.figures[fname] = figure_svg(fig, salt=f"{name}/{fname}")
+            size = readable(fig)
+            run.figures[fname] = FigureData(fname, auto_caption(fname, fig),
+                                            figure_svg(fig, salt=f"{name}/{fname}"),
+                                            size["width"], size["height"])
         except Exception as exc:  # noqa: BLE001 - one bad figure does not lose the problem
             result.notes.append(f"figure {fname!r} could not be drawn: {exc}")
         finally:

@@ -1,9 +1,11 @@
-"""The report as a format-neutral document, assembled from the problems' runs.
+"""The section of one problem, format-neutral plain data, assembled from its run.
 
-Everything shown is computed from the runs: the model sheets from the Model objects
-(:mod:`workbench.app.report.symbolic`), the tables from the results
-(:mod:`workbench.app.report.tables`), the environment from the interpreter. The HTML and
-Typst writers only print this document.
+Everything shown is computed from the run: the model sheets from the Model objects
+(:mod:`workbench.app.report.symbolic`), the tables from the result
+(:mod:`workbench.app.report.tables`), the figures as SVG text. A section holds no live
+object, so it crosses process boundaries and is cached on disk; the whole document is
+assembled from the sections by :mod:`workbench.app.report.frontpage`, and the HTML and
+Typst writers only print it.
 
 Typesetting of formulas: each LaTeX string (a model's equations, sympy's LaTeX of a
 parameter value or a vector-field component) is converted by
@@ -18,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from workbench.app.report.collect import ProblemRun, Status
-from workbench.app.report.environment import environment
+from workbench.app.report.figures import FigureData
 from workbench.app.report.latexmath import LatexError, to_mathml, to_typst
 from workbench.app.report.symbolic import (
     MAX_CONVERT,
@@ -31,13 +33,17 @@ from workbench.app.report.tables import (
     build_table,
     comparison_table,
     cost_accuracy_table,
+    headline_table,
     value_tables,
 )
 from workbench.core._model import Model
 
-__all__ = ["Math", "ModelSheet", "ProblemSection", "Document", "math", "model_sheet",
-           "problem_section", "document"]
+__all__ = ["Math", "ModelSheet", "ProblemSection", "KEY_FIGURES", "math", "model_sheet",
+           "problem_section"]
 
+
+KEY_FIGURES = 2
+"""Figures of a problem shown in the main body (the others go to the appendix)."""
 
 WIDE = 100
 """Vector-field components with longer LaTeX get a whole line of the report."""
@@ -157,7 +163,12 @@ def model_sheet(model: Model) -> ModelSheet:
 
 @dataclass
 class ProblemSection:
-    """What the report shows of one problem."""
+    """What the report shows of one problem.
+
+    The main body shows ``summary``, ``headline`` and the first :data:`KEY_FIGURES`
+    figures and the animations; the appendix shows everything else (the full comparison,
+    values, cost, models, what was built, the other figures, the notes).
+    """
 
     name: str
     title: str
@@ -171,8 +182,23 @@ class ProblemSection:
     comparison: Table | None = None
     values: list[Table] = field(default_factory=list)
     cost: Table | None = None
-    figures: list[tuple[str, str]] = field(default_factory=list)
+    figures: list[FigureData] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    headline: Table | None = None
+    summary: str = ""
+    animations: list[Any] = field(default_factory=list)
+    cached: bool = False
+    peak_mb: float = float("nan")
+
+    @property
+    def key_figures(self) -> list[FigureData]:
+        """The figures of the main body."""
+        return self.figures[:KEY_FIGURES]
+
+    @property
+    def more_figures(self) -> list[FigureData]:
+        """The figures of the appendix."""
+        return self.figures[KEY_FIGURES:]
 
 
 def _distinct_models(models: list[Model]) -> list[Model]:
@@ -205,63 +231,8 @@ def problem_section(run: ProblemRun, *, quick: bool) -> ProblemSection:
     sec.built = build_table(res)
     sec.comparison = comparison_table(res)
     sec.values = value_tables(res)
+    sec.headline = headline_table(res, sec.values)
     sec.cost = cost_accuracy_table(res, wall_seconds=run.seconds)
-    sec.figures = list(run.figures.items())
+    sec.figures = list(run.figures.values())
     sec.notes = list(res.notes) + sec.notes
     return sec
-
-
-@dataclass
-class Document:
-    """The whole report."""
-
-    title: str
-    quick: bool
-    problems: list[ProblemSection]
-    summary: Table
-    environment: list[tuple[str, str]]
-    seconds: float
-
-    @property
-    def created(self) -> str:
-        """The date line of the environment."""
-        return dict(self.environment).get("date", "")
-
-
-def document(runs: list[ProblemRun], *, quick: bool, seconds: float,
-             title: str = "Geometric pendulum workbench: report") -> Document:
-    """The report of a list of runs.
-
-    Parameters
-    ----------
-    runs : list of ProblemRun
-    quick : bool
-        Whether the problems ran in quick mode.
-    seconds : float
-        Wall time of running all the problems.
-    title : str
-
-    Returns
-    -------
-    Document
-    """
-    sections = [problem_section(r, quick=quick) for r in runs]
-    rows, status = [], []
-    for s, r in zip(sections, runs):
-        comps = r.result.comparisons if r.result else []
-        n_ok = sum(c.ok for c in comps)
-        rows.append([
-            s.name, s.status.value, f"{n_ok}/{len(comps)}", f"{s.seconds:.2f}",
-            str(len(r.result.build_log)) if r.result else "-",
-            ", ".join(dict.fromkeys(m.name for m in s.models)) or "-",
-        ])
-        status.append("ok" if s.status is Status.OK else "bad")
-    n_ok = sum(st == "ok" for st in status)
-    summary = Table(
-        "Problems", ["problem", "status", "comparisons ok", "wall [s]", "functions built",
-                     "models"], rows,
-        note=f"{n_ok} of {len(rows)} problems ok; problems run in "
-             f"{'quick' if quick else 'full'} mode in {seconds:.1f} s.",
-        status=status, numeric=[False, False, True, True, True, False],
-    )
-    return Document(title, quick, sections, summary, environment(), seconds)

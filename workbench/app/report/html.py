@@ -10,7 +10,7 @@ from pathlib import Path
 
 import jinja2
 
-from workbench.app.report.document import Document
+from workbench.app.report.frontpage import Document
 
 __all__ = ["TEMPLATES", "render_html"]
 

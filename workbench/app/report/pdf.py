@@ -19,8 +19,10 @@ from typing import Any
 
 import typst
 
-from workbench.app.report.document import Document, Math, ModelSheet, ProblemSection
+from workbench.app.report.document import Math, ModelSheet, ProblemSection
 from workbench.app.report.errors import ReportError
+from workbench.app.report.figures import PRINT_WIDTH
+from workbench.app.report.frontpage import Document
 from workbench.app.report.html import TEMPLATES
 from workbench.app.report.tables import Table
 
@@ -50,16 +52,29 @@ def _model(m: ModelSheet, raw: bool) -> dict[str, Any]:
     return d
 
 
+def _figure(p: ProblemSection, f: Any, figures: dict[tuple[str, str], str]) -> dict[str, Any]:
+    return {"name": f.name, "caption": f.caption, "file": figures[(p.name, f.name)],
+            "width": round(min(float(f.width), PRINT_WIDTH), 3)}
+
+
 def _problem(p: ProblemSection, figures: dict[tuple[str, str], str],
              raw: bool) -> dict[str, Any]:
     return {
         "name": p.name, "title": p.title, "status": p.status.value, "seconds": p.seconds,
         "quick": p.quick, "error": p.error, "traceback": p.traceback,
+        "summary": p.summary, "cached": p.cached, "headline": _table(p.headline),
         "comparison": _table(p.comparison), "values": [t.as_dict() for t in p.values],
         "cost": _table(p.cost), "built": _table(p.built),
-        "figures": [{"name": n, "file": figures[(p.name, n)]} for n, _ in p.figures],
+        "figures": [_figure(p, f, figures) for f in p.key_figures],
+        "more_figures": [_figure(p, f, figures) for f in p.more_figures],
+        "animations": len(p.animations),
         "notes": list(p.notes), "models": [_model(m, raw) for m in p.models],
     }
+
+
+def _claim(c: Any) -> dict[str, Any]:
+    return {"text": c.text, "paper": c.paper, "problem": c.problem,
+            "confirmed": c.confirmed, "status": c.status}
 
 
 def typst_data(doc: Document, figures: dict[tuple[str, str], str], *,
@@ -83,6 +98,10 @@ def typst_data(doc: Document, figures: dict[tuple[str, str], str], *,
     return {
         "title": doc.title, "quick": doc.quick, "created": doc.created,
         "seconds": doc.seconds, "summary": doc.summary.as_dict(),
+        "intro": doc.intro, "run_note": doc.run_note, "counts": doc.counts,
+        "headlines": _table(doc.headlines),
+        "errata": [_claim(c) for c in doc.errata],
+        "findings": [_claim(c) for c in doc.findings],
         "environment": [list(r) for r in doc.environment],
         "problems": [_problem(p, figures, raw_math) for p in doc.problems],
         "math_note": note,
@@ -120,10 +139,10 @@ def render_pdf(doc: Document) -> bytes:
         shutil.copy(template, work / "report.typ")
         figures: dict[tuple[str, str], str] = {}
         for i, p in enumerate(doc.problems):
-            for j, (name, svg) in enumerate(p.figures):
+            for j, f in enumerate(p.figures):
                 fname = f"fig-{i:03d}-{j:02d}.svg"
-                (work / fname).write_text(svg)
-                figures[(p.name, name)] = fname
+                (work / fname).write_text(f.svg)
+                figures[(p.name, f.name)] = fname
         try:
             return _compile(work, typst_data(doc, figures))
         except typst.TypstError as first:

@@ -25,6 +25,8 @@ __all__ = [
     "value_tables",
     "cost_accuracy_table",
     "build_table",
+    "headline_table",
+    "HEADLINE_ROWS",
     "MAX_ROWS",
     "MAX_COLS",
 ]
@@ -153,6 +155,56 @@ def comparison_table(result: Result) -> Table | None:
         status=status,
         numeric=[False, False, True, True, True, True, False],
     )
+
+
+HEADLINE_ROWS = 6
+"""Rows of a problem's headline table in the main body."""
+
+
+def headline_table(result: Result, values: list[Table] | None = None) -> Table | None:
+    """The one table of a problem's main section: its key numbers, short enough to read.
+
+    The paper-versus-workbench rows (those out of tolerance first, then in the problem's
+    order) without the source column, at most :data:`HEADLINE_ROWS`; for a problem without
+    comparisons, the first rows of its first value table.
+
+    Parameters
+    ----------
+    result : Result
+        The problem's result.
+    values : list of Table, optional
+        Its value tables (:func:`value_tables`), when already laid out.
+
+    Returns
+    -------
+    Table or None
+    """
+    comps = list(result.comparisons)
+    if comps:
+        order = [c for c in comps if not c.ok] + [c for c in comps if c.ok]
+        shown = order[:HEADLINE_ROWS]
+        rows = [[c.quantity, fmt(c.reference, digits=8), fmt(c.workbench, digits=8),
+                 f"{c.deviation:.1e}", f"{c.tolerance:.0e}", "ok" if c.ok else "OUT"]
+                for c in shown]
+        n_ok = sum(c.ok for c in comps)
+        more = len(comps) - len(shown)
+        note = f"{n_ok} of {len(comps)} within tolerance" + (
+            f"; {more} more in the appendix, with their sources." if more else
+            "; sources in the appendix.")
+        return Table("Key numbers: paper (or closed form) vs workbench",
+                     ["quantity", "reference", "workbench", "deviation", "tolerance", ""],
+                     rows, note=note, status=["ok" if c.ok else "bad" for c in shown],
+                     numeric=[False, True, True, True, True, False])
+    values = value_tables(result) if values is None else values
+    if not values:
+        return None
+    first = values[0]
+    more = len(first.rows) - HEADLINE_ROWS
+    note = (f"{more} more rows and every other table in the appendix." if more > 0 else
+            "Every other table in the appendix.")
+    return Table(f"Key numbers: {first.title}", list(first.header),
+                 [list(r) for r in first.rows[:HEADLINE_ROWS]], note=note,
+                 status=list(first.status[:HEADLINE_ROWS]), numeric=list(first.numeric))
 
 
 def _is_matrix(v: Any) -> bool:

@@ -1,0 +1,200 @@
+"""The report's runner: problems in parallel processes, cached by what they depend on.
+
+Synthetic problems are written as real module files (so that their source is hashed):
+one counts its runs in a file, one waits for another to start (possible only when they
+run at the same time), one sleeps past its time limit, one kills its own process, one
+holds a large array (its peak memory shows).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import io
+import os
+import types
+from pathlib import Path
+
+import pytest
+
+from workbench.app.report import Format, Status, build_report
+from workbench.app.report import cache as report_cache
+
+HEADER = '''
+import os, sys, time
+import numpy as np
+from workbench.study import Result
+TITLE = "{title}"
+'''
+
+BODIES = {
+    "counted": '''
+def solve(*, quick=False):
+    with open(os.environ["RUNNER_TEST_DIR"] + "/counted.log", "a") as fh:
+        fh.write("run\\n")
+    res = Result("counted", TITLE, quick=quick)
+    res.compare("one", 1.0, 1.0, tolerance=1e-12, source="closed form")
+    return res.finish()
+''',
+    "waits_for_partner": '''
+def solve(*, quick=False):
+    d = os.environ["RUNNER_TEST_DIR"]
+    open(d + "/waits_for_partner.started", "w").close()
+    for _ in range(400):
+        if os.path.exists(d + "/partner.started"):
+            break
+        time.sleep(0.05)
+    else:
+        raise RuntimeError("partner never started: the problems did not run at the same time")
+    res = Result("waits_for_partner", TITLE, quick=quick)
+    res.values["pid"] = os.getpid()
+    return res.finish()
+''',
+    "partner": '''
+def solve(*, quick=False):
+    d = os.environ["RUNNER_TEST_DIR"]
+    open(d + "/partner.started", "w").close()
+    for _ in range(400):
+        if os.path.exists(d + "/waits_for_partner.started"):
+            break
+        time.sleep(0.05)
+    else:
+        raise RuntimeError("the other problem never started")
+    res = Result("partner", TITLE, quick=quick)
+    res.values["pid"] = os.getpid()
+    return res.finish()
+''',
+    "sleeps": '''
+def solve(*, quick=False):
+    time.sleep(120)
+    return Result("sleeps", TITLE, quick=quick).finish()
+''',
+    "dies": '''
+def solve(*, quick=False):
+    os._exit(3)
+''',
+    "big": '''
+def solve(*, quick=False):
+    a = np.ones(40_000_000)          # 320 MB, touched
+    res = Result("big", TITLE, quick=quick)
+    res.values["sum"] = float(a.sum())
+    return res.finish()
+''',
+    "small": '''
+def solve(*, quick=False):
+    res = Result("small", TITLE, quick=quick)
+    res.values["sum"] = 1.0
+    return res.finish()
+''',
+}
+
+
+def catalogue(folder: Path, names: list[str]) -> types.ModuleType:
+    """A catalogue of real module files in ``folder`` (their sources are hashed)."""
+    folder.mkdir(exist_ok=True)
+    mods = {}
+    for name in names:
+        path = folder / f"{name}.py"
+        if not path.exists():
+            path.write_text(HEADER.format(title=f"synthetic {name}") + BODIES[name])
+        spec = importlib.util.spec_from_file_location(f"runner_test_{name}", path)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        mods[name] = mod
+    cat = types.ModuleType("catalogue")
+    cat.names = lambda: sorted(mods)
+    cat.load = lambda n: mods[n]
+    cat.title = lambda n: mods[n].TITLE
+    return cat
+
+
+@pytest.fixture()
+def env(tmp_path, monkeypatch):
+    monkeypatch.setenv("RUNNER_TEST_DIR", str(tmp_path))
+    # the key hashes the engine's sources too; others editing the shared checkout while the
+    # test runs must not change it, so these tests hash an empty engine
+    (tmp_path / "root" / "workbench").mkdir(parents=True)
+    monkeypatch.setattr(report_cache, "ROOT", tmp_path / "root")
+    return tmp_path
+
+
+def report(env: Path, names: list[str], **kw):
+    stream = io.StringIO()
+    rep = build_report(names, quick=True, formats=[Format.HTML], out_dir=env / "out",
+                       catalogue=catalogue(env / "problems", names), stream=stream, **kw)
+    return rep, stream.getvalue()
+
+
+def test_second_run_reuses_every_result_and_a_change_reruns(env):
+    rep1, err1 = report(env, ["counted", "small"], cache_dir=env / "cache")
+    assert all(not r.cached for r in rep1.runs) and rep1.ok
+    rep2, err2 = report(env, ["counted", "small"], cache_dir=env / "cache")
+    assert all(r.cached for r in rep2.runs)
+    assert (env / "counted.log").read_text().count("run") == 1  # not run again
+    assert rep2.stats.reused == 2 and rep2.stats.ran == 0
+    assert "re-used" in err2 and "peak memory" in err2.splitlines()[-1]
+    # the same document: the comparison re-used is the one computed
+    assert rep2.runs[0].summary["headline"] == rep1.runs[0].summary["headline"]
+    # a change to the problem's source runs it again and replaces its cache entry
+    path = env / "problems" / "counted.py"
+    path.write_text(path.read_text() + "\n# changed\n")
+    rep3, _ = report(env, ["counted", "small"], cache_dir=env / "cache")
+    assert [r.cached for r in rep3.runs] == [False, True]
+    assert (env / "counted.log").read_text().count("run") == 2
+    entries = sorted(p.name for p in (env / "cache").glob("counted-quick-*.pkl"))
+    assert len(entries) == 1
+
+
+def test_without_a_cache_everything_runs(env):
+    report(env, ["counted"], cache_dir=None)
+    report(env, ["counted"], cache_dir=None)
+    assert (env / "counted.log").read_text().count("run") == 2
+
+
+def test_problems_run_at_the_same_time_in_other_processes(env):
+    rep, _ = report(env, ["partner", "waits_for_partner"], cache_dir=None, jobs=2,
+                    timeout=60)
+    assert [r.status for r in rep.runs] == [Status.OK, Status.OK], [r.error for r in rep.runs]
+    pids = {r.section.values[0].rows[0][1] for r in rep.runs}
+    assert len(pids) == 2 and str(os.getpid()) not in pids
+
+
+def test_timeout_and_crash_are_reported_and_the_others_go_on(env):
+    rep, err = report(env, ["dies", "sleeps", "small"], cache_dir=env / "cache", jobs=2,
+                      timeout=3)
+    status = {r.name: r.status for r in rep.runs}
+    assert status == {"dies": Status.FAILED, "sleeps": Status.TIMED_OUT, "small": Status.OK}
+    by = {r.name: r for r in rep.runs}
+    assert "exit code 3" in by["dies"].error
+    assert "timed out" in by["sleeps"].error and "--timeout" in by["sleeps"].error
+    text = (env / "out" / "report-quick.html").read_text()
+    assert "timed out" in text and "exit code 3" in text
+    assert sorted(rep.failed) == ["dies", "sleeps"]
+    # neither a timeout nor a dead process is cached: only 'small' is
+    assert [p.name.split("-")[0] for p in (env / "cache").glob("*.pkl")] == ["small"]
+
+
+def test_peak_memory_of_each_problem_is_measured(env):
+    rep, err = report(env, ["big", "small"], cache_dir=None)
+    by = {r.name: r for r in rep.runs}
+    assert by["big"].peak_mb - by["small"].peak_mb > 250  # the 320 MB array shows
+    assert rep.stats.peak_problem[1] == "big"
+    assert f"peak {by['big'].peak_mb:.0f} MB" in err
+
+
+def test_the_key_follows_mode_and_sources(tmp_path):
+    root = tmp_path / "root"
+    (root / "workbench").mkdir(parents=True)
+    engine = root / "workbench" / "engine.py"
+    engine.write_text("A = 1\n")
+    f = tmp_path / "p.py"
+    f.write_text("TITLE = 'x'\n")
+    k_quick = report_cache.problem_key(f, quick=True, root=root)
+    assert k_quick == report_cache.problem_key(f, quick=True, root=root)
+    assert k_quick != report_cache.problem_key(f, quick=False, root=root)
+    engine.write_text("A = 2\n")  # the engine changed
+    k_engine = report_cache.problem_key(f, quick=True, root=root)
+    assert k_engine != k_quick
+    f.write_text("TITLE = 'y'\n")  # the problem changed
+    assert report_cache.problem_key(f, quick=True, root=root) not in (k_quick, k_engine)
+    assert report_cache.problem_key(None, quick=True) is None  # no source: never cached
+    assert set(report_cache.versions()) >= {"python", "casadi", "ipopt", "numpy"}

@@ -1,0 +1,152 @@
+"""The on-disk cache of problem outcomes, keyed by a hash of everything they depend on.
+
+A problem's outcome (:class:`~workbench.app.report.runner.Outcome`: its document section,
+figures as SVG text, status, cost) is stored as a pickle named after the problem, the mode
+and the key. The key is the SHA-256 of
+
+* the problem module's source and every shared helper of the catalogue (``_*.py`` beside
+  it);
+* the sources of the engine (``workbench/``, except the command line and the parts of the
+  report that only lay out finished sections) and of ``models/``;
+* quick or full mode, and the report's figure style;
+* the versions of Python, casadi (which bundles Ipopt; the Ipopt library's file name is
+  hashed too), numpy, scipy, sympy, python-control and matplotlib.
+
+A problem without a source file (a catalogue built at run time) is never cached. Entries
+are written under a unique temporary name in the cache folder and renamed into place; an
+entry of the same problem and mode with another key is removed when the new one is
+written (only files of this cache's own naming pattern are ever removed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import re
+import sys
+import tempfile
+from importlib import metadata
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+__all__ = ["STYLE_VERSION", "PARENT_ONLY", "problem_key", "versions", "load", "store",
+           "entry_path"]
+
+STYLE_VERSION = "report-style-2"
+"""Changes whenever the figure style of the report changes (invalidates every entry)."""
+
+ROOT = Path(__file__).resolve().parents[3]
+"""The repository (``workbench/app/report/cache.py`` -> three levels up)."""
+
+PARENT_ONLY = frozenset({
+    "workbench/app/cli.py", "workbench/app/export_cli.py",
+    "workbench/app/report/build.py", "workbench/app/report/runner.py",
+    "workbench/app/report/cache.py", "workbench/app/report/html.py",
+    "workbench/app/report/pdf.py", "workbench/app/report/frontpage.py",
+    "workbench/app/report/progress.py",
+})
+"""Sources that only schedule problems or lay out finished sections: not in the key."""
+
+_PACKAGES = ("casadi", "numpy", "scipy", "sympy", "control", "matplotlib")
+_NAME = re.compile(r"^(?P<name>[A-Za-z0-9_]+)-(?P<mode>quick|full)-(?P<key>[0-9a-f]{16})\.pkl$")
+
+
+def versions() -> dict[str, str]:
+    """Versions the cached results depend on (Python, casadi and Ipopt, numerics)."""
+    out = {"python": sys.version.split()[0]}
+    for pkg in _PACKAGES:
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "absent"
+    try:
+        import casadi
+
+        libs = sorted(p.name for p in Path(casadi.__file__).parent.glob("*ipopt*"))
+        out["ipopt"] = ",".join(libs) or "absent"
+    except ImportError:
+        out["ipopt"] = "absent"
+    return out
+
+
+def _sources(root: Path) -> list[Path]:
+    files = sorted((root / "workbench").rglob("*.py")) + sorted((root / "models").rglob("*.py"))
+    return [f for f in files if f.relative_to(root).as_posix() not in PARENT_ONLY]
+
+
+def problem_key(module_file: str | os.PathLike | None, *, quick: bool,
+                root: Path | None = None) -> str | None:
+    """The cache key of a problem, or None when it has no source file to hash.
+
+    Parameters
+    ----------
+    module_file : path or None
+        The problem module's source (its ``__file__``).
+    quick : bool
+        Quick or full mode.
+    root : Path, optional
+        The repository whose engine and models are hashed (default :data:`ROOT`).
+
+    Returns
+    -------
+    str or None
+        64 hexadecimal digits.
+    """
+    if not module_file or not Path(module_file).is_file():
+        return None
+    path = Path(module_file).resolve()
+    root = ROOT if root is None else Path(root)
+    h = hashlib.sha256()
+    helpers = sorted(p for p in path.parent.glob("_*.py") if p.name != "__init__.py")
+    for f in [path, *helpers, *_sources(root)]:
+        h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    h.update(f"quick={bool(quick)};style={STYLE_VERSION}".encode())
+    for k, v in sorted(versions().items()):
+        h.update(f"{k}={v};".encode())
+    return h.hexdigest()
+
+
+def entry_path(cache_dir: Path, name: str, *, quick: bool, key: str) -> Path:
+    """Where the outcome of ``name`` with ``key`` is stored."""
+    return Path(cache_dir) / f"{name}-{'quick' if quick else 'full'}-{key[:16]}.pkl"
+
+
+def load(cache_dir: Path, name: str, *, quick: bool, key: str) -> Any | None:
+    """The stored outcome, or None when absent, unreadable or of another key."""
+    path = entry_path(cache_dir, name, quick=quick, key=key)
+    try:
+        with path.open("rb") as fh:
+            stored_key, outcome = pickle.load(fh)
+    except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ImportError,
+            ValueError, TypeError):
+        return None
+    return outcome if stored_key == key else None
+
+
+def store(cache_dir: Path, name: str, outcome: Any, *, quick: bool, key: str) -> Path:
+    """Store an outcome atomically; drop this cache's older entries of the same problem."""
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    path = entry_path(cache_dir, name, quick=quick, key=key)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=cache_dir)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            pickle.dump((key, outcome), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    mode = "quick" if quick else "full"
+    for old in cache_dir.iterdir():
+        m = _NAME.match(old.name)
+        if m and m["name"] == name and m["mode"] == mode and old != path:
+            old.unlink(missing_ok=True)
+    return path
+
+
+def module_file(module: ModuleType) -> str | None:
+    """The source file of a problem module, if it has one."""
+    f = getattr(module, "__file__", None)
+    return f if f and f.endswith(".py") else None

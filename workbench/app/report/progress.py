@@ -1,0 +1,149 @@
+"""Progress lines of a report run, and its measured cost (wall time, peak memory)."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+__all__ = ["Progress", "RunStats", "rss_mb", "clock"]
+
+
+def rss_mb(pid: int) -> float:
+    """Resident memory of a process [MB] from ``/proc`` (0 when it cannot be read)."""
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0.0
+
+
+def clock(seconds: float) -> str:
+    """``m:ss`` (or ``h:mm:ss``)."""
+    s = int(round(max(seconds, 0.0)))
+    h, rest = divmod(s, 3600)
+    m, s = divmod(rest, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+@dataclass
+class RunStats:
+    """What running the problems cost.
+
+    Attributes
+    ----------
+    seconds : float
+        Wall time of running (or re-using) every problem.
+    jobs : int
+        Problems run at the same time.
+    reused, ran : int
+        Problems taken from the cache, and run.
+    peak_total_mb : float
+        Largest sum of the resident memory of the report's processes (the parent and its
+        running children), sampled every 0.2 s [MB]. Pages shared after the fork count once
+        per process, so this is an upper bound.
+    peak_problem : tuple of (float, str)
+        Largest peak resident memory of one problem's process [MB] (``getrusage`` of the
+        child), and the problem.
+    cpu_seconds : float
+        CPU time (user + system) of the problems' processes.
+    """
+
+    seconds: float
+    jobs: int
+    reused: int
+    ran: int
+    peak_total_mb: float
+    peak_problem: tuple[float, str]
+    cpu_seconds: float = 0.0
+
+    def line(self) -> str:
+        """One line for the terminal."""
+        mb, who = self.peak_problem
+        largest = f", largest {mb:.0f} MB ({who})" if who and not math.isnan(mb) else ""
+        return (f"problems: {self.ran} run, {self.reused} re-used from the cache, "
+                f"{self.seconds:.1f} s wall on {self.jobs} processes, {self.cpu_seconds:.1f} s "
+                f"CPU{largest}")
+
+
+class Progress:
+    """Problem-by-problem progress with elapsed time and an estimate of what remains.
+
+    The estimate uses each problem's duration in the last run (kept by the runner), or,
+    for a problem never timed, the mean duration of the problems finished so far; it is
+    the remaining work divided by the number of processes.
+    """
+
+    def __init__(self, total: int, *, stream: TextIO, enabled: bool, jobs: int) -> None:
+        self.total, self.stream, self.enabled, self.jobs = total, stream, enabled, jobs
+        self.count = 0
+        self.pending: dict[str, float | None] = {}
+        self.running: dict[str, tuple[float, float | None]] = {}
+        self.durations: list[float] = []
+        self.last_beat: dict[str, float] = {}
+
+    def _print(self, text: str) -> None:
+        if self.enabled:
+            print(text, file=self.stream, flush=True)
+
+    def plan(self, estimates: dict[str, float | None]) -> None:
+        """Announce what will run, with the durations of the last runs where known."""
+        self.pending = dict(estimates)
+        if not estimates:
+            return
+        known = [e for e in estimates.values() if e is not None]
+        guess = f", about {clock(sum(known) / self.jobs)} by the last runs" if known else ""
+        unknown = len(estimates) - len(known)
+        more = f" ({unknown} never timed)" if unknown and known else ""
+        self._print(f"running {len(estimates)} problem(s) on {self.jobs} processes"
+                    f"{guess}{more}")
+
+    def started(self, name: str) -> None:
+        """A problem was started."""
+        now = time.monotonic()
+        self.running[name] = (now, self.pending.pop(name, None))
+        self.last_beat[name] = now
+
+    def alive(self, name: str, every: float) -> None:
+        """A problem is still running: say so every ``every`` seconds."""
+        now = time.monotonic()
+        if name in self.running and now - self.last_beat.get(name, now) >= every:
+            self.last_beat[name] = now
+            t0, exp = self.running[name]
+            of = f" (took {clock(exp)} last time)" if exp else ""
+            self._print(f"        ... {name} still running after {clock(now - t0)}{of}")
+
+    def remaining(self) -> float | None:
+        """Estimated seconds of wall time left, or None before anything can be estimated."""
+        typical = sum(self.durations) / len(self.durations) if self.durations else None
+        now, work = time.monotonic(), 0.0
+        for est in self.pending.values():
+            if est is None and typical is None:
+                return None
+            work += est if est is not None else typical  # type: ignore[operator]
+        for t0, est in self.running.values():
+            ref = est if est is not None else typical
+            if ref is None:
+                return None
+            work += max(ref - (now - t0), 0.0)
+        return work / self.jobs
+
+    def finished(self, out: Any, elapsed: float) -> None:
+        """A problem is done (or re-used)."""
+        self.count += 1
+        self.running.pop(out.name, None)
+        self.last_beat.pop(out.name, None)
+        if not out.cached:
+            self.durations.append(out.seconds)
+        how = "re-used" if out.cached else f"{out.seconds:6.1f} s"
+        mem = "" if out.cached or math.isnan(out.peak_mb) else f", peak {out.peak_mb:.0f} MB"
+        left = self.remaining()
+        eta = "" if left is None or self.count == self.total else f", about {clock(left)} left"
+        why = f" -- {out.error}" if out.error and not out.cached else ""
+        count = f"[{self.count}/{self.total}]"
+        self._print(f"{count:>7} {out.name:<36} {out.status.value:<16} "
+                    f"{how}{mem} | elapsed {clock(elapsed)}{eta}{why}")

@@ -1,0 +1,326 @@
+"""Run the problems of a report in parallel processes, each re-used from the cache if unchanged.
+
+Every problem whose cache key (:mod:`~workbench.app.report.cache`) has a stored outcome is
+taken from the cache. The others run in forked processes, at most ``jobs`` at a time,
+longest first (by the durations of earlier runs). Each child runs its problem, turns the
+result into what the report needs (its document section, figures as SVG text, captions,
+animations, summary numbers: :class:`Outcome`) and writes it to a file the parent reads;
+no live Model or figure crosses the process boundary. Each child has its own wall-time
+limit (its process group is killed when it is exceeded) and reports its peak resident
+memory (``getrusage`` of the child itself). A problem that raises, dies or times out is
+recorded as such, and the others go on.
+
+Progress is printed problem by problem with the elapsed time and an estimate of what
+remains; a problem still running is mentioned every ``heartbeat`` seconds.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import pickle
+import resource
+import signal
+import sys
+import tempfile
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+from typing import Any, TextIO
+
+from workbench.app.report import cache
+from workbench.app.report.collect import Status, run_problem
+from workbench.app.report.document import ProblemSection, problem_section
+from workbench.app.report.figures import report_style
+from workbench.app.report.progress import Progress, RunStats, rss_mb
+
+__all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT"]
+
+DEFAULT_TIMEOUT = {True: 600.0, False: 1200.0}
+"""Default wall-time limit of one problem [s], by quick mode."""
+
+POLL = 0.2
+"""Seconds between checks of the running children."""
+
+
+@dataclass
+class Outcome:
+    """One problem as the report needs it: plain data, picklable, cached.
+
+    Attributes
+    ----------
+    name, title : str
+        The problem's name and one-line title.
+    status : Status
+    seconds : float
+        Wall time of the problem's run (of the original run when re-used).
+    peak_mb : float
+        Peak resident memory of the process that ran it [MB] (nan if unknown).
+    section : ProblemSection or None
+        Its document section (None when it failed before producing a result).
+    summary : dict
+        ``comparisons`` and ``comparisons_ok`` (counts), ``functions_built``, ``models``
+        (names), ``headline`` (the first comparisons as plain rows), ``notes``.
+    error, traceback : str
+        Why it failed or timed out.
+    cached : bool
+        Whether this outcome was re-used from the cache in this report.
+    ran_at : float
+        When it ran (seconds since the epoch).
+    """
+
+    name: str
+    title: str
+    status: Status
+    seconds: float
+    peak_mb: float = float("nan")
+    section: ProblemSection | None = None
+    summary: dict[str, Any] = field(default_factory=dict)
+    error: str = ""
+    traceback: str = ""
+    cached: bool = False
+    ran_at: float = 0.0
+
+
+def _summary(run: Any) -> dict[str, Any]:
+    res = run.result
+    if res is None:
+        return {"comparisons": 0, "comparisons_ok": 0, "functions_built": 0, "models": []}
+    comps = list(res.comparisons)
+    return {
+        "comparisons": len(comps),
+        "comparisons_ok": sum(bool(c.ok) for c in comps),
+        "functions_built": len(res.build_log),
+        "models": list(dict.fromkeys(m.name for m in run.models)),
+        "headline": [[c.quantity, c.reference, c.workbench, c.deviation, c.tolerance,
+                      bool(c.ok), c.source] for c in comps],
+    }
+
+
+def _children_cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def outcome_of(name: str, *, quick: bool, catalogue: ModuleType) -> Outcome:
+    """Run one problem in this process and reduce it to an :class:`Outcome`."""
+    from workbench.app.report.animate import animations_of
+
+    with report_style():
+        run = run_problem(name, quick=quick, catalogue=catalogue)
+    out = Outcome(run.name, run.title, run.status, run.seconds, ran_at=time.time(),
+                  error=run.error, traceback=run.traceback, summary=_summary(run))
+    if run.result is not None:
+        try:
+            out.section = problem_section(run, quick=quick)
+            out.section.animations = animations_of(run)
+        except Exception as exc:  # noqa: BLE001 - a section that fails is shown as failed
+            out.status, out.error = Status.FAILED, f"report section: {type(exc).__name__}: {exc}"
+            out.traceback = traceback.format_exc()
+    out.peak_mb = _peak_mb()
+    return out
+
+
+def _child(name: str, quick: bool, catalogue: ModuleType, path: str) -> None:
+    """Body of a forked child: own process group, run, write the outcome, exit."""
+    os.setpgrp()
+    try:
+        out = outcome_of(name, quick=quick, catalogue=catalogue)
+    except BaseException as exc:  # noqa: BLE001 - anything is reported to the parent
+        out = Outcome(name, name, Status.FAILED, 0.0, error=f"{type(exc).__name__}: {exc}",
+                      traceback=traceback.format_exc(), peak_mb=_peak_mb(), ran_at=time.time())
+    tmp = f"{path}.partial"
+    with open(tmp, "wb") as fh:
+        pickle.dump(out, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(tmp, path)
+
+
+@dataclass
+class _Job:
+    name: str
+    key: str | None
+    title: str
+    process: Any = None
+    started: float = 0.0
+    peak_sampled: float = 0.0
+
+
+def _kill_group(process: Any) -> None:
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        process.kill()
+    process.join(5)
+
+
+def _read_timings(cache_dir: Path | None) -> dict[str, float]:
+    if cache_dir is None:
+        return {}
+    try:
+        data = json.loads((Path(cache_dir) / "timings.json").read_text())
+        return {str(k): float(v) for k, v in data.items()}
+    except (OSError, ValueError, AttributeError):
+        return {}
+
+
+def _write_timings(cache_dir: Path | None, timings: dict[str, float]) -> None:
+    if cache_dir is None:
+        return
+    cache_dir = Path(cache_dir)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".timings.", suffix=".partial", dir=cache_dir)
+    with os.fdopen(fd, "w") as fh:
+        json.dump(timings, fh, indent=1, sort_keys=True)
+    os.replace(tmp, cache_dir / "timings.json")
+
+
+def _finished(job: _Job, path: Path, *, timed_out: bool, timeout: float) -> Outcome:
+    """The outcome of a child that has exited, or was killed after ``timeout`` seconds."""
+    if path.is_file():
+        with path.open("rb") as fh:
+            out: Outcome = pickle.load(fh)
+        return out
+    seconds = time.monotonic() - job.started
+    if timed_out:
+        return Outcome(job.name, job.title, Status.TIMED_OUT, seconds, peak_mb=job.peak_sampled,
+                       error=f"timed out: stopped after {timeout:.0f} s, the time limit of one "
+                             f"problem (workbench report --timeout SECONDS)", ran_at=time.time())
+    return Outcome(job.name, job.title, Status.FAILED, seconds, peak_mb=job.peak_sampled,
+                   error=f"the process running the problem died (exit code "
+                         f"{job.process.exitcode}; a negative code is the signal)",
+                   ran_at=time.time())
+
+
+def run_all(
+    names: Sequence[str],
+    *,
+    quick: bool,
+    catalogue: ModuleType,
+    jobs: int | None = None,
+    timeout: float | None = None,
+    cache_dir: Path | None = None,
+    stream: TextIO | None = None,
+    progress: bool = True,
+    heartbeat: float = 30.0,
+    on_done: Callable[[Outcome], None] | None = None,
+) -> tuple[list[Outcome], RunStats]:
+    """Run (or re-use) every problem; return the outcomes in the order of ``names``.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Problems of ``catalogue``.
+    quick : bool
+        Quick mode.
+    catalogue : module
+        ``load(name)`` gives a problem module with ``TITLE`` and ``solve``.
+    jobs : int, optional
+        Problems run at the same time (default: the number of cores).
+    timeout : float, optional
+        Wall-time limit of one problem [s] (default :data:`DEFAULT_TIMEOUT`).
+    cache_dir : Path, optional
+        Where outcomes are cached; None runs everything and caches nothing.
+    stream : file, optional
+        Progress output (default ``sys.stderr``).
+    progress : bool
+        Print progress.
+    heartbeat : float
+        Seconds between "still running" lines for a long problem.
+    on_done : callable, optional
+        Called with every outcome as it becomes available.
+
+    Returns
+    -------
+    outcomes : list of Outcome
+    stats : RunStats
+        Wall time, counts and peak memory.
+    """
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    timeout = float(timeout or DEFAULT_TIMEOUT[bool(quick)])
+    stream = stream or sys.stderr
+    t0 = time.monotonic()
+    cpu0 = _children_cpu()
+    mode = "quick" if quick else "full"
+    timings = _read_timings(cache_dir)
+    done: dict[str, Outcome] = {}
+    todo: list[_Job] = []
+    show = Progress(len(names), stream=stream, enabled=progress, jobs=jobs)
+    for name in names:
+        module = catalogue.load(name)
+        key = cache.problem_key(cache.module_file(module), quick=quick)
+        title = str(getattr(module, "TITLE", name))
+        hit = cache.load(cache_dir, name, quick=quick, key=key) if cache_dir and key else None
+        if hit is not None:
+            hit.cached = True
+            done[name] = hit
+            show.finished(hit, time.monotonic() - t0)
+            if on_done:
+                on_done(hit)
+        else:
+            todo.append(_Job(name, key, title))
+    todo.sort(key=lambda j: -timings.get(f"{mode}/{j.name}", 0.0))
+    show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
+    ctx = multiprocessing.get_context("fork")
+    running: list[_Job] = []
+    peak_total = rss_mb(os.getpid())
+    with tempfile.TemporaryDirectory(prefix="workbench-report-runs-") as tmp:
+        try:
+            while todo or running:
+                while todo and len(running) < jobs:
+                    job = todo.pop(0)
+                    job.process = ctx.Process(
+                        target=_child, name=f"report:{job.name}",
+                        args=(job.name, quick, catalogue, str(Path(tmp) / f"{job.name}.pkl")))
+                    job.process.start()
+                    job.started = time.monotonic()
+                    running.append(job)
+                    show.started(job.name)
+                time.sleep(POLL)
+                total = rss_mb(os.getpid())
+                for job in list(running):
+                    rss = rss_mb(job.process.pid)
+                    job.peak_sampled = max(job.peak_sampled, rss)
+                    total += rss
+                    over = time.monotonic() - job.started > timeout
+                    if job.process.is_alive() and not over:
+                        show.alive(job.name, heartbeat)
+                        continue
+                    timed_out = over and job.process.is_alive()
+                    if timed_out:
+                        _kill_group(job.process)
+                    job.process.join()
+                    path = Path(tmp) / f"{job.name}.pkl"
+                    completed = path.is_file()
+                    out = _finished(job, path, timed_out=timed_out, timeout=timeout)
+                    running.remove(job)
+                    done[job.name] = out
+                    if completed:
+                        timings[f"{mode}/{job.name}"] = out.seconds
+                        if cache_dir and job.key:  # a problem's own exception is cached too
+                            cache.store(cache_dir, job.name, out, quick=quick, key=job.key)
+                    show.finished(out, time.monotonic() - t0)
+                    if on_done:
+                        on_done(out)
+                peak_total = max(peak_total, total)
+        finally:
+            for job in running:
+                _kill_group(job.process)
+    _write_timings(cache_dir, timings)
+    outcomes = [done[n] for n in names]
+    stats = RunStats(
+        seconds=time.monotonic() - t0, jobs=jobs,
+        reused=sum(o.cached for o in outcomes), ran=sum(not o.cached for o in outcomes),
+        peak_total_mb=peak_total,
+        peak_problem=max(((o.peak_mb, o.name) for o in outcomes if not o.cached
+                          and o.peak_mb == o.peak_mb), default=(float("nan"), "")),
+        cpu_seconds=_children_cpu() - cpu0,
+    )
+    return outcomes, stats
