@@ -161,6 +161,21 @@ class ExportResult:
     files: list[Path]
 
 
+    def __str__(self) -> str:
+        """What was written where, and the checked build; never the sources."""
+        files = ", ".join(p.name for p in self.files)
+        folder = self.files[0].parent if self.files else "-"
+        return (f"Exported {self.controller.name} to {folder}: {files}; checked build: "
+                f"{self.compiled}")
+
+    __repr__ = __str__
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
+
 def export_c(
     controller: ExportableController,
     out_dir: str | os.PathLike,

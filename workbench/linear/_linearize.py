@@ -227,6 +227,21 @@ class LinearModel:
         """Max-norm of :attr:`residual`: how far ``x_e`` is from an exact equilibrium."""
         return float(np.max(np.abs(self.residual))) if self.residual.size else 0.0
 
+    def __str__(self) -> str:
+        """A short account: size, coordinates, equilibrium residual, spectral abscissa."""
+        eig = np.linalg.eigvals(self.A) if self.dim else np.zeros(0)
+        absc = f", max Re(eig A) {float(np.max(eig.real)):.4g}" if eig.size else ""
+        labels = ", ".join(self.labels[:6]) + (", ..." if len(self.labels) > 6 else "")
+        loop = ", closed loop" if self.controller is not None else ""
+        return (f"LinearModel of {self.model.name}{loop}: A {self.dim}x{self.dim}, "
+                f"B {self.dim}x{self.n_inputs} in tangent coordinates ({labels}); "
+                f"equilibrium residual {self.residual_norm:.1e}{absc}")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     def to_statespace(self) -> Any:
         """Return the linearisation as a ``control.StateSpace`` (outputs = all states).
 

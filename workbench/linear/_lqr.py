@@ -95,6 +95,19 @@ class LQRResult:
             raise ModelError("a feedback law needs the LinearModel the gain was designed on")
         return geometric_feedback(self.linear, self.K, name=name)
 
+    def __str__(self) -> str:
+        """A short account: gain size, Riccati residual, closed-loop spectrum, PBH margin."""
+        re_ = self.closed_loop_eigenvalues.real
+        span = f"[{float(np.min(re_)):.4g}, {float(np.max(re_)):.4g}]" if re_.size else "-"
+        return (f"LQRResult: gain K {self.K.shape[0]}x{self.K.shape[1]} ({self.method}), "
+                f"Riccati residual {self.riccati_residual:.1e}, closed-loop Re(eig) in {span}, "
+                f"PBH margin {self.controllability.margin:.1e}")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     def summary(self) -> dict[str, Any]:
         """Plain JSON-serialisable account."""
         return {
