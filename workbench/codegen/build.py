@@ -167,6 +167,19 @@ class CompiledController:
     hash: str
     cached: bool
 
+    def __str__(self) -> str:
+        """Name, binding, flags and where the library is; never the sources."""
+        how = "found in the cache" if self.cached else "compiled"
+        return (f"CompiledController {self.sources.name} ({self.sources.binding.value}, "
+                f"{self.optimization.value}): {how}, {self.library}")
+
+    __repr__ = __str__
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     @property
     def library(self) -> Path:
         """The shared library."""
@@ -317,6 +330,17 @@ class BenchResult:
     max_ns: float
     calls: int
     batches: int
+
+
+    def __str__(self) -> str:
+        """Median time per call, with its spread."""
+        return (f"{self.name}: median {self.median_ns:.1f} ns per call (min {self.min_ns:.1f},"
+                f" max {self.max_ns:.1f}; {self.batches} batches of {self.calls} calls)")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
 
 
 def bench_c(compiled: CompiledController, *, calls: int = 20_000, batches: int = 501

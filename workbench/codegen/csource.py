@@ -79,6 +79,19 @@ class CSources:
     with_jacobian: bool
     digest: str
 
+    def __str__(self) -> str:
+        """File names and sizes, never the sources themselves."""
+        files = ", ".join(f"{k} ({len(v) / 1024:.1f} kB)" for k, v in self.files.items())
+        return (f"C sources of {self.name} ({self.binding.value}): x {self.nx}, p {self.n_p}, "
+                f"u {self.nu}; {self.n_instructions} instructions; files {files}")
+
+    __repr__ = __str__
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
 
 def void_unused_parameters(code: str) -> str:
     """Add ``(void)param;`` to every function definition of casadi's generated code.

@@ -161,6 +161,25 @@ class Trajectory:
         fn = self.model.function(name)
         return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
 
+    def __str__(self) -> str:
+        """A short account: samples, method, cost, drift and constraint residual."""
+        drift = self.diagnostics.get("invariant_drift", {})
+        drifts = ", ".join(f"{k} {v.get('max_rel', float('nan')):.1e}" for k, v in drift.items())
+        res = self.diagnostics.get("constraint_residual", {})
+        worst = max(res.values(), default=0.0)
+        cost = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                         for k, v in self.cost.items() if k in ("wall_seconds", "steps",
+                                                               "rhs_evaluations"))
+        return (f"Trajectory of {self.model.name}: {len(self.t)} samples, t = {self.t[0]:g} .. "
+                f"{self.t[-1]:g}, method {self.method.value}; cost: {cost or '-'}; "
+                f"relative invariant drift: {drifts or '-'}; max constraint residual "
+                f"{worst:.1e}")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     def summary(self) -> dict[str, Any]:
         """Plain JSON-serialisable account: method, knobs, cost, diagnostics."""
         return {

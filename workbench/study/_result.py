@@ -242,6 +242,21 @@ class Result:
         """Whether every comparison is within its tolerance."""
         return all(c.ok for c in self.comparisons)
 
+    def __str__(self) -> str:
+        """A short account: status, comparisons, figures, values (:func:`format_result`: all)."""
+        n_ok = sum(c.ok for c in self.comparisons)
+        keys = ", ".join(list(self.values)[:8]) + (", ..." if len(self.values) > 8 else "")
+        total = sum(float(v) for v in self.timings.values())
+        return (f"Result {self.name}{' (quick)' if self.quick else ''}: {self.status.value} "
+                f"({n_ok}/{len(self.comparisons)} comparisons ok); {len(self.figures)} "
+                f"figure(s); values: {keys or '-'}; {len(self.build_log)} functions built; "
+                f"{total:.3g} s in timed steps; {len(self.notes)} note(s)")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-serialisable form (figures are listed by name only)."""
         return to_jsonable(

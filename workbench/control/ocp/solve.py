@@ -141,6 +141,15 @@ class OCPSolution:
             f"{defect} [{self.describe()}]"
         )
 
+    def __str__(self) -> str:
+        """The one-line :attr:`message` (status, iterations, times, cost, defect)."""
+        return f"OCPSolution of {self.ocp.name}: {self.message}"
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        return f"<pre>{escape(str(self))}</pre>"
+
     def describe(self) -> str:
         """Transcription, handling and graph in words."""
         return f"{self.method.describe()}, {self.handling.value}, {self.graph.value.upper()}"
