@@ -1,6 +1,8 @@
 # The README's commands live here. Every target sets up the virtual environment first,
 # so each one works on a fresh clone.
-PYTHON ?= python3.11
+# The interpreter that creates .venv: the first of Python 3.11, 3.12, 3.13 found on PATH
+# (override with `make PYTHON=python3.12 ...`).
+PYTHON ?= $(firstword $(foreach p,python3.11 python3.12 python3.13,$(if $(shell command -v $(p) 2>/dev/null),$(p))))
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
@@ -13,7 +15,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 .PHONY: setup run report report-quick test test-deps test-all lint bench clean
 
 $(STAMP): pyproject.toml Makefile
-	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (the workbench needs Python 3.11)"; exit 1; }
+	@test -n "$(PYTHON)" && command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: no Python 3.11, 3.12 or 3.13 found (python3.11, python3.12, python3.13 on PATH; or make PYTHON=...)"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev,sweep]'
