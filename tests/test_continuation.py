@@ -16,7 +16,7 @@ from workbench.equilibria._continuation import (
     locate_on_branch,
     switch_branch,
 )
-from workbench.equilibria._roots import ZeroProblem
+from workbench.equilibria._roots import RootStatus, ZeroProblem
 
 
 def plane_problem(expr_of, monitors=None, n=2) -> ZeroProblem:
@@ -161,3 +161,42 @@ def test_bad_input():
                       function=fn, u=[], p=[])
     with pytest.raises(ManifoldError, match="start"):
         continue_branch(sph, [1.0, 1.0, 0.0, 0.0])
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+@pytest.fixture(scope="module")
+def line_and_circle():
+    """y ((x - 1)^2 + y^2 - 1) = 0: the x-axis crosses the unit circle about (1, 0) at 0."""
+    prob = plane_problem(lambda y: y[1] * ((y[0] - 1) ** 2 + y[1] ** 2 - 1))
+    b = continue_branch(prob, [-1.0, 0.0], direction=[1.0, 0.0], max_arclength=1.5,
+                        control=StepControl(step=0.07, max_step=0.1))
+    (bp,) = b.specials(PointKind.BRANCH_POINT)
+    return prob, bp
+
+
+def test_switch_branch_returns_both_sides(line_and_circle):
+    prob, bp = line_and_circle
+    sw = switch_branch(prob, bp, step=0.1)
+    assert len(sw) == 2 and not sw.failed and sw.describe_failures() == ""
+    assert [r.status for r in sw.sides] == [RootStatus.CONVERGED] * 2
+    for (y, d), r in zip(sw, sw.sides):
+        assert y is r.x
+        assert_close(abs(y[1]), 0.1, atol=1e-12, what="Keller distance along the y-axis")
+        assert_close((y[0] - 1) ** 2 + y[1] ** 2, 1.0, atol=1e-12, what="on the circle")
+        assert_close(abs(d[1]), 1.0, atol=1e-9, what="leaves vertically")
+
+
+def test_switch_branch_raises_with_the_statuses_when_no_side_converges(line_and_circle):
+    """At distance 1.5 from the origin the circle (|y| <= 1) has no point: both sides fail."""
+    prob, bp = line_and_circle
+    with pytest.raises(SolverError, match="neither side") as info:
+        switch_branch(prob, bp, step=1.5)
+    statuses = info.value.status.split("/")
+    assert len(statuses) == 2 and "converged" not in statuses
+    sw = switch_branch(prob, bp, step=1.5, raise_on_failure=False)
+    assert len(sw) == 0 and list(sw) == [] and len(sw.failed) == 2
+    assert all(not r.ok and r.message for r in sw.sides)
+    assert "side +" in sw.describe_failures() and "side -" in sw.describe_failures()

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import gc
+import importlib
 import itertools
+import weakref
 
 import numpy as np
 import pytest
@@ -188,3 +191,23 @@ def test_bad_input():
         pbh(lin, np.ones((4, 1)))
     pos, vel = mechanical_order(model)
     assert pos == [0, 1] and vel == [2, 3]
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+def test_energy_hessian_is_cached_with_the_model_and_released_with_it(monkeypatch):
+    amb = importlib.import_module("workbench.linear._ambient")
+    monkeypatch.setattr(amb, "_JAC_CACHE", {})  # linearize's bounded cache, emptied below
+    model = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.5])
+    x_e = model.state(R=np.diag([1.0, -1.0, -1.0]), omega=np.zeros(3))  # hanging
+    forms = [second_order_form(model, x_e, pairs={"R": "omega"}),
+             second_order_form(model.with_parameters(m=2.0), x_e, pairs={"R": "omega"})]
+    assert_close(forms[1].G, 2.0 * forms[0].G, atol=1e-12, what="G scales with m")
+    assert model.build_log.names().count(f"{model.name}.energy_hessian") == 1
+    graphs = weakref.ref(model._graphs)
+    amb._JAC_CACHE.clear()
+    del model, forms
+    gc.collect()
+    assert graphs() is None, "a module-level cache keeps the model's graphs alive"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -10,7 +12,7 @@ from conftest import assert_close
 from models import pendulum3d as p3
 from models.chain_cart import chain_cart, link_state
 from models.controllers import angular_velocity_feedback
-from workbench.core.errors import ParameterError
+from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import so3_exp
 from workbench.linear._linearize import linearize, mechanical_order
 from workbench.linear._lqr import Requirement, geometric_feedback, lqr
@@ -127,3 +129,54 @@ def test_bad_gain_shape_for_a_law():
     _, lin = chain_lin(1, (1.0,))
     with pytest.raises(ParameterError, match=r"K must be a finite \(2, 8\) matrix"):
         geometric_feedback(lin, np.zeros((2, 7)))
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+@pytest.fixture(scope="module")
+def planar():
+    return p3.planar(Jt=0.2, rho_s=0.3)
+
+
+def test_lqr_checks_its_system_like_pbh(planar):
+    lin = linearize(planar, planar.state(p=[0.0, -1.0], omega_y=[0.0]))
+    A = np.array([[0.0, 1.0], [2.0, 0.0]])
+    for call, match in [
+        (lambda: lqr(lin, np.eye(2), np.eye(0), B=np.ones((2, 1))), "pass B only"),
+        (lambda: lqr(A, np.eye(2), np.eye(1)), "B is required when A is given as a matrix"),
+        (lambda: lqr(A, np.eye(2), np.eye(1), B=np.ones((3, 1))), r"A \(2, 2\) and B \(3, 1\)"),
+        (lambda: lqr(A, np.eye(2), np.eye(1), B=[[np.nan], [1.0]]), "must be finite"),
+    ]:
+        with pytest.raises(ModelError, match=match):
+            call()
+    res = lqr(A, np.eye(2), np.eye(1), B=[1.0, 1.0])  # a 1-D B is one input column
+    assert np.all(res.closed_loop_eigenvalues.real < 0)
+    assert res.riccati_residual < 1e-12
+
+
+class _UncallableController:
+    """Stands for a controller that no symbol class can call."""
+
+    def n_in(self):
+        return 1
+
+    def name(self):
+        return "stub"
+
+    def __call__(self, x):
+        raise RuntimeError(f"no {type(x).__name__} evaluation")
+
+
+def test_geometric_feedback_keeps_the_original_error(planar):
+    lin = linearize(planar, planar.state(p=[0.0, -1.0], omega_y=[0.0]))
+    broken = replace(lin, controller=_UncallableController())
+    with pytest.raises(ModelError, match="could not compose the controller 'stub'") as info:
+        geometric_feedback(broken, np.zeros((0, 2)))
+    msg = str(info.value)
+    assert "on SX symbols with RuntimeError: no SX evaluation" in msg
+    assert "on MX symbols with RuntimeError: no MX evaluation" in msg
+    assert isinstance(info.value.__cause__, RuntimeError)
+    law = geometric_feedback(lin, np.zeros((0, 2)))  # no controller: SX, nothing to retry
+    assert law.is_a("SXFunction") and law.nnz_out(0) == 0

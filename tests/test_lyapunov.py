@@ -133,3 +133,34 @@ def test_derivatives_for_two_controllers_of_the_same_name_do_not_mix():
         k = ctl.saturated_velocity_feedback(model, P=np.eye(3), k=kk)
         assert_close(V.derivative_values(X, k), np.full(3, -kk / 2), atol=1e-14,
                      what=f"k = {kk}: V-dot = -k |w|^2 / (1 + |w|)")
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+class _CountingDomain:
+    """A domain b(x, p) that counts how often it is mapped over a batch."""
+
+    def __init__(self, fn):
+        self.fn, self.maps = fn, 0
+
+    def map(self, n):
+        self.maps += 1
+        return self.fn.map(n)
+
+
+def test_sublevel_set_maps_its_domain_once_per_batch_size(rng):
+    model = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.1, -0.05, 0.2])
+    V = Lyapunov(model, lambda ctx: ca.dot(ctx["omega"], ctx["omega"]), name="kinetic")
+    xs, ps = ca.SX.sym("x", 6), ca.SX.sym("p", model.n_params)
+    domain = _CountingDomain(ca.Function("b", [xs, ps], [-xs[2]]))  # Gamma_3 > 0
+    cap = SublevelSet(V, 1.0, domain=domain)
+    X = np.array([model.manifold.random_point(rng) for _ in range(40)])
+    first = cap.contains(X)
+    assert_close(first, (np.sum(X[:, 3:] ** 2, axis=1) <= 1.0) & (X[:, 2] > 0), atol=0,
+                 what="membership")
+    for _ in range(3):
+        assert_close(cap.contains(X), first, atol=0, what="same answer from the cache")
+    cap.contains(X[:7])
+    assert domain.maps == 2  # one map per batch size, not one per call

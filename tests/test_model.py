@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import json
+
+import casadi as ca
 import numpy as np
 import pytest
 from conftest import assert_close
 
 from models import pendulum3d as p3
-from workbench.core._model import Evaluator
+from workbench.core._model import Evaluator, Model, Parameter, Symbolic
 from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import ProductManifold, Rn
 
 BODY = {"J": np.diag([0.13, 0.28, 0.17]), "rho": [0.0, 0.0, 0.3]}
 
@@ -96,3 +100,33 @@ def test_evaluator_matches_plain_call(rng):
     for _ in range(3):
         x, u = model.manifold.random_point(rng), rng.standard_normal(3)
         assert_close(ev(x, u, model.p), model.rhs(x, u), atol=0, what="buffer evaluation")
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+def _decay(symbolic):
+    return Model(name="decay", manifold=ProductManifold([("x", Rn(2))]), n_inputs=0,
+                 parameters=[Parameter("a", (), "rate [1/s]")], values={"a": 2.0},
+                 vector_field=lambda ctx: -ctx["a"] * ctx["x"], symbolic=symbolic)
+
+
+@pytest.mark.parametrize(("given", "member", "cls", "kind"), [
+    (Symbolic.SX, Symbolic.SX, ca.SX, "SXFunction"), ("SX", Symbolic.SX, ca.SX, "SXFunction"),
+    (Symbolic.MX, Symbolic.MX, ca.MX, "MXFunction"), ("MX", Symbolic.MX, ca.MX, "MXFunction"),
+])
+def test_model_symbolic_is_a_str_enum(given, member, cls, kind):
+    model = _decay(given)
+    assert model.symbolic is member and model.symbolic == member.value and model.sym is cls
+    f = model.function("f")
+    assert f.is_a(kind) and model.function("f", frozen=True).is_a(kind)
+    assert_close(model.rhs([1.0, -3.0]), [-2.0, 6.0], atol=0, what="f = -a x")
+    record = model.build_log.as_list()[0]
+    assert json.loads(json.dumps(record))["symbolic"] == member.value
+    assert f"{model.symbolic}" == member.value
+
+
+def test_model_refuses_an_unknown_symbol_class():
+    with pytest.raises(ModelError, match=r"symbolic must be one of \['SX', 'MX'\]; got 'QX'"):
+        _decay("QX")

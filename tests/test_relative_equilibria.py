@@ -6,11 +6,14 @@ Gamma_e = -n_a/|n_a| for every alpha) exist only here, as independent checks.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import assert_close
 
 from models import pendulum3d as p3
+from models import relative_families
 from models.chain_cart import chain_cart
 from models.relative_equilibria import (
     alpha,
@@ -22,6 +25,7 @@ from models.relative_equilibria import (
     static_equilibria,
 )
 from models.relative_families import at_alpha, trace_relative_equilibria
+from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import so3_exp
 from workbench.equilibria._branch import EndReason, PointKind, StepControl
@@ -216,3 +220,63 @@ def test_axisymmetric_body_gives_a_two_dimensional_family(cylinder):
         assert z.local_dimension == 1  # a curve in the slice: a surface in (Gamma, k)
         assert_close(z.y[3] ** 2 * z.y[2], MG * 0.4989 / (0.4486 - 0.0772), atol=1e-9,
                      what="k^2 Gamma_3 = mg rho3/(J1 - J3)")
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+def test_trace_notes_a_branch_point_whose_other_branch_was_not_picked_up(monkeypatch):
+    """A corrector that cannot converge (tol below rounding) leaves a note per branch point."""
+    model = p3.reduced(J=np.diag([0.4486, 0.3943, 0.0772]), rho=[0.0, 0.1044, 0.4989])
+    real = relative_families.switch_branch
+
+    def failing(problem, sp, *, step, control, raise_on_failure):
+        hopeless = replace(control, tol=1e-300, max_corrector_iterations=1)
+        return real(problem, sp, step=step, control=hopeless,
+                    raise_on_failure=raise_on_failure)
+
+    monkeypatch.setattr(relative_families, "switch_branch", failing)
+    atlas = trace_relative_equilibria(model, control=StepControl(max_step=2.0),
+                                      with_stability=False)
+    bps = [sp for b in atlas.branches for sp in b.specials(PointKind.BRANCH_POINT)]
+    notes = [n for n in atlas.notes if "was not picked up" in n]
+    assert bps and len(notes) == len(bps)
+    assert all("2 of 2 sides" in n and "max_iterations" in n for n in notes)
+    assert not any(o.startswith("branch point") for o in atlas.origins)
+    assert atlas.summary()["notes"] == atlas.notes
+
+
+class _RenamedOffset:
+    """A builder context that reads the offset 'rho' from a parameter called 'c'."""
+
+    def __init__(self, ctx):
+        self._ctx, self.x, self.u, self.p, self.model = ctx, ctx.x, ctx.u, ctx.p, ctx.model
+
+    def __getitem__(self, name):
+        return self._ctx["c" if name == "rho" else name]
+
+
+def _balanced_body_with_offset_called_c():
+    red = p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.0])
+    params = [replace(p, name="c") if p.name == "rho" else p for p in red.parameters]
+    values = {("c" if k == "rho" else k): v for k, v in red.values.items()}
+    return Model(
+        name="renamed", manifold=red.manifold, n_inputs=red.n_inputs, parameters=params,
+        values=values, vector_field=lambda ctx: red._vector_field(_RenamedOffset(ctx)),
+        invariants={k: (lambda ctx, b=b: b(_RenamedOffset(ctx)))
+                    for k, b in red._invariants.items()})
+
+
+def test_static_equilibria_quotes_the_offset_parameter_the_model_has():
+    model = _balanced_body_with_offset_called_c()
+    with pytest.raises(ParameterError, match="the body is balanced") as info:
+        static_equilibria(model)
+    assert "'rho'" not in str(info.value)  # the model has no parameter 'rho'
+    with pytest.raises(ParameterError, match=r"parameter 'c' = \[0.0, 0.0, 0.0\] makes the "
+                                             r"body balanced"):
+        static_equilibria(model, offset="c")
+    with pytest.raises(ModelError, match=r"offset must name .* \['J', 'c', 'm', 'g'\].*'rho'"):
+        static_equilibria(model, offset="rho")
+    with pytest.raises(ParameterError, match=r"parameter 'rho' = \[0.0, 0.0, 0.0\] makes"):
+        static_equilibria(p3.reduced(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.0]))

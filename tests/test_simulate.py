@@ -9,8 +9,9 @@ from conftest import assert_close
 
 from models import pendulum3d as p3
 from models.spherical import spherical_pendulum
-from workbench.core.errors import ModelError
-from workbench.simulation._simulate import Method, simulate
+from workbench.core.errors import ModelError, ParameterError
+from workbench.simulation._simulate import Method, constraint_residuals, simulate
+from workbench.simulation.integrators import integrate, rkmk4
 
 
 @pytest.fixture
@@ -82,3 +83,92 @@ def test_bad_input(planar, kwargs, pattern):
     t = args.pop("t")
     with pytest.raises(ModelError, match=pattern):
         simulate(planar, x0, t, **args)
+
+
+# ----------------------------------------------------------------------------------------
+# moved from test_review_engine.py
+
+
+def planar_state(model):
+    return model.state(p=[0.0, 1.0], omega_y=[1.0])
+
+
+@pytest.mark.parametrize(("step", "match"), [
+    ("fast", "step must be a positive number; got 'fast'"),
+    (float("inf"), "step must be a positive finite number; got inf"),
+    (float("nan"), "step must be a positive number; got nan"),
+    (-0.1, "step must be a positive number; got -0.1"),
+    (5.0, "step must not exceed the horizon"),
+])
+def test_simulate_and_integrate_check_a_step_alike(planar, step, match):
+    """One check, the same words; simulate raises its documented ModelError."""
+    x0 = planar_state(planar)
+    with pytest.raises(ModelError, match=match):
+        simulate(planar, x0, [0.0, 0.5, 1.0], method="rk", step=step)
+    with pytest.raises(ParameterError, match=match):
+        integrate(planar, rkmk4(planar), x0, [0.0, 0.5, 1.0], step=step)
+
+
+def test_simulate_refuses_a_boolean_degree(planar):
+    with pytest.raises(ModelError, match="degree must be an integer >= 1; got True"):
+        simulate(planar, planar_state(planar), [0.0, 1.0], method="collocation", step=0.1,
+                 degree=True)
+
+
+def test_simulate_keeps_its_model_error_for_unknown_choices(planar):
+    x0 = planar_state(planar)
+    with pytest.raises(ModelError, match=r"method must be one of \['cvodes', .*; got 'rk45'"):
+        simulate(planar, x0, [0.0, 1.0], method="rk45")
+    with pytest.raises(ModelError, match=r"multistep must be one of \['adams', 'bdf'\]"):
+        simulate(planar, x0, [0.0, 1.0], multistep="gear")
+
+
+def _count_residual_builds(monkeypatch, factor):
+    calls = []
+    real = factor.residual
+
+    def residual(x):
+        calls.append(x)
+        return real(x)
+
+    monkeypatch.setattr(factor, "residual", residual)
+    return calls
+
+
+def test_constraint_residuals_and_jacobians_build_once_per_factor(monkeypatch, rng):
+    model = p3.planar(Jt=0.2, rho_s=0.3)  # a fresh S1 factor
+    factor = model.manifold.factor("p")
+    calls = _count_residual_builds(monkeypatch, factor)
+    X = np.array([model.manifold.random_point(rng) for _ in range(5)])
+    X[:, :2] *= np.array([1.0, 1.1, 0.9, 1.0, 2.0])[:, None]  # |p| = 1, 1.1, 0.9, 1, 2
+    for _ in range(3):
+        res = constraint_residuals(model, X)
+        assert_close(res["p"], np.abs(np.sum(X[:, :2] ** 2, axis=1) - 1.0), atol=1e-15,
+                     what="|h(p)| = ||p|^2 - 1|")
+        assert_close(res["omega_y"], np.zeros(5), atol=0, what="no constraint on R^1")
+        J = factor.constraint_jacobian(X[1, :2])
+        assert_close(J, 2 * X[1:2, :2], atol=1e-15, what="dh/dp = 2 p^T")
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize(("kw", "words"), [
+    ({"step": 0.1}, ["method 'cvodes' does not use step=0.1", "rtol, atol"]),
+    ({"degree": 3}, ["method 'cvodes' does not use degree=3"]),
+    ({"method": "rk", "step": 0.1, "degree": 3}, ["method 'rk' does not use degree=3"]),
+    ({"jit": True}, ["method 'cvodes' does not use jit=True"]),
+    ({"method": "collocation", "step": 0.1, "jit": True},
+     ["method 'collocation' does not use jit=True", "'lgvi'"]),
+    ({"step": 0.1, "degree": 2}, ["step=0.1", "degree=2"]),
+])
+def test_simulate_refuses_knobs_its_method_ignores(planar, kw, words):
+    with pytest.raises(ModelError) as info:
+        simulate(planar, planar_state(planar), [0.0, 1.0], **kw)
+    assert all(w in str(info.value) for w in words), str(info.value)
+
+
+def test_simulate_collocation_degree_defaults_to_four(planar):
+    x0 = planar_state(planar)
+    a = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1)
+    b = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1, degree=4)
+    assert a.options["degree"] == b.options["degree"] == 4
+    assert_close(a.final, b.final, atol=0.0, what="same method")
