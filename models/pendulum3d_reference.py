@@ -8,7 +8,10 @@ paper; nothing here is derived from a model's graph.
 * :func:`rotation_taking` -- an attitude with a given reduced attitude (hanging or
   inverted members of H and I, (3.12)-(3.13));
 * :func:`equilibrium_attitude` -- the hanging or inverted attitude for a given ``rho``;
-* :func:`prop9` -- Proposition 9 (with the erratum): a relative equilibrium at ``alpha``.
+* :func:`prop9` -- Proposition 9 (with the erratum): a relative equilibrium at ``alpha``;
+* :func:`remark_polynomial`, :func:`velocity_feedback_lemma` -- paper 001: the closed-loop
+  characteristic polynomial of Remarks 2-3 and the sign patterns of Lemmas 1-4 under
+  angular-velocity feedback.
 """
 
 from __future__ import annotations
@@ -19,8 +22,8 @@ import scipy.linalg as sla
 from workbench.core.manifolds import hat, so3_exp
 from workbench.core.types import ArrayLike
 
-__all__ = ["equilibrium_attitude", "frequencies", "prop9", "rotation_taking",
-           "simultaneous_diagonalisation"]
+__all__ = ["equilibrium_attitude", "frequencies", "prop9", "remark_polynomial",
+           "rotation_taking", "simultaneous_diagonalisation", "velocity_feedback_lemma"]
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -147,3 +150,64 @@ def prop9(J: ArrayLike, rho: ArrayLike, a: float, m: float = 1.0, g: float = 9.8
     n = np.linalg.solve(np.asarray(J, dtype=float) - np.eye(3) / a, np.asarray(rho, float))
     gamma = -n / np.linalg.norm(n)
     return gamma, float(np.sqrt(m * g / np.linalg.norm(n)) * n @ gamma)
+
+
+def remark_polynomial(d: ArrayLike, mgl: ArrayLike, k: int) -> np.ndarray:
+    """Paper 001 Remarks 2-3: ``(s^2 + d1 s + k mgl1)(s^2 + d2 s + k mgl2)(s + d3)``.
+
+    Parameters
+    ----------
+    d : array-like, shape=(3,)
+        The diagonal damping ``D = M^-1 Psi'(0) M^-T`` (assumed diagonal by the Remarks).
+    mgl : array-like, shape=(2,) or (3,)
+        ``m g l_1``, ``m g l_2`` (:func:`simultaneous_diagonalisation`).
+    k : int
+        +1 at hanging (Remark 2), -1 at inverted (Remark 3).
+
+    Returns
+    -------
+    ndarray, shape=(6,)
+        Polynomial coefficients, highest power first.
+    """
+    d, mgl = np.asarray(d, dtype=float), np.asarray(mgl, dtype=float)
+    return np.polymul(np.polymul([1.0, d[0], k * mgl[0]], [1.0, d[1], k * mgl[1]]),
+                      [1.0, d[2]])
+
+
+def velocity_feedback_lemma(pattern: dict[str, int], n_stable: int, dim: int, *, full: bool,
+                            hanging: bool) -> tuple[str, dict[str, tuple[int, int]]]:
+    """Paper 001 Lemmas 1-4 against a closed-loop spectrum's sign pattern.
+
+    Under ``u = -Psi(omega)``: at hanging (Lemma 1 on TSO(3), Lemma 2 on S^2 x R^3) one
+    zero eigenvalue on TSO(3) (none on S^2 x R^3), the rest in the open left half plane,
+    at least one of them real; at inverted (Lemmas 3, 4) the same zeros, three negative
+    and two positive real eigenvalues and a three-dimensional stable subspace.
+
+    Parameters
+    ----------
+    pattern : dict of str to int
+        From :func:`workbench.study.sign_pattern`.
+    n_stable : int
+        Dimension of the stable subspace found.
+    dim : int
+        Dimension of the linearisation (6 on TSO(3), 5 on S^2 x R^3).
+    full, hanging : bool
+        Which model and which equilibrium.
+
+    Returns
+    -------
+    lemma : str
+    checks : dict of str to (int, int)
+        Statement -> (what the Lemma says, what the spectrum has).
+    """
+    n_zero = 1 if full else 0
+    checks = {"zero eigenvalues": (n_zero, pattern["zero"])}
+    if hanging:
+        checks["eigenvalues in the open left half plane"] = (dim - n_zero,
+                                                             pattern["left_half_plane"])
+        checks["negative real eigenvalues >= 1"] = (1, min(1, pattern["negative_real"]))
+        return ("Lemma 1" if full else "Lemma 2"), checks
+    checks.update({"negative real eigenvalues": (3, pattern["negative_real"]),
+                   "positive real eigenvalues": (2, pattern["positive_real"]),
+                   "stable subspace dimension": (3, n_stable)})
+    return ("Lemma 3" if full else "Lemma 4"), checks

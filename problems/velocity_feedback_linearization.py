@@ -18,7 +18,12 @@ import sympy as sp
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from models.pendulum3d_reference import equilibrium_attitude, simultaneous_diagonalisation
+from models.pendulum3d_reference import (
+    equilibrium_attitude,
+    remark_polynomial,
+    simultaneous_diagonalisation,
+    velocity_feedback_lemma,
+)
 from workbench.linear import eigenstructure, linearize
 from workbench.linear.symbolic import symbolic_linearization
 from workbench.study import (
@@ -37,12 +42,6 @@ D_DIAG = np.array([1.5, 10.0, 0.7])  # complex pair (d1^2 < 4 mgl1), real pair, 
 P_SAT = np.diag([5.0, 10.0, 15.0])
 K_SAT = 10.0
 E3 = np.array([0.0, 0.0, 1.0])
-
-
-def remark_polynomial(d: np.ndarray, mgl: np.ndarray, k: int) -> np.ndarray:
-    """Coefficients of ``(s^2 + d1 s + k mgl1)(s^2 + d2 s + k mgl2)(s + d3)`` (Remarks 2-3)."""
-    return np.polymul(np.polymul([1.0, d[0], k * mgl[0]], [1.0, d[1], k * mgl[1]]),
-                      [1.0, d[2]])
 
 
 def _symbolic_remark(res: Result) -> dict[str, str]:
@@ -125,12 +124,9 @@ def solve(*, quick: bool = False) -> Result:
     values: dict[str, Any] = {"mgl": lam[:2].tolist(), "M": M.tolist(),
                               "D_diagonal": D_DIAG.tolist()}
     for gname, psi0 in gains.items():
-        if gname.startswith("linear"):
-            ks = {"full": ctl.angular_velocity_feedback(full, D=psi0),
-                  "reduced": ctl.angular_velocity_feedback(red, D=psi0)}
-        else:
-            ks = {"full": ctl.saturated_velocity_feedback(full, P=P_SAT, k=K_SAT),
-                  "reduced": ctl.saturated_velocity_feedback(red, P=P_SAT, k=K_SAT)}
+        ks = {name: ctl.angular_velocity_feedback(mod, D=psi0) if gname.startswith("linear")
+              else ctl.saturated_velocity_feedback(mod, P=P_SAT, k=K_SAT)
+              for name, mod in (("full", full), ("reduced", red))}
         D = Minv @ psi0 @ Minv.T  # paper 001 after (18): D = M^-1 Psi'(0) M^-T
         for eq, k in (("hanging", 1), ("inverted", -1)):
             R = equilibrium_attitude(rho, inverted=eq == "inverted")
@@ -151,19 +147,8 @@ def solve(*, quick: bool = False) -> Result:
                                      source=f"paper 001 Remark {2 if k > 0 else 3}")
                     if mname == "full":
                         spectra[f"linear feedback, {eq}"] = (es.eigenvalues, ref)
-                n_zero = 1 if mname == "full" else 0
-                if k > 0:  # Lemma 1 (TSO(3)) / Lemma 2 (S^2 x R^3)
-                    checks = {"zero eigenvalues": (n_zero, sg["zero"]),
-                              "eigenvalues in the open left half plane":
-                                  (lin.dim - n_zero, sg["left_half_plane"]),
-                              "negative real eigenvalues >= 1": (1, min(1, sg["negative_real"]))}
-                    lemma = "Lemma 1" if mname == "full" else "Lemma 2"
-                else:  # Lemma 3 / Lemma 4
-                    checks = {"zero eigenvalues": (n_zero, sg["zero"]),
-                              "negative real eigenvalues": (3, sg["negative_real"]),
-                              "positive real eigenvalues": (2, sg["positive_real"]),
-                              "stable subspace dimension": (3, es.n_stable)}
-                    lemma = "Lemma 3" if mname == "full" else "Lemma 4"
+                lemma, checks = velocity_feedback_lemma(sg, es.n_stable, lin.dim,
+                                                        full=mname == "full", hanging=k > 0)
                 compare_counts(res, tag, checks, source=f"paper 001 {lemma}")
             # (25) / (28): the full linearisation in the paper's coordinates (x, x-dot)
             lin = linearize(full, states["full"], controller=ks["full"])
