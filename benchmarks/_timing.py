@@ -24,3 +24,21 @@ def table(rows: list[dict], columns: list[str]) -> str:
     head = "  ".join(f"{c:>{widths[c]}}" for c in columns)
     body = ["  ".join(f"{r[c]!s:>{widths[c]}}" for c in columns) for r in rows]
     return "\n".join([head, *body])
+
+
+def interleaved_cpu(fns: dict[str, Callable[[], object]], *, rounds: int = 15,
+                    number: int = 1) -> dict[str, float]:
+    """CPU-time medians [s per call] of several functions timed in turn, round by round.
+
+    Each round times ``number`` calls of every function one after the other (CPU time of
+    the process, ``time.process_time``), so a busy spell of the shared machine falls on
+    all of them alike; the median over ``rounds`` rounds is returned per name.
+    """
+    samples: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(rounds):
+        for k, fn in fns.items():
+            t0 = time.process_time()
+            for _ in range(number):
+                fn()
+            samples[k].append((time.process_time() - t0) / number)
+    return {k: statistics.median(v) for k, v in samples.items()}

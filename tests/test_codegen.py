@@ -147,6 +147,22 @@ def test_compiled_agrees_with_casadi_on_seeded_states(name, binding, cache):
     _check_build(name, binding, cache)
 
 
+def test_saturated_law_is_branch_free_with_one_division():
+    """Issue 17: (34) as C without an ``if`` on a zero norm and with a single division,
+    equal to ``-k P w / (1 + |P w|)`` at the ulp level on the seeded states."""
+    c = controller("saturated_velocity_feedback")
+    code = codegen.generate(c, binding=Binding.FROZEN).files[f"{c.name}.c"]
+    body = code[code.index("static int casadi_f0"):]
+    body = body[:body.index("\n}\n")]
+    assert "?" not in body.replace("arg[0]?", "") and body.count("/") == 1, body
+    X = c.sample_states(N_STATES, seed=2)
+    Pw = X[:, 9:12] @ np.diag([5.0, 10.0, 15.0])
+    ref = -10.0 * Pw / (1 + np.linalg.norm(Pw, axis=1))[:, None]
+    u = np.asarray(c.function_for(Binding.FROZEN).map(N_STATES)(X.T)).T
+    scale = np.maximum(np.max(np.abs(ref), axis=1), 1e-300)
+    assert np.max(np.max(np.abs(u - ref), axis=1) / scale) <= 4e-16
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("name", "binding"),
                          [nb for nb in ALL_BUILDS if nb not in DEFAULT_BUILDS]
