@@ -22,8 +22,6 @@ from workbench.core.manifolds import (
     vee,
 )
 
-FACTORS = [Rn(3), S1(), S2(), TS2(), SO3()]
-
 
 def test_hat_vee(rng):
     for _ in range(20):
@@ -77,47 +75,152 @@ def test_sphere_basis(rng):
         assert_close(B.T @ q, np.zeros(2), atol=1e-15, what="normal to q")
 
 
-@pytest.mark.parametrize("factor", FACTORS, ids=lambda f: f.kind)
-def test_retract_basis_chart_consistency(factor, rng):
-    for _ in range(5):
-        x = factor.random_point(rng, scale=0.7)
-        assert factor.residual_norm(x) < 1e-14
-        N = factor.tangent_basis(x)
-        assert N.shape == (factor.ambient_dim, factor.dim)
-        assert np.linalg.matrix_rank(N) == factor.dim
-        Dh = factor.constraint_jacobian(x)
-        assert_close(Dh @ N, np.zeros((Dh.shape[0], factor.dim)), atol=1e-13,
-                     what="basis is tangent")
-        v = rng.standard_normal(factor.dim)
-        y = factor.retract(x, v)
-        assert factor.residual_norm(y) < 1e-13, "retraction lands on the factor"
-        # derivative of the retraction at 0 is the basis (central differences, error ~h^2)
-        h = 1e-6
-        D = np.column_stack([(factor.retract(x, h * e) - factor.retract(x, -h * e)) / (2 * h)
-                             for e in np.eye(factor.dim)])
-        assert_close(D, N, atol=1e-8, what="d retract = basis")
-        # the chart vanishes at its centre and its derivative inverts the basis there
-        xs = ca.SX.sym("x", factor.ambient_dim)
-        chart = factor.chart(x, xs)
-        dchart = ca.Function("dc", [xs], [ca.jacobian(chart, xs)])
-        c0 = ca.Function("c", [xs], [chart])
-        assert_close(np.asarray(c0(x)).ravel(), np.zeros(factor.dim), atol=1e-15,
+# ----------------------------------------------------------------------------------------
+# the contract every manifold factor passes (geomstats style), and the product of factors
+
+
+def _product() -> ProductManifold:
+    return ProductManifold([("R", SO3()), ("omega", Rn(3)), ("q", TS2())])
+
+
+SPACES = [Rn(3), S1(), S2(), TS2(), SO3(), _product()]
+
+
+def _name(space) -> str:
+    return getattr(space, "kind", "product")
+
+
+def _residual(space, x) -> np.ndarray:
+    return np.ravel(np.asarray(space.residual(np.asarray(x, dtype=float)), dtype=float))
+
+
+def _jacobian(space, x) -> np.ndarray:
+    """dh/dx at ``x`` by automatic differentiation of the factor's residual."""
+    xs = ca.SX.sym("x", space.ambient_dim)
+    h = space.residual(xs)
+    return np.asarray(ca.Function("Dh", [xs], [ca.jacobian(h, xs)])(x)).reshape(
+        h.numel(), space.ambient_dim)
+
+
+def _gram_metric(space) -> np.ndarray | None:
+    """The Gram matrix an orthonormal basis has, in the ambient inner product.
+
+    Identity for R^n, S1, S2; ``2 I`` for SO3 (``R hat(e_i)`` is orthonormal in the
+    bi-invariant metric ``<A, B> = tr(A^T B) / 2``); ``None`` where the basis is the
+    derivative of the retraction but not orthonormal (TS2: moving ``q`` also turns ``w``).
+    """
+    kind = getattr(space, "kind", "")
+    if kind == "SO3":
+        return 2.0 * np.eye(3)
+    if kind in ("TS2", "") or space.dim == 0:
+        return None
+    return np.eye(space.dim)
+
+
+@pytest.fixture(params=SPACES, ids=_name)
+def space(request):
+    return request.param
+
+
+class TestFactorContract:
+    """Invariants every factor (and a product of factors) satisfies, on seeded points."""
+
+    def test_random_points_belong_and_pass_check(self, space, rng):
+        for _ in range(5):
+            x = space.random_point(rng, scale=0.7)
+            assert x.shape == (space.ambient_dim,)
+            assert np.max(np.abs(_residual(space, x)), initial=0.0) < 1e-14
+            assert_close(space.check(x), x, atol=0.0, what="check returns the point unchanged")
+
+    def test_residual_is_zero_on_points_and_nonzero_off(self, space, rng):
+        x = space.random_point(rng)
+        Dh = _jacobian(space, x)
+        if Dh.shape[0] == 0:  # R^n: no constraint, no point is off
+            assert space.dim == space.ambient_dim
+            return
+        # a step along the normal space (rows of dh/dx) leaves the level set at first order
+        n = Dh.T @ rng.standard_normal(Dh.shape[0])
+        for eps in (1e-3, 1e-6):
+            off = x + eps * n / np.linalg.norm(n)
+            r = np.linalg.norm(_residual(space, off))
+            assert_close(r, eps * np.linalg.norm(Dh @ n) / np.linalg.norm(n), atol=0.0,
+                         rtol=1e-2, what=f"|h(x + eps n)| = eps |Dh n| at eps = {eps}")
+
+    def test_tangent_basis_spans_the_tangent_space(self, space, rng):
+        x = space.random_point(rng, scale=0.7)
+        N = space.tangent_basis(x)
+        Dh = _jacobian(space, x)
+        assert N.shape == (space.ambient_dim, space.dim)
+        assert np.linalg.matrix_rank(N) == space.dim
+        assert space.dim == space.ambient_dim - (np.linalg.matrix_rank(Dh) if Dh.size else 0)
+        assert_close(Dh @ N, np.zeros((Dh.shape[0], space.dim)), atol=1e-13,
+                     what="every column is tangent (dh/dx N = 0)")
+
+    def test_tangent_basis_is_orthonormal_in_the_factor_metric(self, space, rng):
+        x = space.random_point(rng, scale=0.7)
+        N = space.tangent_basis(x)
+        gram = _gram_metric(space)
+        if gram is not None:
+            assert_close(N.T @ N, gram, atol=1e-14, what="orthonormal basis")
+        elif getattr(space, "kind", "") == "TS2":
+            # q-directions: the base S2 block is orthonormal; w-directions: orthonormal, w only
+            assert_close(N[:3, :2].T @ N[:3, :2], np.eye(2), atol=1e-14, what="T_q S2 part")
+            assert_close(N[:, 2:].T @ N[:, 2:], np.eye(2), atol=1e-14, what="fibre part")
+            assert_close(N[:3, 2:], np.zeros((3, 2)), atol=0.0, what="fibre moves w only")
+        else:  # the product: block diagonal, each factor's block as above
+            for name, f in space.factors:
+                sl = space.slices[name]
+                blk = N[sl][:, np.any(N[sl] != 0, axis=0)]
+                assert blk.shape[1] == f.dim
+                assert_close(blk, f.tangent_basis(x[sl]), atol=0.0, what=f"block {name}")
+
+    def test_project_is_idempotent_and_lands(self, space, rng):
+        for _ in range(5):
+            y = space.random_point(rng) + 0.05 * rng.standard_normal(space.ambient_dim)
+            p = space.project(y)
+            assert np.max(np.abs(_residual(space, p)), initial=0.0) < 1e-14
+            assert_close(space.project(p), p, atol=1e-15, what="project(project(y))")
+        x = space.random_point(rng)
+        assert_close(space.project(x), x, atol=1e-15, what="points are fixed by project")
+
+    def test_retraction_lands_on_the_manifold_with_the_basis_as_derivative(self, space, rng):
+        x = space.random_point(rng, scale=0.7)
+        for size in (1e-8, 1.0, 10.0):
+            y = space.retract(x, size * rng.standard_normal(space.dim))
+            assert np.max(np.abs(_residual(space, y)), initial=0.0) < 1e-13 * max(1.0, size)
+        assert_close(space.retract(x, np.zeros(space.dim)), x, atol=0.0, what="retract(x, 0)")
+        h = 1e-6  # central differences: error ~h^2
+        D = np.column_stack([(space.retract(x, h * e) - space.retract(x, -h * e)) / (2 * h)
+                             for e in np.eye(space.dim)])
+        assert_close(D, space.tangent_basis(x), atol=1e-8, what="d retract(x, .)(0) = basis")
+
+    def test_chart_of_the_retraction_inverts_it_to_first_order(self, space, rng):
+        x = space.random_point(rng, scale=0.7)
+        v = rng.standard_normal(space.dim)
+        v /= np.linalg.norm(v)
+        assert_close(np.ravel(space.chart(x, x)), np.zeros(space.dim), atol=1e-15,
                      what="chart(x, x) = 0")
-        assert_close(np.asarray(dchart(x)) @ N, np.eye(factor.dim), atol=1e-12,
-                     what="d chart . basis = I")
-        # numeric and symbolic charts agree, and chart(retract(v)) = v + O(|v|^2)
-        small = 1e-4 * v
-        assert_close(np.ravel(factor.chart(x, factor.retract(x, small))), small,
-                     atol=1e-7 * np.linalg.norm(v), what="chart inverts retract to 1st order")
+        err = [np.linalg.norm(np.ravel(space.chart(x, space.retract(x, t * v))) - t * v)
+               for t in (1e-3, 5e-4)]
+        # chart(retract(t v)) = t v + O(t^2): halving t divides the error by >= ~4
+        assert err[0] <= 1e-5 and (err[1] <= err[0] / 3.5 or err[0] < 1e-15), err
+        xs = ca.SX.sym("x", space.ambient_dim)
+        dchart = ca.Function("dc", [xs], [ca.jacobian(space.chart(x, xs), xs)])
+        assert_close(np.asarray(dchart(x)) @ space.tangent_basis(x), np.eye(space.dim),
+                     atol=1e-12, what="d chart . basis = I (symbolic chart)")
 
 
-@pytest.mark.parametrize("factor", [S1(), S2(), TS2(), SO3()], ids=lambda f: f.kind)
-def test_project_lands_and_is_idempotent(factor, rng):
-    for _ in range(10):
-        x = factor.random_point(rng) + 0.05 * rng.standard_normal(factor.ambient_dim)
-        p = factor.project(x)
-        assert factor.residual_norm(p) < 1e-14
-        assert_close(factor.project(p), p, atol=1e-15, what="projection idempotent")
+@pytest.mark.parametrize("angle", [1e-12, 1e-8, 1e-5, np.pi - 1e-4, np.pi - 1e-7])
+def test_so3_retraction_is_exp_and_chart_inverts_it_near_zero_and_pi(rng, angle):
+    """On SO3, retract(x, v) = x exp(hat v) and log inverts exp up to |v| < pi."""
+    so3 = SO3()
+    x = so3.random_point(rng)
+    axis = rng.standard_normal(3)
+    v = angle * axis / np.linalg.norm(axis)
+    y = so3.retract(x, v)
+    assert_close(SO3.matrix(y), SO3.matrix(x) @ so3_exp(v), atol=1e-15, what="x exp(v)")
+    assert_close(so3_log(SO3.matrix(x).T @ SO3.matrix(y)), v, atol=1e-9 if angle > 3 else 1e-15,
+                 what=f"log(x^T retract(x, v)) = v at |v| = {angle:g}")
 
 
 def test_so3_project_is_nearest_rotation(rng):
