@@ -18,15 +18,12 @@ from models import pendulum3d as p3
 from models.chain_cart import chain_cart
 from tests.conftest import assert_close
 from workbench.control._attraction import (
-    Constraint,
     check_convergence,
     clopper_pearson,
     estimate_basin,
-    level_in_domain,
-    optimize_lyapunov,
 )
 from workbench.control._lyapunov import SublevelSet, ray_extent
-from workbench.core.errors import ParameterError, SolverError
+from workbench.core.errors import ParameterError
 
 J7 = np.array([[30.0, 20, 7], [20, 40, 0], [7, 0, 50]])
 BODY = {"J": J7, "rho": np.array([0.0, 0.0, 0.2]), "m": 100.0, "g": 10.0}
@@ -85,46 +82,6 @@ def test_clopper_pearson_closed_forms_and_symmetry():
         clopper_pearson(3, 2)
     with pytest.raises(ParameterError):
         clopper_pearson(1, 2, confidence=1.0)
-
-
-def test_extrema_of_v30_by_ipopt(pend, rng):
-    model, _, V = pend
-    mgr = BODY["m"] * BODY["g"] * 0.2
-    x, p = _sym(model)
-    rest = Constraint(ca.Function("w", [x, p], [x[3:6]]), 0.0, 0.0, "omega = 0")
-    starts = np.array([model.manifold.random_point(rng) for _ in range(4)])
-    top = optimize_lyapunov(V, starts, maximize=True, constraints=[rest])
-    assert top.value == pytest.approx(2 * mgr, rel=1e-9)
-    assert_close(top.x[:3], -E3, atol=1e-5, what="argmax = inverted")
-    # min of V on the circle Gamma_3 = c0: m g |rho| (1 - c0), at omega = 0
-    c0 = 0.3
-    circle = ca.Function("b", [x, p], [x[2] - c0])
-    low = level_in_domain(V, circle, starts)
-    assert low.value == pytest.approx(mgr * (1 - c0), rel=1e-9)
-    assert low.n_success == 4 and low.spread < 1e-9 * low.value and low.constraint_violation < 1e-9
-
-
-def test_infeasible_program_raises_with_ipopt_status(pend, rng):
-    model, _, V = pend
-    x, p = _sym(model)
-    impossible = Constraint(ca.Function("b", [x, p], [x[2]]), 2.0, 3.0, "Gamma_3 >= 2")
-    with pytest.raises(SolverError, match=r"Ipopt failed from all 2 starts.*status:"):
-        optimize_lyapunov(V, [model.manifold.random_point(rng) for _ in range(2)],
-                          constraints=[impossible], max_iter=200)
-
-
-def test_two_step_construction_of_paper_003_closed_forms(cart, rng):
-    model, _, V, b, s = cart
-    ky, _, kw, kq = GAINS.values()
-    x, p = _sym(model)
-    rest = Constraint(ca.Function("r", [x, p], [ca.vertcat(x[0:4], x[7:10])]), 0.0, 0.0)
-    step1 = optimize_lyapunov(V, _cart_starts(rng, 4, s), maximize=True,
-                              constraints=[rest, Constraint(b, -np.inf, 0.0)])
-    ref1 = kq * L1 * (0.5 * ky * kq * L1 * (1 - s**2) + kw * G * (1 - s))
-    assert step1.value == pytest.approx(ref1, rel=1e-7)
-    assert step1.x[6] == pytest.approx(-s, abs=1e-7)
-    step2 = level_in_domain(V, b, _cart_starts(rng, 6, s))
-    assert step2.value == pytest.approx(kw * kq * G * L1 * (1 - s), rel=1e-9)
 
 
 def test_ray_extents_of_the_certified_cart_set(cart):

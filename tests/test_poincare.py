@@ -10,7 +10,6 @@ from models import pendulum3d as p3
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import S1, ProductManifold, Rn
-from workbench.global_dynamics._ftle import lyapunov_exponent
 from workbench.global_dynamics._poincare import (
     Direction,
     OrbitStatus,
@@ -214,14 +213,3 @@ def test_circle_model_without_invariant():
     orb = poincare_map(m, [1.0, 0.0], Section("y=0", lambda ctx: ctx["p"][1]),
                        n_crossings=4, t_max=20.0, invariant=None, stabilization=1.0)
     np.testing.assert_allclose(orb.t, np.pi / 1.5 * np.arange(1, 5), atol=1e-9)
-
-
-def test_ftle_separates_regular_from_chaotic():
-    reg_model, reg_x0 = routh_for(1.0)
-    cha_model, cha_x0 = routh_for(4.5)
-    reg = lyapunov_exponent(reg_model, reg_x0, t_final=100.0, stabilization=10.0)
-    cha = lyapunov_exponent(cha_model, cha_x0, t_final=100.0, stabilization=10.0)
-    assert reg.value < 0.1 < 0.3 < cha.value
-    # the linear oscillator has zero exponent (tangent flow bounded)
-    osc = lyapunov_exponent(oscillator(2.0), [1.0, 0.0], t_final=50.0)
-    assert abs(osc.value) < 0.05

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from workbench.global_dynamics._ftle import (
+    FTLECost,
     LyapunovEstimate,
     lyapunov_exponent,
 )
@@ -27,6 +28,7 @@ from workbench.global_dynamics._phase import (
     wrap_angle,
 )
 from workbench.global_dynamics._poincare import (
+    OrbitCost,
     OrbitStatus,
     PoincareOrbit,
     Stepper,
@@ -53,8 +55,10 @@ from workbench.global_dynamics._seeds import (
 
 __all__ = [
     "Direction",
+    "FTLECost",
     "InvariantManifold",
     "LyapunovEstimate",
+    "OrbitCost",
     "OrbitStatus",
     "PhaseCheck",
     "PoincareOrbit",

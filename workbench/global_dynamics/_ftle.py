@@ -18,6 +18,7 @@ import numpy as np
 
 from workbench.core._model import Model
 from workbench.core.errors import ParameterError, SolverError
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice
 from workbench.global_dynamics._poincare import (
@@ -27,7 +28,23 @@ from workbench.global_dynamics._poincare import (
     stabilized_field,
 )
 
-__all__ = ["LyapunovEstimate", "lyapunov_exponent"]
+__all__ = ["FTLECost", "LyapunovEstimate", "lyapunov_exponent"]
+
+
+@dataclass(frozen=True)
+class FTLECost(Record):
+    """What :func:`lyapunov_exponent` cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        Integration of the orbit with its tangent vector.
+    steps : int
+        CVODES steps, summed over the renormalisation intervals.
+    """
+
+    wall_seconds: float
+    steps: int
 
 
 @dataclass
@@ -42,14 +59,14 @@ class LyapunovEstimate:
         The running estimate after each renormalisation interval.
     times : ndarray, shape=(n_intervals,)
         Ends of the intervals.
-    cost : dict
-        ``wall_seconds``, ``steps``.
+    cost : FTLECost
+        ``wall_seconds``, ``steps`` (a typed record that also reads as a mapping).
     """
 
     value: float
     running: np.ndarray
     times: np.ndarray
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: FTLECost | dict[str, Any] = field(default_factory=dict)
 
 
 def lyapunov_exponent(
@@ -118,4 +135,4 @@ def lyapunov_exponent(
         running.append(total / ((k + 1) * every))
     return LyapunovEstimate(float(running[-1]), np.array(running),
                             every * np.arange(1, n_int + 1),
-                            {"wall_seconds": time.perf_counter() - t0, "steps": steps})
+                            FTLECost(wall_seconds=time.perf_counter() - t0, steps=steps))
