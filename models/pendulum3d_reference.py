@@ -4,6 +4,9 @@ The problems and tests compare what the graph gives with these formulas, typed f
 paper; nothing here is derived from a model's graph.
 
 * :func:`simultaneous_diagonalisation` -- ``M`` and ``Lambda`` of (3.21)-(3.24);
+* :func:`modal_basis`, :func:`modal_state_matrix` -- the paper's coordinates
+  ``x = M^T Delta Theta`` and the linear system ``[[0, I], [-k Lambda, -D]]`` in them
+  (paper 000 (3.22)-(3.28), paper 001 (19), (25), (28));
 * :func:`frequencies` -- ``sqrt(m g l_i)``, the frequencies of (3.22)-(3.23);
 * :func:`rotation_taking` -- an attitude with a given reduced attitude (hanging or
   inverted members of H and I, (3.12)-(3.13));
@@ -22,7 +25,8 @@ import scipy.linalg as sla
 from workbench.core.manifolds import hat, so3_exp
 from workbench.core.types import ArrayLike
 
-__all__ = ["equilibrium_attitude", "frequencies", "prop9", "remark_polynomial",
+__all__ = ["equilibrium_attitude", "frequencies", "modal_basis", "modal_state_matrix", "prop9",
+           "remark_polynomial",
            "rotation_taking", "simultaneous_diagonalisation", "velocity_feedback_lemma"]
 
 E3 = np.array([0.0, 0.0, 1.0])
@@ -58,6 +62,50 @@ def simultaneous_diagonalisation(J: ArrayLike, rho: ArrayLike, m: float, g: floa
     mu, V = mu[order], V[:, order]
     mu[2] = 0.0 if abs(mu[2]) < 1e-12 * mu[1] else mu[2]
     return np.linalg.inv(V.T), mu
+
+
+def modal_basis(basis: ArrayLike, M: ArrayLike) -> np.ndarray:
+    """A tangent basis whose coordinates are the paper's ``(x, x-dot)``, ``x = M^T Delta Theta``.
+
+    With the model's coordinates ``z = (eta, delta omega)`` in ``basis`` (TSO(3), dimension
+    6), ``z = T (x, x-dot)`` for ``T = diag(M^-T, M^-T)``; the returned ``basis @ T`` makes
+    a linearisation read in ``(x, x-dot)``.
+
+    Parameters
+    ----------
+    basis : array-like, shape=(ambient_dim, 6)
+        The linearisation's tangent basis.
+    M : array-like, shape=(3, 3)
+        From :func:`simultaneous_diagonalisation`.
+
+    Returns
+    -------
+    ndarray, shape=(ambient_dim, 6)
+    """
+    return np.asarray(basis) @ np.kron(np.eye(2), np.linalg.inv(np.asarray(M).T))
+
+
+def modal_state_matrix(Lambda: ArrayLike, k: int, D: ArrayLike | None = None) -> np.ndarray:
+    """``[[0, I], [-k Lambda, -D]]``: the linearisation in ``(x, x-dot)``.
+
+    Paper 000 (3.22)-(3.24) (hanging, ``k = 1``) and (3.26)-(3.28) (inverted, ``k = -1``)
+    without damping; paper 001 (19), (25), (28) with the damping ``D = M^-1 Psi'(0) M^-T``.
+
+    Parameters
+    ----------
+    Lambda : array-like, shape=(3,)
+        ``(m g l_1, m g l_2, 0)``.
+    k : int
+        +1 hanging, -1 inverted.
+    D : array-like, shape=(3, 3), optional
+        Damping in the paper's coordinates (default none).
+
+    Returns
+    -------
+    ndarray, shape=(6, 6)
+    """
+    D = np.zeros((3, 3)) if D is None else np.asarray(D, dtype=float)
+    return np.block([[np.zeros((3, 3)), np.eye(3)], [-k * np.diag(Lambda), -D]])
 
 
 def frequencies(J: ArrayLike, rho: ArrayLike, m: float = 1.0, g: float = 9.81) -> np.ndarray:

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from models import pendulum3d as p3
-from models.pendulum3d_reference import equilibrium_attitude, simultaneous_diagonalisation
+from models import pendulum3d_reference as paper
 from workbench.linear import eigenstructure, linearize
 from workbench.study import Result, compare_spectrum, spectrum_figure
 
@@ -73,13 +73,13 @@ def solve(*, quick: bool = False) -> Result:
     spectra: dict[str, Any] = {}
     for bname, body in list(BODIES.items())[: 1 if quick else None]:
         J, rho, m, g = body["J"], body["rho"], body["m"], body["g"]
-        M, lam = simultaneous_diagonalisation(J, rho, m, g)
+        M, lam = paper.simultaneous_diagonalisation(J, rho, m, g)
         models = {"full": p3.full(**body), "reduced": p3.reduced(**body),
                   "routh": p3.routh(**body, mu=0.0)}
         res.use(*models.values())
         out: dict[str, Any] = {"mgl": lam[:2].tolist(), "l": (lam[:2] / (m * g)).tolist()}
         for eq, k in (("hanging", 1), ("inverted", -1)):
-            R = equilibrium_attitude(rho, inverted=eq == "inverted")
+            R = paper.equilibrium_attitude(rho, inverted=eq == "inverted")
             gam = R.T @ E3
             states = {"full": models["full"].state(R=R, omega=np.zeros(3)),
                       "reduced": models["reduced"].state(Gamma=gam, omega=np.zeros(3)),
@@ -105,13 +105,10 @@ def solve(*, quick: bool = False) -> Result:
                             source=f"paper 000 after {src.split('-')[-1]}: dims {want}")
                 out[f"{mname}_{eq}"] = es.summary()
             # the full linearisation in the paper's coordinates (x, x-dot), x = M^T Delta Theta
-            lin = linearize(models["full"], states["full"])
-            T = np.kron(np.eye(2), np.linalg.inv(M.T))  # z = (eta, d omega) = T (x, x-dot)
-            lin_x = linearize(models["full"], states["full"], basis=lin.basis @ T)
-            A_paper = np.block([[np.zeros((3, 3)), np.eye(3)],
-                                [-k * np.diag(lam), np.zeros((3, 3))]])
+            basis = paper.modal_basis(linearize(models["full"], states["full"]).basis, M)
+            lin_x = linearize(models["full"], states["full"], basis=basis)
             res.compare(f"{bname}, full, {eq}: max |A - [[0, I], [-k Lambda, 0]]| in x coords",
-                        0.0, float(np.max(np.abs(lin_x.A - A_paper))),
+                        0.0, float(np.max(np.abs(lin_x.A - paper.modal_state_matrix(lam, k)))),
                         tolerance=1e-9 * max(1, lam[0]),
                         source="paper 000 (3.22)-(3.24) / (3.26)-(3.28)")
             out[f"A_x_{eq}"] = lin_x.A.round(12).tolist()

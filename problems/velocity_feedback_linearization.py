@@ -18,12 +18,7 @@ import sympy as sp
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from models.pendulum3d_reference import (
-    equilibrium_attitude,
-    remark_polynomial,
-    simultaneous_diagonalisation,
-    velocity_feedback_lemma,
-)
+from models import pendulum3d_reference as paper
 from workbench.linear import eigenstructure, linearize
 from workbench.linear.symbolic import symbolic_linearization
 from workbench.study import (
@@ -59,9 +54,7 @@ def _symbolic_remark(res: Result) -> dict[str, str]:
         x_e = model.state(Gamma=[0.0, 0.0, float(k)], omega=np.zeros(3))
         lin = symbolic_linearization(model, x_e, parameters={
             "J": sp.diag(J1, J2, J3), "rho": [0, 0, r], "m": m, "g": g})
-        K = sp.zeros(3, 5)
-        K[:, 2:] = sp.diag(k1, k2, k3)
-        closed = lin.closed_loop(K)
+        closed = lin.closed_loop(sp.zeros(3, 2).row_join(sp.diag(k1, k2, k3)))  # u = -K omega
         s = closed.s
         remark = ((s**2 + k1 / J1 * s + k * m * g * r / J1)
                   * (s**2 + k2 / J2 * s + k * m * g * r / J2) * (s + k3 / J3))
@@ -114,66 +107,58 @@ def solve(*, quick: bool = False) -> Result:
     m g l_i = m g rho / J_i for this body).
     """
     res = Result("velocity_feedback_linearization", TITLE, quick=quick)
-    J, rho, m, g = BODY["J"], BODY["rho"], BODY["m"], BODY["g"]
-    M, lam = simultaneous_diagonalisation(J, rho, m, g)
+    M, lam = paper.simultaneous_diagonalisation(**BODY)
     full, red = p3.full(**BODY), p3.reduced(**BODY)
     res.use(full, red)
-    Minv = np.linalg.inv(M)
     gains = {"linear, D diagonal": M @ np.diag(D_DIAG) @ M.T, "saturated (34)": K_SAT * P_SAT}
     spectra: dict[str, Any] = {}
-    values: dict[str, Any] = {"mgl": lam[:2].tolist(), "M": M.tolist(),
-                              "D_diagonal": D_DIAG.tolist()}
+    values: dict[str, Any] = {"mgl": lam[:2], "M": M, "D_diagonal": D_DIAG}
     for gname, psi0 in gains.items():
         ks = {name: ctl.angular_velocity_feedback(mod, D=psi0) if gname.startswith("linear")
               else ctl.saturated_velocity_feedback(mod, P=P_SAT, k=K_SAT)
               for name, mod in (("full", full), ("reduced", red))}
-        D = Minv @ psi0 @ Minv.T  # paper 001 after (18): D = M^-1 Psi'(0) M^-T
+        D = np.linalg.inv(M) @ psi0 @ np.linalg.inv(M).T  # after (18): M^-1 Psi'(0) M^-T
         for eq, k in (("hanging", 1), ("inverted", -1)):
-            R = equilibrium_attitude(rho, inverted=eq == "inverted")
+            R = paper.equilibrium_attitude(BODY["rho"], inverted=eq == "inverted")
             states = {"full": full.state(R=R, omega=np.zeros(3)),
                       "reduced": red.state(Gamma=R.T @ E3, omega=np.zeros(3))}
+            lins = {}
             for mname, model in (("full", full), ("reduced", red)):
                 with res.timed("closed-loop linearise + eigenstructure"):
-                    lin = linearize(model, states[mname], controller=ks[mname])
+                    lin = lins[mname] = linearize(model, states[mname], controller=ks[mname])
                     es = eigenstructure(lin)
                 tag = f"{gname}, {mname} ({lin.dim}), {eq}"
                 values[tag] = es.summary()
                 sg = values[tag]["sign_pattern"] = sign_pattern(es.eigenvalues, es.tol)
                 if gname.startswith("linear"):
-                    roots = np.roots(remark_polynomial(D_DIAG, lam, k))
-                    ref = np.concatenate([roots, np.zeros(lin.dim - 5)])
+                    ref = np.r_[np.roots(paper.remark_polynomial(D_DIAG, lam, k)),
+                                np.zeros(lin.dim - 5)]
                     compare_spectrum(res, f"{tag}, roots of Remark {2 if k > 0 else 3}",
                                      es.eigenvalues, ref, tolerance=1e-9,
                                      source=f"paper 001 Remark {2 if k > 0 else 3}")
                     if mname == "full":
                         spectra[f"linear feedback, {eq}"] = (es.eigenvalues, ref)
-                lemma, checks = velocity_feedback_lemma(sg, es.n_stable, lin.dim,
+                lemma, checks = paper.velocity_feedback_lemma(sg, es.n_stable, lin.dim,
                                                         full=mname == "full", hanging=k > 0)
                 compare_counts(res, tag, checks, source=f"paper 001 {lemma}")
             # (25) / (28): the full linearisation in the paper's coordinates (x, x-dot)
-            lin = linearize(full, states["full"], controller=ks["full"])
-            T = np.kron(np.eye(2), np.linalg.inv(M.T))
             lin_x = linearize(full, states["full"], controller=ks["full"],
-                              basis=lin.basis @ T)
-            A_paper = np.block([[np.zeros((3, 3)), np.eye(3)], [-k * np.diag(lam), -D]])
+                              basis=paper.modal_basis(lins["full"].basis, M))
             res.compare(f"{gname}, full, {eq}: max |A - [[0, I], [-k Lambda, -D]]| in x coords",
-                        0.0, float(np.max(np.abs(lin_x.A - A_paper))), tolerance=1e-10,
-                        source=f"paper 001 ({25 if k > 0 else 28}), (19)")
+                        0.0, np.max(np.abs(lin_x.A - paper.modal_state_matrix(lam, k, D))),
+                        tolerance=1e-10, source=f"paper 001 ({25 if k > 0 else 28}), (19)")
     with res.timed("symbolic Remark 2 from the graph (sympy)"):
         values["symbolic"] = _symbolic_remark(res)
     res.values = values
     res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="Remarks 2-3"),
-               caption="Closed-loop eigenvalues of the 3D pendulum on TSO(3) under linear "
-                       "angular-velocity feedback, from the model (dots) and as roots of "
-                       "the factored polynomials of paper 001 Remarks 2-3 (rings): damped "
-                       "oscillations and a zero (rotation about the vertical) when hanging; "
-                       "two real unstable modes when inverted.")
+               caption="The 3D pendulum on TSO(3) under linear angular-velocity feedback: "
+                       "closed-loop eigenvalues from the model (dots) and the roots of paper "
+                       "001 Remarks 2-3 (rings), hanging (left) and inverted (right).")
     res.notes.append(
         "Psi'(0) = M D M^T with diagonal D is the feedback for which Remarks 2-3 apply "
         "(they assume D = M^-1 Psi'(0) M^-T diagonal); the gains D are chosen here, the "
         "paper gives none. The saturated controller (34) is differentiated through its "
-        "C^1 norm (models.controllers), so Psi'(0) = k P exactly."
-    )
+        "C^1 norm (models.controllers), so Psi'(0) = k P exactly.")
     return res.finish()
 
 
