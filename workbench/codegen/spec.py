@@ -24,6 +24,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Context, Model
 from workbench.core.errors import ModelError
 
@@ -78,6 +79,14 @@ class Entry:
     size: int
     description: str
 
+    def __post_init__(self) -> None:
+        validate.identifier("Entry name (a C identifier in the generated code)", self.name,
+                            error=ModelError)
+        validate.count(f"size of entry {self.name!r}", self.size, minimum=0, error=ModelError)
+        if not isinstance(self.description, str):
+            raise ModelError(f"description of entry {self.name!r} must be a str; got "
+                             f"{type(self.description).__name__}")
+
 
 Law = Callable[[Context, dict[str, Any]], Any]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
@@ -131,6 +140,16 @@ class ExportableController:
     singular: str
     sampler: Sampler
     _cache: dict[Binding, ca.Function] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        # the name prefixes every C symbol and file: a C identifier, checked, never mangled
+        validate.identifier("name (the C prefix of the export)", self.name, error=ModelError)
+        if not isinstance(self.model, Model):
+            raise ModelError(f"model must be a workbench Model; got {type(self.model).__name__}")
+        for label in ("title", "example_note", "singular"):
+            if not isinstance(getattr(self, label), str):
+                raise ModelError(f"{label} must be a str; got "
+                                 f"{type(getattr(self, label)).__name__}")
 
     @property
     def nx(self) -> int:

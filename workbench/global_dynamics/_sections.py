@@ -19,8 +19,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Context, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.manifolds import TS2
 from workbench.core.types import ArrayLike
 
 __all__ = [
@@ -79,19 +81,29 @@ class Section:
 
 
 def _axis(axis: ArrayLike) -> np.ndarray:
-    a = np.asarray(axis, dtype=float).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or abs(np.linalg.norm(a) - 1) > 1e-12:
+    a = validate.array("axis", axis, size=3).reshape(-1)
+    if abs(np.linalg.norm(a) - 1) > 1e-12:
         raise ParameterError(f"axis must be a finite unit 3-vector; got {axis!r}")
     return a
 
 
+def _ts2_part(factor: str, ctx: Context) -> Any:
+    """The symbolic ``(q, q-dot)`` of the TS2 factor ``factor``, or ModelError."""
+    man = ctx.model.manifold
+    if factor not in man.names or not isinstance(man.factor(factor), TS2):
+        raise ModelError(
+            f"turning_section(factor={factor!r}) needs a TS2 factor of that name storing "
+            f"(q, q-dot); model {ctx.model.name!r} has {man.describe()}")
+    return ctx[factor]
+
+
 def _turning_event(factor: str, axis: tuple[float, ...], ctx: Context) -> Any:
-    x = ctx[factor]
+    x = _ts2_part(factor, ctx)
     return ca.dot(ca.DM(axis), x[3:6])
 
 
 def _turning_side(factor: str, axis: tuple[float, ...], ctx: Context) -> Any:
-    x = ctx[factor]
+    x = _ts2_part(factor, ctx)
     return ca.dot(ca.DM(axis), ca.cross(x[0:3], x[3:6]))
 
 
@@ -119,6 +131,7 @@ def turning_section(
     -------
     Section
     """
+    validate.identifier("factor", factor)
     a = tuple(float(v) for v in _axis(axis))
     try:
         direction = Direction(direction)
