@@ -23,6 +23,8 @@ from typing import NoReturn
 
 from workbench.app.export_cli import add_export_c_parser
 from workbench.core.errors import WorkbenchError
+from workbench.core.files import writable_dir, write_atomic
+from workbench.core.validate import output_path
 from workbench.study._result import Result, format_result, to_jsonable
 
 __all__ = ["main", "build_parser", "benchmark_scripts"]
@@ -51,18 +53,11 @@ def _problems():  # imported lazily: the engine does not depend on the problem c
 
 
 def _writable_json(path: str) -> Path:
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise CLIError(f"--json: directory {str(parent)!r} does not exist")
-    if p.exists() and p.is_dir():
+    """``--json PATH`` checked before any problem runs, without writing anything."""
+    p = output_path("--json", path, error=CLIError)
+    if p.is_dir():
         raise CLIError(f"--json: {path!r} is a directory, expected a file path")
-    try:
-        with open(p.with_name(p.name + ".probe"), "w"):
-            pass
-        p.with_name(p.name + ".probe").unlink()
-    except OSError as exc:
-        raise CLIError(f"--json: cannot write to {path!r} ({exc.strerror})") from exc
+    writable_dir(p.parent, name="--json", error=CLIError)
     return p
 
 
@@ -94,7 +89,7 @@ def _run(args: argparse.Namespace) -> int:
             f"unknown problem {args.name!r}; run 'workbench list' (known: "
             f"{', '.join(problems.names())})"
         )
-    out = _writable_json(args.json) if args.json else None
+    out = _writable_json(args.json) if args.json is not None else None
     results: list[Result] = []
     for i, name in enumerate(targets):
         if len(targets) > 1:
@@ -108,9 +103,8 @@ def _run(args: argparse.Namespace) -> int:
         data = results[0].as_dict() if len(results) == 1 and args.name != "all" else {
             r.name: r.as_dict() for r in results
         }
-        tmp = out.with_name(out.name + ".partial")
-        tmp.write_text(json.dumps(to_jsonable(data), indent=2, allow_nan=False))
-        tmp.replace(out)
+        write_atomic(out, json.dumps(to_jsonable(data), indent=2, allow_nan=False),
+                     name="--json")
         print(f"wrote {out}", file=sys.stderr)
     bad = [r.name for r in results if not r.ok]
     if bad:
@@ -139,7 +133,9 @@ def _report(args: argparse.Namespace) -> int:
         formats = [Format.HTML, Format.PDF]
     cache = None if args.no_cache else (args.cache or DEFAULT_CACHE)
     rep = build_report(args.names or None, quick=args.quick, formats=formats,
-                       out_dir=args.out or DEFAULT_OUT, progress=not args.no_progress,
+                       out_dir=DEFAULT_OUT if args.out is None else output_path(
+                           "--out", args.out, error=CLIError),
+                       progress=not args.no_progress,
                        jobs=args.jobs, timeout=args.timeout, cache_dir=cache)
     for fmt_, path in rep.paths.items():
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
@@ -283,6 +279,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except WorkbenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # e.g. a full disk while writing: one line, nothing partial
+        print(f"error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted; nothing partial was written", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
