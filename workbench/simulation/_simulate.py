@@ -19,6 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError
@@ -125,7 +126,8 @@ class Trajectory:
         ``steps`` and ``rhs_evaluations`` where the method reports them.
     diagnostics : dict
         ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
-        (relative to ``|initial|``; nan when the invariant starts at zero)
+        (relative to ``|initial|``; None, with the reason in ``max_rel_undefined``, when
+        the invariant starts at zero — never NaN)
         deviation from its initial value; ``constraint_residual``: max-norm residual of
         every factor over the trajectory; ``closed_loop``: whether a controller acted
         (invariants are then not expected to be conserved).
@@ -164,7 +166,9 @@ class Trajectory:
     def __str__(self) -> str:
         """A short account: samples, method, cost, drift and constraint residual."""
         drift = self.diagnostics.get("invariant_drift", {})
-        drifts = ", ".join(f"{k} {v.get('max_rel', float('nan')):.1e}" for k, v in drift.items())
+        drifts = ", ".join(f"{k} {v['max_rel']:.1e}" if v.get("max_rel") is not None else
+                           f"{k} {v.get('max_abs', 0.0):.1e} (absolute)"
+                           for k, v in drift.items())
         res = self.diagnostics.get("constraint_residual", {})
         worst = max(res.values(), default=0.0)
         cost = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
@@ -194,11 +198,18 @@ class Trajectory:
         }
 
 
-def _times(t: ArrayLike) -> np.ndarray:
-    try:
-        tv = np.asarray(t, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"t must be a 1-D array of output times; got {t!r}") from exc
+MAX_POINTS = 1_000_000
+"""Default ``max_points`` of :func:`simulate`: the largest output grid accepted unasked."""
+
+
+def _times(t: ArrayLike, max_points: int = MAX_POINTS) -> np.ndarray:
+    n = int(np.size(t)) if validate.is_real_array_like(t) else 0
+    if n > max_points:
+        raise ModelError(
+            f"t has {n} output times > max_points = {max_points} (about "
+            f"{n * 8 / 1e6:.0f} MB per state entry, and every invariant is evaluated at "
+            f"every time); pass a coarser t, or raise max_points= if you mean it")
+    tv = validate.array("t (output times)", t, finite=False, error=ModelError)
     if tv.ndim != 1:
         raise ModelError(f"t must be a 1-D array of output times; got shape {tv.shape}")
     if tv.size < 2:
@@ -249,6 +260,7 @@ def simulate(
     degree: int | None = None,
     multistep: Multistep | str = Multistep.ADAMS,
     max_steps: int = 1_000_000,
+    max_points: int = MAX_POINTS,
     tol: float = DEFAULT_TOL,
     newton_tol: float = NEWTON_TOL,
     newton_max_iter: int = NEWTON_MAX_ITER,
@@ -281,7 +293,13 @@ def simulate(
     multistep : Multistep or str
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
     max_steps : int
-        CVODES' limit on internal steps per output interval.
+        CVODES' limit on internal steps per output interval; a long horizon between two
+        output times may need more (the failure says so and names this knob).
+    max_points : int
+        Largest accepted number of output times (default :data:`MAX_POINTS`, 10^6: the
+        states alone take ``8 * ambient_dim`` bytes each, and the diagnostics evaluate
+        every invariant at every output time); a longer grid is refused with its size
+        unless this is raised.
     tol : float
         Largest accepted constraint residual of ``x0``.
     newton_tol : float
@@ -314,12 +332,12 @@ def simulate(
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
-        if not (isinstance(val, (int, float, np.number)) and np.isfinite(val) and val > 0):
-            raise ModelError(f"{name} must be positive and finite; got {val!r}")
+        validate.tolerance(name, val, error=ModelError)
     max_steps = count("max_steps", max_steps, error=ModelError)
+    max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
     x0v = model.check_state(x0, name="x0", tol=tol)
-    tv = _times(t)
+    tv = _times(t, max_points)
     horizon = abs(tv[-1] - tv[0])
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
@@ -381,11 +399,15 @@ def simulate(
         res = integrator(x0=x0v, p=p_in)
     except RuntimeError as exc:
         stats = integrator.stats()
+        status = str(stats.get("return_status", "integrator error"))
+        knob = (f"; the integrator ran out of steps: raise max_steps= (now {max_steps}) or "
+                f"output at more times t (the limit is per output interval)"
+                if "too_much_work" in f"{status} {exc}".lower() else "")
         raise SolverError(
             f"{method.value} failed integrating {model.name} from t={tv[0]:g} "
-            f"(reached t={tv[0] + sign * float(stats.get('tcur', float('nan'))):g}): "
-            f"{str(exc).splitlines()[-1] if str(exc) else exc!r}",
-            status=str(stats.get("return_status", "integrator error")),
+            f"(reached t={tv[0] + sign * float(stats.get('tcur', 0.0)):g}): "
+            f"{str(exc).splitlines()[-1] if str(exc) else exc!r}{knob}",
+            status=status,
         ) from exc
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
@@ -491,19 +513,28 @@ def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
     return out
 
 
+def _relative_drift(max_abs: float, initial: float) -> dict[str, Any]:
+    """``max_rel`` relative to ``|initial|``, or None with the reason when it is undefined.
+
+    An invariant that starts at 0 (an angular momentum at rest) has no relative drift:
+    ``max_rel`` is then None and ``max_rel_undefined`` says why; ``max_abs`` is the figure
+    to read. Never NaN.
+    """
+    if initial != 0 and np.isfinite(initial):
+        return {"max_rel": max_abs / abs(initial)}
+    return {"max_rel": None,
+            "max_rel_undefined": f"the invariant starts at {initial:g}: a drift relative to "
+                                 f"it is undefined; read max_abs"}
+
+
 def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
     model = traj.model
     drift = {}
     for name in model.invariant_names:
         series = traj.invariant_series(name)
         dev = np.abs(series - series[0])
-        # relative to the initial value; undefined (nan) when the invariant starts at 0
-        scale = abs(series[0]) if series[0] != 0 else np.nan
-        drift[name] = {
-            "initial": float(series[0]),
-            "max_abs": float(dev.max()),
-            "max_rel": float(dev.max() / scale) if np.isfinite(scale) else float("nan"),
-        }
+        drift[name] = {"initial": float(series[0]), "max_abs": float(dev.max()),
+                       **_relative_drift(float(dev.max()), float(series[0]))}
     residual = {name: float(series.max())
                 for name, series in constraint_residuals(model, traj.x).items()}
     return {
