@@ -122,11 +122,36 @@ def _c_array(values: np.ndarray, per_line: int = 4, indent: str = "    ") -> str
     return (",\n" + indent).join(rows)
 
 
+def comment_text(text: object) -> str:
+    """Free text made safe for a C comment and a Makefile comment line.
+
+    Every run of whitespace or control characters (a newline would end a Makefile comment
+    and start a recipe line) becomes one space; ``*/`` (would end the C comment and
+    inject code) and ``/*`` (``-Wcomment`` is an error under ``-Werror``) get a space
+    between their characters; a trailing backslash (continues a Makefile comment onto
+    the next line) is dropped. Nothing else changes.
+
+    Parameters
+    ----------
+    text : object
+        The text (``str(text)`` for anything else).
+
+    Returns
+    -------
+    str
+        One line.
+    """
+    s = re.sub(r"[\s\x00-\x1f\x7f]+", " ", str(text))
+    while "*/" in s or "/*" in s:
+        s = s.replace("*/", "* /").replace("/*", "/ *")
+    return s.rstrip("\\ ")
+
+
 def _layout(entries: tuple[Entry, ...], var: str) -> list[str]:
     lines, k = [], 0
     for e in entries:
         span = f"{var}[{k}]" if e.size == 1 else f"{var}[{k}..{k + e.size - 1}]"
-        lines += textwrap.wrap(f"{span:<14} {e.name}: {e.description}", 96,
+        lines += textwrap.wrap(f"{span:<14} {e.name}: {comment_text(e.description)}", 96,
                                initial_indent=" *   ", subsequent_indent=" *" + " " * 18,
                                break_on_hyphens=False)
         k += e.size
@@ -171,12 +196,12 @@ def _header(c: ExportableController, fn: ca.Function, binding: Binding, casadi_h
                              break_on_hyphens=False)
 
     doc = [
-        *textwrap.wrap(f"{N}.h -- {c.title}.", 96, initial_indent="/* ",
+        *textwrap.wrap(f"{N}.h -- {comment_text(c.title)}.", 96, initial_indent="/* ",
                        subsequent_indent=" * ", break_on_hyphens=False),
         " *",
         *para(f"Exported by workbench.codegen (casadi {ca.__version__}) from the "
-              f"workbench's controller {c.function.name()!r} of the model {c.model.name!r}: "
-              f"{c.model.description}."),
+              f"workbench's controller {c.function.name()!r} of the model "
+              f"{comment_text(c.model.name)!r}: {comment_text(c.model.description)}."),
         " *",
         *para(f"Binding {binding_text}"),
         " *",
@@ -186,9 +211,9 @@ def _header(c: ExportableController, fn: ca.Function, binding: Binding, casadi_h
         *_layout(c.state_entries, "x"),
         f" * Input p[{n}_NP = {n_p}]: run-time parameters (flattened row-major)",
         *_layout(rt, "p"),
-        f" * Output u[{n}_NU = {c.nu}]: {c.output.description}",
+        f" * Output u[{n}_NU = {c.nu}]: {comment_text(c.output.description)}",
         " *",
-        *para(f"Singular or saturated region: {c.singular}."),
+        *para(f"Singular or saturated region: {comment_text(c.singular)}."),
         " *",
         *para(f"Work arrays ({N}_SZ_* below; casadi's {N}_work reports the same): "
               f"{work['arg']} input pointers, {work['res']} output pointers, {work['iw']} "
@@ -267,7 +292,7 @@ def _main(c: ExportableController, binding: Binding) -> str:
     N, n = c.name, c.name.upper()
     p = c.runtime_values(binding)
     names = ", ".join(f'"{e.name}"' for e in c.state_entries)
-    return f"""/* main.c -- example: {N} at {c.example_note}. */
+    return f"""/* main.c -- example: {N} at {comment_text(c.example_note)}. */
 #include <stdio.h>
 
 #include "{N}.h"
@@ -361,7 +386,7 @@ int main(int argc, char **argv) {{
 def _makefile(c: ExportableController, binding: Binding, digest_note: str) -> str:
     N = c.name
     warn = " ".join(CFLAGS_WARN)
-    return f"""# Makefile for {N}: {c.title}.
+    return f"""# Makefile for {N}: {comment_text(c.title)}.
 # Exported by workbench.codegen, binding {binding.name}; {digest_note}.
 # make            the static library lib{N}.a and the example program
 # make bench      the benchmark (median nanoseconds per call)
