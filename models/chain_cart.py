@@ -25,6 +25,7 @@ from workbench.core import Context, Model, Parameter, positive
 from workbench.core.errors import ParameterError
 from workbench.core.manifolds import TS2, ProductManifold, Rn
 from workbench.core.types import ArrayLike
+from workbench.core.validate import count as _count
 
 __all__ = ["chain_cart", "link_state", "E3", "C"]
 
@@ -51,6 +52,15 @@ def _per_link(name: str, value: float | Sequence[float], n: int) -> np.ndarray:
     return arr
 
 
+MAX_LINKS = 50
+"""Default ``max_links`` of :func:`chain_cart`: the largest chain built without asking."""
+
+
+def _memory_gb(n: int) -> float:
+    """Estimated peak memory [GB] of building an ``n``-link chain (fit to 20, 50, 100)."""
+    return 0.64e-3 * n**2 + 0.1
+
+
 def chain_cart(
     n: int,
     *,
@@ -58,13 +68,19 @@ def chain_cart(
     masses: float | Sequence[float] = 0.1,
     lengths: float | Sequence[float] = 0.1,
     g: float = 9.81,
+    max_links: int = MAX_LINKS,
 ) -> Model:
     """Build the chain pendulum on a cart with ``n`` links.
 
     Parameters
     ----------
     n : int
-        Number of links, at least 1.
+        Number of links, at least 1 and at most ``max_links``.
+    max_links : int
+        Size guard (default :data:`MAX_LINKS` = 50): a larger ``n`` is refused with the
+        estimated memory unless this is raised (measured peak memory of building the
+        graphs and Jacobians: n = 20 about 0.5 GB, n = 50 about 2.1 GB, n = 100 about
+        6.4 GB).
     m : float
         Cart mass [kg], positive.
     masses : float or sequence of float
@@ -83,6 +99,11 @@ def chain_cart(
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ParameterError(f"n (number of links) must be an integer >= 1; got {n!r}")
+    if n > _count("max_links", max_links):
+        raise ParameterError(
+            f"n = {n} links > max_links = {max_links}: building the chain's graphs and "
+            f"Jacobians takes about {_memory_gb(n):.1f} GB (0.5 GB at n = 20, 2.1 GB at 50, "
+            f"6.4 GB at 100, measured); pass max_links={n} if you mean it")
     n = int(n)
     params = (
         Parameter("m", (), "cart mass [kg]", positive),
