@@ -26,6 +26,8 @@ from workbench.app.report.errors import ReportInputError
 from workbench.app.report.frontpage import Document, document
 from workbench.app.report.progress import RunStats
 from workbench.app.report.runner import Outcome, run_all
+from workbench.core import files
+from workbench.core.validate import output_path
 
 __all__ = ["Format", "Report", "DEFAULT_OUT", "DEFAULT_CACHE", "build_report", "check_out_dir",
            "rebuild", "write_atomic"]
@@ -110,7 +112,7 @@ def check_out_dir(out_dir: str | Path) -> Path:
     ReportInputError
         If it is a file, cannot be created, or is not writable.
     """
-    path = Path(out_dir)
+    path = output_path("--out", out_dir, error=ReportInputError)
     if path.exists() and not path.is_dir():
         raise ReportInputError(f"--out: {str(path)!r} exists and is not a directory")
     try:
@@ -129,16 +131,12 @@ def check_out_dir(out_dir: str | Path) -> Path:
 
 
 def write_atomic(path: Path, data: bytes | str) -> Path:
-    """Write a whole file under a unique temporary name beside it, then rename it into place."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode("utf-8") if isinstance(data, str) else data)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    """Write a whole file under a unique temporary name beside it, then rename it into place.
+
+    The engine's one writer, :func:`workbench.core.files.write_atomic` (umask respected;
+    nothing left behind on failure or interrupt; OutputError with one line on a full disk).
+    """
+    return files.write_atomic(path, data, name="--out")
 
 
 def _catalogue() -> ModuleType:
