@@ -5,7 +5,9 @@ down, along gravity), with inertia ``J`` about the pivot (any symmetric positive
 matrix, not only a diagonal one), centre of mass at ``rho`` in the body frame, mass ``m``,
 and a body-fixed control moment ``u``:
 
-* :func:`full` on TSO(3) = SO(3) x R^3, state ``(R, omega)``: (3.1)-(3.2);
+* :func:`full` on TSO(3) = SO(3) x R^3, state ``(R, omega)``: (3.1)-(3.2), derived from the
+  Lagrangian by :mod:`workbench.mechanics` (the printed form is the independent check
+  :func:`models.paper_forms.pendulum3d_full_printed`);
 * :func:`reduced` (Lagrange-Poincare) on S^2 x R^3, state ``(Gamma, omega)``: (4.3)-(4.4);
 * :func:`routh` (Lagrange-Routh) on TS^2 for a momentum value ``mu``, state
   ``(Gamma, Gamma-dot)``: (5.7)-(5.9); with :func:`routh_reconstruction` and
@@ -24,6 +26,7 @@ from collections.abc import Callable, Mapping
 import casadi as ca
 import numpy as np
 
+from workbench import mechanics
 from workbench.control import as_states, state_function
 from workbench.core import Context, Model, Parameter, finite, positive, spd3
 from workbench.core.errors import ModelError, ParameterError
@@ -103,30 +106,24 @@ def full(
         control moment (R^3); invariants ``energy`` and ``h`` (vertical angular momentum,
         conserved when ``u = 0``).
     """
-
-    def field(ctx: Context) -> ca.SX:
-        R, w = SO3.matrix(ctx["R"]), ctx["omega"]
-        gamma = R.T @ E3
-        return ca.vertcat(ca.vec(R @ hat(w)), _euler(ctx, gamma, w))
-
-    def energy(ctx: Context) -> ca.SX:
-        return _energy(ctx, SO3.matrix(ctx["R"]).T @ E3, ctx["omega"])
-
-    def h(ctx: Context) -> ca.SX:
-        return ca.dot(ctx["omega"], ctx["J"] @ (SO3.matrix(ctx["R"]).T @ E3))
-
-    return Model(
-        name="pendulum3d_full",
-        manifold=ProductManifold([("R", SO3()), ("omega", Rn(3))]),
-        n_inputs=3,
-        parameters=PARAMETERS,
-        values=_values(J, rho, m, g),
-        vector_field=field,
-        invariants={"energy": energy, "h": h},
-        description="3D pendulum on TSO(3) (paper 000 (3.1)-(3.2); paper 001 (1)-(2))",
+    vals = _values(J, rho, m, g)
+    s = mechanics.System("pendulum3d_full")
+    body = s.so3("R", velocity="omega")
+    pars = {p.name: s.parameter(p.name, vals[p.name], p.description, check=p.check,
+                               shape=p.shape) for p in PARAMETERS}
+    s.rigid_body(pars["m"], pars["J"], body, com=pars["rho"], inertia_about="origin",
+                 name="body")
+    s.gravity(pars["g"], direction=E3)
+    s.moment(body, s.input(3, "body-fixed control moment u [N m]"))
+    s.momentum("h", rotate=E3)
+    return s.model(
+        description="3D pendulum on TSO(3) (paper 000 (3.1)-(3.2); paper 001 (1)-(2); derived "
+        "from its Lagrangian by workbench.mechanics)",
         equations=(
-            r"J\dot\omega = J\omega\times\omega + mg\,\rho\times R^T e_3 + u \quad (3.1)",
-            r"\dot R = R\hat\omega \quad (3.2)",
+            r"L = \tfrac12\omega^T J\omega + mg\,\rho^T R^T e_3,\quad \dot R = R\hat\omega"
+            r"\quad (3.2)",
+            r"J\dot\omega = J\omega\times\omega + mg\,\rho\times R^T e_3 + u \quad (3.1)"
+            r"\text{ (Euler-Poincare, derived)}",
             r"E = \tfrac12\omega^T J\omega - mg\,\rho^T R^T e_3,\; h = \omega^T J R^T e_3"
             r"\quad \text{(Prop. 1)}",
         ),
@@ -504,8 +501,9 @@ def phase_density(J: ArrayLike) -> Callable[[np.ndarray], np.ndarray]:
     """The integrand ``F`` of paper 000 (5.15) for an inertia ``J``, as a vectorised function.
 
     ``F(Gamma) = (2 |J Gamma|^2 - tr(J) Gamma.J Gamma) / (Gamma.J Gamma)^2``, the curvature of
-    the mechanical connection (5.3); :func:`workbench.global_dynamics._phase.geometric_phase_check` takes it
-    as ``density`` and checks it against the reconstruction.
+    the mechanical connection (5.3);
+    :func:`workbench.global_dynamics._phase.geometric_phase_check` takes it as ``density``
+    and checks it against the reconstruction.
 
     Parameters
     ----------

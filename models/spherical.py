@@ -9,17 +9,19 @@ moment at the pivot::
 
 The paper writes ``u / (m l^2)``; a moment along the link turns a point mass on a
 massless link not at all, so the model keeps only the part of ``u`` normal to ``q``.
+The model is defined by its Lagrangian (a point mass at ``l q`` under gravity, a moment at
+the pivot) and :mod:`workbench.mechanics` derives the equation above; the printed form is
+kept as an independent check in :func:`models.paper_forms.spherical_pendulum_printed`.
 The two agree for every moment normal to the link (the paper's PD controllers produce
 only such moments), and with the projection TS^2 is invariant for every input.
 """
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
-from workbench.core import Context, Model, Parameter, positive
-from workbench.core.manifolds import TS2, ProductManifold
+from workbench import mechanics
+from workbench.core import Model, positive
 
 __all__ = ["spherical_pendulum", "E3"]
 
@@ -44,34 +46,21 @@ def spherical_pendulum(*, m: float = 1.0, l: float = 1.0, g: float = 9.81) -> Mo
         One TS2 factor ``q`` storing ``(q, omega)``; input ``u`` (moment, R^3); invariant
         ``energy = m l^2 |omega|^2 / 2 - m g l e3 . q`` (conserved when ``u = 0``).
     """
-
-    def field(ctx: Context) -> ca.SX:
-        x = ctx["q"]
-        q, w = x[0:3], x[3:6]
-        m_, l_, g_ = ctx["m"], ctx["l"], ctx["g"]
-        u_normal = ctx.u - ca.dot(q, ctx.u) * q
-        wdot = (g_ / l_) * ca.cross(q, ca.DM(E3)) + u_normal / (m_ * l_**2)
-        return ca.vertcat(ca.cross(w, q), wdot)
-
-    def energy(ctx: Context) -> ca.SX:
-        x = ctx["q"]
-        m_, l_, g_ = ctx["m"], ctx["l"], ctx["g"]
-        return 0.5 * m_ * l_**2 * ca.dot(x[3:6], x[3:6]) - m_ * g_ * l_ * x[2]
-
-    return Model(
-        name="spherical_pendulum",
-        manifold=ProductManifold([("q", TS2())]),
-        n_inputs=3,
-        parameters=(
-            Parameter("m", (), "point mass [kg]", positive),
-            Parameter("l", (), "link length [m]", positive),
-            Parameter("g", (), "gravitational acceleration [m/s^2]", positive),
-        ),
-        values={"m": m, "l": l, "g": g},
-        vector_field=field,
-        invariants={"energy": energy},
-        description="spherical pendulum on TS^2 with a control moment (paper 002, Section II)",
+    s = mechanics.System("spherical_pendulum")
+    link = s.s2("q")
+    mm = s.parameter("m", m, "point mass [kg]", check=positive)
+    ll = s.parameter("l", l, "link length [m]", check=positive)
+    gg = s.parameter("g", g, "gravitational acceleration [m/s^2]", check=positive)
+    s.point_mass(mm, ll * link.q, name="bob")
+    s.gravity(gg, direction=E3)
+    s.moment(link, s.input(3, "control moment at the pivot u [N m]"))
+    return s.model(
+        description="spherical pendulum on TS^2 with a control moment (paper 002, Section II; "
+        "derived from its Lagrangian by workbench.mechanics)",
         equations=(
+            r"L = \tfrac12 m l^2\|\omega\|^2 + m g l\, e_3\cdot q,\quad"
+            r" (I - qq^T)\tfrac{d}{dt}\tfrac{\partial L}{\partial\omega} = q\times"
+            r"\tfrac{\partial L}{\partial q} + (I - qq^T)u",
             r"\dot q = \omega\times q,\; \dot\omega = \tfrac{g}{l} q\times e_3 + "
             r"\tfrac{1}{ml^2}(I - qq^T)u \quad \text{(paper 002, Sec. II)}",
         ),

@@ -57,19 +57,23 @@ def test_links_started_in_a_vertical_plane_stay_in_it(rng):
         q = np.cos(a) * np.array([0, 0, 1.0]) + np.sin(a) * in_plane
         parts[f"link{i + 1}"] = link_state(q, (0.7 - i) * v)  # omega parallel to v
     x0 = model.state(**parts)
-    # exactly: the field keeps q_i in the plane and omega_i along its normal
+    # exactly: the field keeps q_i in the plane and omega_i along its normal (to the rounding
+    # of the dense acceleration solve, relative to the largest acceleration: cond(A) ~ 1.5e3)
     xdot = model.rhs(x0)
+    scale = max(1.0, float(np.max(np.abs(xdot))))
     for i in range(n):
         s = slice(4 + 6 * i, 10 + 6 * i)
         assert abs(xdot[s][:3] @ v) < 1e-14
-        assert np.linalg.norm(np.cross(xdot[s][3:], v)) < 1e-13
-    # and along the flow, up to the integration error (rtol = 1e-11, 3 s, ~3 rad/s)
-    tr = simulate(model, x0, np.linspace(0, 3, 61), rtol=1e-11, atol=1e-11)
+        assert np.linalg.norm(np.cross(xdot[s][3:], v)) < 1e-13 * scale
+    # and along the flow. The planar motion is unstable out of the plane, so rounding grows
+    # by ~1e5 over 3 s; a fixed-step RK4 keeps it at 1e-11 (q) and 2e-10 (omega). (CVODES'
+    # Newton corrections at rtol = 1e-11 inject more: 2e-7 and 2e-6 for the derived field.)
+    tr = simulate(model, x0, np.linspace(0, 3, 61), method="rk", step=2e-3)
     for i in range(n):
         q = tr.part(f"link{i + 1}")[:, :3]
         w = tr.part(f"link{i + 1}")[:, 3:]
-        assert np.max(np.abs(q @ v)) < 1e-8
-        assert np.max(np.linalg.norm(np.cross(w, v), axis=1)) < 1e-7
+        assert np.max(np.abs(q @ v)) < 1e-9
+        assert np.max(np.linalg.norm(np.cross(w, v), axis=1)) < 1e-8
 
 
 def test_hanging_equilibrium_is_an_equilibrium_and_gravity_pulls_back():

@@ -13,7 +13,7 @@ Writing ``d/dt Pi = M(c) nu-dot + (dPi/dc) c-dot`` with the mass matrix
 ``M = d^2 T / dnu^2`` (its S^2 blocks are singular along ``q`` by construction), the
 accelerations solve one linear system
 
-    (M + sum_{S^2} q q^T) nu-dot = b(c, nu, u),
+    (M + sum_{S^2} mu q q^T) nu-dot = b(c, nu, u),   mu = tr(M_qq) / 2 > 0,
 
 symmetric positive definite when ``T`` is positive definite on the tangent velocities.
 ``M`` costs O(n^2) nodes for a chain (it is dense); ``b``, ``dL/dc``, ``dPi/dc c-dot`` and
@@ -23,9 +23,9 @@ Two back-ends (:class:`Symbolic`): SX writes ``casadi.solve`` symbolically (smal
 compact scalar graphs that export to C and convert to sympy). MX puts a numeric linear
 solve (a casadi linsol plugin) in the graph inside a function whose Jacobian is supplied
 (``custom_jacobian``): by the implicit-function theorem on the residual
-``r(x, u, p, a) = M a + sum q q^T a - b``,
+``r(x, u, p, a) = M a + sum mu q q^T a - b``,
 
-    d nu-dot / d(x, u, p) = -(M + sum q q^T)^{-1} dr/d(x, u, p) at a = nu-dot,
+    d nu-dot / d(x, u, p) = -(M + sum mu q q^T)^{-1} dr/d(x, u, p) at a = nu-dot,
 
 where ``M a`` is a Hessian-vector product (O(n) nodes), so the Jacobian graph grows like
 n^2, not like the n^3 of differentiating ``M`` entry by entry. The supplied Jacobian is
@@ -143,10 +143,15 @@ class Derivation:
         self.b = self.b_inertial + self.b_rest
         self.M = ca.jacobian(self.Pi, self.nu)
         blocks = []
-        for f in fs:
+        for f, sl in zip(fs, self.slices):
             cb = f.constraint_block()
             n = f.velocity_sym.shape[0]
-            blocks.append(cb if cb is not None else ca.SX(n, n))
+            if cb is None:
+                blocks.append(ca.SX(n, n))
+                continue
+            # q q^T scaled like the tangent block (half its trace): the diagonal block of a
+            # point mass on a link becomes m l^2 I, well scaled whatever m l^2 is
+            blocks.append(0.5 * ca.trace(self.M[sl, sl]) * cb)
         self.Qbar = ca.diagcat(*blocks)
         self.A = self.M + self.Qbar
         self.a = ca.SX.sym("a", self.n_nu)
@@ -158,10 +163,14 @@ class Derivation:
 
     # functions -------------------------------------------------------------------------------
 
-    def assembly(self) -> ca.Function:
-        """``(x, u, p) -> (A, b)``: the linear system of the accelerations (SX)."""
+    def assembly(self, *, cse: bool = False) -> ca.Function:
+        """``(x, u, p) -> (A, b)``: the linear system of the accelerations (SX).
+
+        ``cse`` eliminates common subexpressions (worth it for small systems; its cost grows
+        faster than the graph).
+        """
         return ca.Function(f"{self.name}_assemble", [self.x, self.ing.u, self.ing.p],
-                           [self.A, self.b], ["x", "u", "p"], ["A", "b"])
+                           [self.A, self.b], ["x", "u", "p"], ["A", "b"], {"cse": cse})
 
     def residual_jacobian(self) -> ca.Function:
         """``(x, u, p, a) -> [dr/dx, dr/du, dr/dp]`` of the residual (SX, sparse AD)."""

@@ -28,6 +28,11 @@ MOMENTUM_RTOL = 1e-8
 """Declared momenta must have ``|dJ/dt| <= MOMENTUM_RTOL |grad J| |f|`` at the check state."""
 
 
+def _flat(x: np.ndarray) -> str:
+    """A state on one line, four significant digits."""
+    return np.array2string(np.asarray(x), precision=4, max_line_width=100000)
+
+
 def _sum(terms: list) -> ca.SX:
     out = ca.SX(0)
     for t in terms:
@@ -96,7 +101,7 @@ def check_kinetic_energy(der: Derivation, factors: list, x: np.ndarray, p: np.nd
     worst = max(spans, key=lambda s: float(np.linalg.norm(v[s[1] : s[2]])))
     kind = "singular" if abs(eig[0]) <= PD_RTOL * scale else "not positive definite"
     raise ModelError(
-        f"the kinetic energy is {kind} at the state x = {np.array2string(xs, precision=4, max_line_width=100000)}: "
+        f"the kinetic energy is {kind} at the state x = {_flat(xs)}: "
         f"smallest eigenvalue {eig[0]:.3g} of the mass matrix on the tangent velocities "
         f"(largest {eig[-1]:.3g}); its direction lies mostly in factor {worst[0].name!r} "
         f"({worst[0].velocity_names})")
@@ -115,7 +120,7 @@ def _check_momenta(model: Model, der: Derivation, x: np.ndarray) -> None:
         if abs(rate) > MOMENTUM_RTOL * max(scale, 1e-300) and abs(rate) > 1e-14:
             raise ModelError(
                 f"declared momentum {name!r} is not conserved: dJ/dt = {rate:.3g} at the "
-                f"state x = {np.array2string(x, precision=4, max_line_width=100000)} with u = 0; the Lagrangian or "
+                f"state x = {_flat(x)} with u = 0; the Lagrangian or "
                 "the loads are not invariant under its generator")
 
 
@@ -139,7 +144,7 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
     if sym == "auto":
         sym = "SX" if der.n_nu <= MAX_SX_VELOCITIES else "MX"
     rates = der.rates()
-    asm = der.assembly() if sym == "SX" else None
+    asm = der.assembly(cse=True) if sym == "SX" else None
     cache: dict[str, ca.Function] = {}
 
     def field(ctx: Context) -> Any:

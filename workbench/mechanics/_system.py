@@ -167,7 +167,7 @@ class System:
 
     # parameters and inputs ---------------------------------------------------------------
     def parameter(self, name: str, value: Any, description: str = "", *,
-                  check: _Check | None = finite) -> ca.SX:
+                  check: _Check | None = finite, shape: tuple[int, ...] | None = None) -> ca.SX:
         """Declare a parameter; its symbol is an input of every function of the model.
 
         Parameters
@@ -181,6 +181,8 @@ class System:
         check : callable, optional
             ``check(value) -> message or None`` (e.g. ``workbench.core.positive``,
             :func:`workbench.mechanics.inertia`).
+        shape : tuple of int, optional
+            The shape ``value`` must have (default: whatever it has).
 
         Returns
         -------
@@ -194,6 +196,9 @@ class System:
         if arr.ndim > 2:
             raise ParameterError(f"parameter {name!r} must be a scalar, vector or matrix; got "
                                  f"shape {arr.shape}")
+        if shape is not None and arr.shape != tuple(shape):
+            raise ParameterError(f"parameter {name!r} ({description or name}) must have shape "
+                                 f"{tuple(shape)}; got shape {arr.shape}")
         par = Parameter(name, tuple(arr.shape), description or name, check)
         self.values[name] = par.validate(arr)
         self.parameters.append(par)
