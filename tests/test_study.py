@@ -199,3 +199,83 @@ def test_cases_count_outcomes_over_groups():
     cases.run("b", "clear", lambda: (_ for _ in ()).throw(ParameterError("no")))
     assert cases.outcomes() == {CORRECT: 1, DEFECT: 1, CLEAR: 1}
     assert [r["case"] for r in cases.groups["a"]] == ["ok", "above"]
+
+
+# ----------------------------------------------------------------------------------------
+# measures on the sphere
+
+
+def _great_circle(normal, n=50):
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    a = np.cross(normal, [1.0, 0.0, 0.0])
+    a /= np.linalg.norm(a)
+    b = np.cross(normal, a)
+    s = np.linspace(0.0, 2.0, n)
+    return np.outer(np.cos(s), a) + np.outer(np.sin(s), b), np.cross(a, b)
+
+
+def test_great_circle_and_circle_defects_vanish_on_exact_curves():
+    from workbench.study import circle_defect, great_circle_defect
+
+    q, normal = _great_circle([0.3, -0.2, 0.9])
+    w = 2.0 * np.tile(normal, (len(q), 1))  # rotation about the circle's normal
+    dist, sin = great_circle_defect(q, w)
+    assert dist < 1e-14 and sin < 1e-14
+    tilted = q + 0.01 * normal * np.sin(np.linspace(0, 6, len(q)))[:, None]
+    assert great_circle_defect(tilted, w)[0] > 1e-3
+    phi = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    ring = np.c_[0.6 * np.cos(phi), 0.6 * np.sin(phi), np.full(40, -0.8)]  # about e3
+    d, tilt = circle_defect(ring)
+    assert d < 1e-14 and tilt < 1e-14
+    assert circle_defect(ring @ so3(0.2).T)[1] > 0.1
+
+
+def so3(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def test_cover_counts_of_meridians_sweeping_a_cap():
+    from workbench.study import angle_travelled, cover_counts
+
+    # meridians from the south pole up to polar angle theta_max, around the whole circle:
+    # every point of the cap is covered once, points beyond it not at all
+    theta = np.linspace(0.0, 2.0, 60)
+    phi = np.linspace(0.0, 2 * np.pi, 48, endpoint=False)
+    Q = np.stack([np.sin(theta)[:, None] * np.cos(phi), np.sin(theta)[:, None] * np.sin(phi),
+                  -np.cos(theta)[:, None] * np.ones_like(phi)], axis=-1)
+    def point(th, ph):  # off the grid lines: strictly inside a cell
+        return [np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), -np.cos(th)]
+
+    pts = np.array([point(1.01, 0.07), point(0.33, 3.0), point(2.5, 0.07), point(3.1, 1.0)])
+    assert cover_counts(Q, pts).tolist() == [1, 1, 0, 0]
+    # the same sweep twice (two turns of meridians): covered twice
+    assert cover_counts(np.concatenate([Q, Q], axis=1), pts).tolist() == [2, 2, 0, 0]
+    travelled = angle_travelled(Q)
+    assert travelled.shape == (60, 48)
+    np.testing.assert_allclose(travelled[-1], 2.0, rtol=1e-12)
+
+
+def test_so3_measures_axis_shares_body_axis_angle_and_cover():
+    from scipy.spatial.transform import Rotation
+
+    from workbench.study import axis_shares, body_axis_angle, rotation_cover_fraction
+
+    R_e = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()
+    turns = np.array([R_e @ Rotation.from_rotvec([0.0, 0.0, a]).as_matrix()
+                      for a in (0.1, 1.0, 3.0)])  # about body axis 3 of R_e
+    np.testing.assert_allclose(axis_shares(turns, R_e), [[0, 0, 1]] * 3, atol=1e-14)
+    mixed = R_e @ Rotation.from_rotvec([0.3, 0.4, 0.0]).as_matrix()
+    np.testing.assert_allclose(axis_shares(mixed[None], R_e), [[0.36, 0.64, 0.0]], atol=1e-12)
+    tilt = np.array([R_e @ Rotation.from_rotvec([np.radians(30.0), 0, 0]).as_matrix()])
+    np.testing.assert_allclose(body_axis_angle(tilt, R_e, 2), [30.0], atol=1e-12)
+    np.testing.assert_allclose(body_axis_angle(tilt, R_e, 0), [0.0], atol=1e-12)
+    test = Rotation.random(200, random_state=3).as_matrix()
+    assert rotation_cover_fraction(test, test, 1e-6) == 1.0  # each is its own neighbour
+    near = np.array([R_e])
+    far = np.array([R_e @ Rotation.from_rotvec([0, 0, 1.0]).as_matrix()])
+    assert rotation_cover_fraction(near, far, 0.9) == 0.0  # 1 rad apart
+    assert rotation_cover_fraction(near, far, 1.1) == 1.0
+    # both signs of the quaternion: the rotation by 2 pi - 0.05 is 0.05 away
+    wrap = np.array([R_e @ Rotation.from_rotvec([0, 0, 2 * np.pi - 0.05]).as_matrix()])
+    assert rotation_cover_fraction(near, wrap, 0.1) == 1.0

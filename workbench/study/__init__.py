@@ -14,6 +14,15 @@ from workbench.study._compare import (
     sign_pattern,
 )
 from workbench.study._figures import Panel, line_figure, spectrum_figure
+from workbench.study._measures import (
+    angle_travelled,
+    axis_shares,
+    body_axis_angle,
+    circle_defect,
+    cover_counts,
+    great_circle_defect,
+    rotation_cover_fraction,
+)
 from workbench.study._plots import (
     MAX_SEGMENTS,
     body_axis_curves,
@@ -35,6 +44,7 @@ from workbench.study._script import run_script
 
 __all__ = [
     "run_script",
+    "rotation_cover_fraction",
     "CLEAR",
     "CORRECT",
     "DEFECT",
@@ -56,9 +66,15 @@ __all__ = [
     "MAX_SEGMENTS",
     "Result",
     "ResultStatus",
+    "angle_travelled",
+    "axis_shares",
+    "body_axis_angle",
     "body_axis_curves",
+    "circle_defect",
+    "cover_counts",
     "decimate",
     "format_result",
+    "great_circle_defect",
     "mark_directions",
     "s2_manifold_figure",
     "so3_manifold_figure",
