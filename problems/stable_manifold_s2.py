@@ -1,24 +1,12 @@
 """Stable manifold of the inverted spherical pendulum under geometric PD (paper 002 Fig. 1).
 
-The spherical pendulum (models.spherical, m = l = 1, g = 9.81) under the PD law of Section
-II-A (q_d = e3, k_q = k_omega = 1) has the saddle (-e3, 0) with a 2-dimensional stable
-manifold. It is grown from 100 points on B_delta (delta = 1e-6 in the distance (12)) in
-the stable eigenspace, integrated backward with the variational integrator on S^2 (step
-0.002 s, as in Section II-D), all points in one vectorised casadi call per output step
-(workbench.global_dynamics._invariant_manifolds).
-
-Measured, without pictures: each trajectory lies on a great circle (largest distance of
-its points to the best-fitting plane through the origin, and the angle of omega to that
-plane's normal); the image of B_delta at every t is a circle about the e3 axis (largest
-distance to the best-fitting plane, spread of the polar angle); the number of times the
-computed surface covers each of a seeded sample of points of S^2 (point-in-triangle
-counts over the (direction, t) grid), more than once at large t; points of the manifold at
-several t, integrated forward with CVODES, come back to within 1e-3 of their start
-distance of the saddle and land on their seeds, while the same points moved off the
-manifold by 1e-2 pass by and converge to the hanging equilibrium; the vectorised
-integration against per-point simulate (same method: round-off) and against CVODES and
-RKMK4 (accuracy); the unstable manifold, grown forward, ends at the hanging equilibrium.
-Figures at several t as Fig. 1 (|omega| as colour).
+Under the paper's PD law the spherical pendulum balanced upside down is a saddle: a two-
+dimensional surface of states flows into it (its stable manifold), everything else leaves.
+The surface is grown backward from a tiny circle around the saddle with a structure-
+preserving integrator, and the paper's description of Fig. 1 is checked in numbers: every
+trajectory runs along a great circle, the boundary stays a circle about the vertical, and
+for long times the surface wraps the whole sphere more than once. States on it indeed
+return to the saddle, states next to it go to hanging.
 """
 
 from __future__ import annotations
@@ -32,7 +20,14 @@ from models.spherical import spherical_pendulum
 from workbench.global_dynamics import compare_per_point, distances, invariant_manifold, validate
 from workbench.linear import Subspace
 from workbench.simulation import Method
-from workbench.study import Result
+from workbench.study import (
+    Result,
+    angle_travelled,
+    circle_defect,
+    cover_counts,
+    great_circle_defect,
+    s2_manifold_figure,
+)
 
 TITLE = "Stable manifold of the inverted spherical pendulum under PD (paper 002 Fig. 1)"
 
@@ -42,70 +37,6 @@ DELTA = 1e-6
 STEP = 0.002
 FIG1_TIMES = (8.0, 8.5, 9.0, 10.0)
 FIG1_CAPTION_OMEGA_MAX = {8.5: 2.96, 9.0: 8.02}  # unreliable (errata); reported only
-
-
-def great_circle_defect(q: np.ndarray, w: np.ndarray) -> tuple[float, float]:
-    """Largest distance of a curve to its best plane through 0, and sin(omega, normal).
-
-    Parameters
-    ----------
-    q, w : ndarray, shape=(n_t, 3)
-        Points of the curve and the angular velocities.
-
-    Returns
-    -------
-    (float, float)
-        ``max |n . q|`` and ``max |w x n| / |w|`` (``n`` the smallest right singular
-        vector of ``q``).
-    """
-    n = np.linalg.svd(q)[2][-1]
-    wn = np.linalg.norm(w, axis=1)
-    keep = wn > 0
-    sin = np.linalg.norm(np.cross(w[keep], n), axis=1) / wn[keep]
-    return float(np.max(np.abs(q @ n))), float(np.max(sin))
-
-
-def circle_defect(P: np.ndarray) -> tuple[float, float]:
-    """Largest distance of points to their best-fitting plane, and the normal's tilt from e3.
-
-    Returns
-    -------
-    (float, float)
-        ``max |n . (p - mean)|`` and ``|n x e3|``.
-    """
-    c = P.mean(axis=0)
-    n = np.linalg.svd(P - c)[2][-1]
-    return float(np.max(np.abs((P - c) @ n))), float(np.linalg.norm(np.cross(n, E3)))
-
-
-def cover_counts(Q: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """How many triangles of the (direction, t) grid of curves contain each test point.
-
-    Parameters
-    ----------
-    Q : ndarray, shape=(n_t, n_curves, 3)
-        Curves on S^2, ordered by the angle of their seed direction (closing the loop).
-    points : ndarray, shape=(m, 3)
-        Unit test points.
-
-    Returns
-    -------
-    ndarray of int, shape=(m,)
-        Number of spherical triangles (two per grid cell) that contain each point.
-    """
-    A, B = Q[:-1], Q[1:]  # consecutive times
-    A2, B2 = np.roll(A, -1, axis=1), np.roll(B, -1, axis=1)  # neighbouring curves
-    tri = np.concatenate([np.stack([A, B, B2], axis=-2).reshape(-1, 3, 3),
-                          np.stack([A, B2, A2], axis=-2).reshape(-1, 3, 3)])
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    nab, nbc, nca, cen = np.cross(a, b), np.cross(b, c), np.cross(c, a), a + b + c
-    counts = np.zeros(len(points), dtype=int)
-    for k in range(0, len(points), 64):
-        p = points[k:k + 64]
-        s1, s2, s3 = p @ nab.T, p @ nbc.T, p @ nca.T
-        inside = (((s1 > 0) & (s2 > 0) & (s3 > 0)) | ((s1 < 0) & (s2 < 0) & (s3 < 0)))
-        counts[k:k + 64] = np.sum(inside & (p @ cen.T > 0), axis=1)
-    return counts
 
 
 def solve(*, quick: bool = False) -> Result:
@@ -120,6 +51,28 @@ def solve(*, quick: bool = False) -> Result:
     Returns
     -------
     Result
+
+    Notes
+    -----
+    The spherical pendulum (models.spherical, m = l = 1, g = 9.81) under the PD law of
+    Section II-A (q_d = e3, k_q = k_omega = 1) has the saddle (-e3, 0) with a 2-dimensional
+    stable manifold. It is grown from 100 points on B_delta (delta = 1e-6 in the distance
+    (12)) in the stable eigenspace, integrated backward with the variational integrator on
+    S^2 (step 0.002 s, as in Section II-D), all points in one vectorised casadi call per
+    output step (workbench.global_dynamics._invariant_manifolds).
+
+    Measured, without pictures: each trajectory lies on a great circle (largest distance of
+    its points to the best-fitting plane through the origin, and the angle of omega to that
+    plane's normal); the image of B_delta at every t is a circle about the e3 axis (largest
+    distance to the best-fitting plane, spread of the polar angle); the number of times the
+    computed surface covers each of a seeded sample of points of S^2 (point-in-triangle
+    counts over the (direction, t) grid), more than once at large t; points of the manifold
+    at several t, integrated forward with CVODES, come back to within 1e-3 of their start
+    distance of the saddle and land on their seeds, while the same points moved off the
+    manifold by 1e-2 pass by and converge to the hanging equilibrium; the vectorised
+    integration against per-point simulate (same method: round-off) and against CVODES and
+    RKMK4 (accuracy); the unstable manifold, grown forward, ends at the hanging equilibrium.
+    Figures at several t as Fig. 1 (|omega| as colour).
     """
     res = Result("stable_manifold_s2", TITLE, quick=quick)
     model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
@@ -163,7 +116,9 @@ def solve(*, quick: bool = False) -> Result:
         c = cover_counts(q[: i + 1 : stride], test)
         cover[t] = {"min": int(c.min()), "fraction_at_least_2": float(np.mean(c >= 2)),
                     "fraction_at_least_1": float(np.mean(c >= 1)), "max": int(c.max())}
-    turns = _angles(q, W.t)
+    acc = angle_travelled(q)
+    turns = {float(s): float(acc[W.index(s)].max()) for s in (8.0, 9.0, 10.0, 11.0)
+             if s <= W.t[-1] + 1e-9}
     t_last = max(cover)
     theta = min(turns[t_last], 2 * np.pi)  # largest angle travelled from -e3 along the curves
     twice = (1 - np.cos(theta - np.pi)) / 2 if theta > np.pi else 0.0  # cap about +e3
@@ -223,20 +178,14 @@ def solve(*, quick: bool = False) -> Result:
         "forward from them the error component along the unstable directions grows like "
         "exp(0.618 t), which bounds how close they come to the saddle (d_min) and makes them "
         "leave again later: d_min / d_start is the measure, not the final distance.")
-    from workbench.study import s2_manifold_figure
-
-    res.figures["stable_manifold_fig1"] = s2_manifold_figure(
+    res.figure("stable_manifold_fig1", s2_manifold_figure(
         W, list(FIG1_TIMES) + ([] if quick else [11.0]), ncols=3 if not quick else 2,
-        marks={"hanging e3": E3, "inverted -e3": -E3})
+        marks={"hanging e3": E3, "inverted -e3": -E3}), caption=(
+        "Paper 002 Fig. 1 recomputed: the stable manifold of the inverted spherical pendulum "
+        "under PD, grown backward from a ball of radius 1e-6 about (-e3, 0) and drawn as the "
+        "curves q(t) on the sphere, coloured by |omega|, at several backward times t; for "
+        "the larger t the surface wraps over the hanging direction e3."))
     return res.finish()
-
-
-def _angles(q: np.ndarray, t: np.ndarray) -> dict[float, float]:
-    """Largest angle travelled along the curves up to a few t (turns over the sphere)."""
-    step = np.arccos(np.clip(np.einsum("tnk,tnk->tn", q[1:], q[:-1]), -1.0, 1.0))
-    acc = np.vstack([np.zeros((1, q.shape[1])), np.cumsum(step, axis=0)])
-    return {float(s): float(acc[int(np.argmin(np.abs(t - s)))].max())
-            for s in (8.0, 9.0, 10.0, 11.0) if s <= t[-1] + 1e-9}
 
 
 def _unstable(res: Result, model: Any, k: Any, x_e: np.ndarray, x_h: np.ndarray,
