@@ -55,13 +55,17 @@ def _per_link(name: str, value: float | Sequence[float], n: int) -> np.ndarray:
     return arr
 
 
-MAX_LINKS = 50
+MAX_LINKS = 100
 """Default ``max_links`` of :func:`chain_cart`: the largest chain built without asking."""
 
 
 def _memory_gb(n: int) -> float:
-    """Estimated peak memory [GB] of building an ``n``-link chain (fit to 20, 50, 100)."""
-    return 0.64e-3 * n**2 + 0.1
+    """Estimated peak memory [GB] of building and linearising an ``n``-link chain.
+
+    Fit to the derived model's peak RSS (benchmarks/bench_mechanics.py: 0.24 GB at n = 50,
+    0.52 GB at n = 100, of which 0.16 GB is the interpreter with casadi and numpy).
+    """
+    return 0.16 + 3.6e-5 * n**2
 
 
 def chain_cart(
@@ -80,10 +84,9 @@ def chain_cart(
     n : int
         Number of links, at least 1 and at most ``max_links``.
     max_links : int
-        Size guard (default :data:`MAX_LINKS` = 50): a larger ``n`` is refused with the
+        Size guard (default :data:`MAX_LINKS` = 100): a larger ``n`` is refused with the
         estimated memory unless this is raised (measured peak memory of building the
-        graphs and Jacobians: n = 20 about 0.5 GB, n = 50 about 2.1 GB, n = 100 about
-        6.4 GB).
+        graphs and linearising: n = 50 about 0.24 GB, n = 100 about 0.52 GB; growth n^2).
     m : float
         Cart mass [kg], positive.
     masses : float or sequence of float
@@ -105,8 +108,8 @@ def chain_cart(
     if n > _count("max_links", max_links):
         raise ParameterError(
             f"n = {n} links > max_links = {max_links}: building the chain's graphs and "
-            f"Jacobians takes about {_memory_gb(n):.1f} GB (0.5 GB at n = 20, 2.1 GB at 50, "
-            f"6.4 GB at 100, measured); pass max_links={n} if you mean it")
+            f"Jacobians takes about {_memory_gb(n):.1f} GB (0.24 GB at n = 50, 0.52 GB at 100, "
+            f"measured; growing like n^2); pass max_links={n} if you mean it")
     n = int(n)
     s = mechanics.System(f"chain_cart_n{n}")
     cart = s.rn("x", 2, velocity="v")

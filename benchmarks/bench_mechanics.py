@@ -1,0 +1,270 @@
+"""The chain on a cart derived by workbench.mechanics vs today's hand-written model (issue 15).
+
+For n = 5, 10, 20, 50, 100 links, each measurement in its own subprocess (a cold process:
+build costs and peak RSS are not shared), variants interleaved and repeated (medians):
+
+* ``derived``: ``models.chain_cart.chain_cart`` (the Lagrangian through workbench.mechanics);
+* ``printed``: ``models.paper_forms.chain_cart_printed`` (paper 003 (12) typed in, an MX
+  graph differentiated entry by entry) -- skipped above n = 50 (26 s and 2 GB at n = 50);
+* peers when installed (optional, never dependencies): sympy.physics.mechanics (Kane's method
+  in angles, n <= 3 by default) and Pinocchio (``pin``: numeric ABA derivatives).
+
+Columns: CPU seconds to build the model and ``f``, to build ``f_x``, to linearise at the
+hanging equilibrium the first time (``build+lin`` is the sum: the figure of the targets),
+then the median CPU time of a linearisation of the built model, of one ``f`` evaluation,
+and the peak RSS of the process. Targets: n = 50 build + linearise < 2 s CPU and < 400 MB;
+n = 100 < 10 s; a built model linearises at an equilibrium in < 50 ms at n = 50.
+
+Usage: ``python benchmarks/bench_mechanics.py [--quick] [--ns 5 10 20 50 100] [--repeat 3]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _timing import table  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+PRINTED_MAX_N = 50
+SYMPY_MAX_N = 3
+
+
+def _cpu() -> float:
+    return time.process_time()
+
+
+def _median_cpu(fn, repeat: int = 7) -> float:
+    samples = []
+    for _ in range(repeat):
+        t0 = _cpu()
+        fn()
+        samples.append(_cpu() - t0)
+    return statistics.median(samples)
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _hanging(model, n: int) -> np.ndarray:
+    parts = {"x": np.zeros(2), "v": np.zeros(2)}
+    parts.update({f"link{i + 1}": np.r_[0.0, 0.0, 1.0, 0.0, 0.0, 0.0] for i in range(n)})
+    return model.manifold.join(parts)
+
+
+def child_casadi(variant: str, n: int) -> dict:
+    """Build, Jacobian, linearisation and evaluation of one chain model (in this process)."""
+    from workbench import linearize
+
+    if variant == "derived":
+        from models.chain_cart import chain_cart
+
+        def make(n: int, **kw):
+            return chain_cart(n, max_links=n, **kw)
+    else:
+        from models.paper_forms import chain_cart_printed as make
+    rss0 = _rss_mb()
+    t0 = _cpu()
+    model = make(n, m=0.5, masses=0.1, lengths=0.1, g=9.81)
+    f = model.function("f")
+    t1 = _cpu()
+    model.function("f_x")
+    t2 = _cpu()
+    xe = _hanging(model, n)
+    linearize(model, xe)
+    t3 = _cpu()
+    again = _median_cpu(lambda: linearize(model, xe))
+    x = model.manifold.random_point(np.random.default_rng(0))
+    u, p = np.zeros(2), model.p
+    ev = _median_cpu(lambda: [f(x, u, p) for _ in range(20)]) / 20
+    return {"build": t1 - t0, "jac": t2 - t1, "lin": t3 - t2, "total": t3 - t0,
+            "lin_again": again, "eval": ev, "rss": _rss_mb(), "rss_import": rss0}
+
+
+def child_sympy(n: int) -> dict:
+    """Kane's equations of the chain on a cart in angles, linearised at the hanging state."""
+    import sympy as sp
+    from sympy.physics import mechanics as me
+
+    t0 = _cpu()
+    N = me.ReferenceFrame("N")
+    origin = me.Point("O")
+    origin.set_vel(N, 0)
+    x, y = me.dynamicsymbols("x y")
+    ang = me.dynamicsymbols(f"a1:{n + 1}") + me.dynamicsymbols(f"b1:{n + 1}")
+    qs = [x, y, *ang]
+    us = me.dynamicsymbols(f"u1:{len(qs) + 1}")
+    g, m0 = sp.symbols("g m0")
+    ms, ls = sp.symbols(f"m1:{n + 1}"), sp.symbols(f"l1:{n + 1}")
+    F = me.dynamicsymbols("F1 F2")
+    P = origin.locatenew("P0", x * N.x + y * N.y)
+    P.set_vel(N, P.pos_from(origin).dt(N))
+    bodies, loads = [me.Particle("cart", P, m0)], [(P, F[0] * N.x + F[1] * N.y)]
+    for i in range(n):
+        A = N.orientnew(f"A{i}", "Body", [ang[i], ang[n + i], 0], "XYZ")
+        Q = P.locatenew(f"P{i + 1}", ls[i] * A.z)  # A.z = N.z (down) at zero angles
+        Q.set_vel(N, Q.pos_from(origin).dt(N))
+        bodies.append(me.Particle(f"bob{i}", Q, ms[i]))
+        loads.append((Q, ms[i] * g * N.z))
+        P = Q
+    kane = me.KanesMethod(N, q_ind=qs, u_ind=us,
+                          kd_eqs=[qd.diff() - u for qd, u in zip(qs, us)])
+    kane.kanes_equations(bodies, loads)
+    t1 = _cpu()
+    op = {s: 0 for s in qs + us}
+    op.update({s.diff(): 0 for s in us})
+    lin = kane.to_linearizer()
+    A, B = lin.linearize(op_point=op, A_and_B=True)
+    vals = {g: 9.81, m0: 0.5, **{s: 0.1 for s in ms}, **{s: 0.1 for s in ls}}
+    np.array(A.subs(vals).evalf(), dtype=float)
+    t2 = _cpu()
+    return {"build": t1 - t0, "lin": t2 - t1, "total": t2 - t0, "rss": _rss_mb()}
+
+
+def child_pin(n: int) -> dict:
+    """Pinocchio: chain on a cart (PX, PY, n spherical joints), numeric ABA derivatives."""
+    import pinocchio as pin
+
+    t0 = _cpu()
+    model = pin.Model()
+    model.gravity.linear = np.array([0.0, 0.0, -9.81])
+    jx = model.addJoint(0, pin.JointModelPX(), pin.SE3.Identity(), "x")
+    jy = model.addJoint(jx, pin.JointModelPY(), pin.SE3.Identity(), "y")
+    model.appendBodyToJoint(jy, pin.Inertia(0.5, np.zeros(3), np.zeros((3, 3))),
+                            pin.SE3.Identity())
+    parent, offset = jy, np.zeros(3)
+    for i in range(n):
+        j = model.addJoint(parent, pin.JointModelSpherical(), pin.SE3(np.eye(3), offset),
+                           f"link{i + 1}")
+        model.appendBodyToJoint(j, pin.Inertia(0.1, np.array([0.0, 0.0, -0.1]),
+                                               np.zeros((3, 3))), pin.SE3.Identity())
+        parent, offset = j, np.array([0.0, 0.0, -0.1])
+    data = model.createData()
+    t1 = _cpu()
+    q, v, tau = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
+
+    def linearise():
+        pin.computeABADerivatives(model, data, q, v, tau)
+        nv = model.nv
+        A = np.zeros((2 * nv, 2 * nv))
+        A[:nv, nv:] = np.eye(nv)
+        A[nv:, :nv], A[nv:, nv:] = data.ddq_dq, data.ddq_dv
+        return A, data.Minv
+
+    linearise()
+    t2 = _cpu()
+    again = _median_cpu(linearise)
+    aba = _median_cpu(lambda: pin.computeABADerivatives(model, data, q, v, tau))
+    return {"build": t1 - t0, "lin": t2 - t1, "total": t2 - t0, "lin_again": again,
+            "aba": aba, "rss": _rss_mb()}
+
+
+def run_child(variant: str, n: int, timeout: float) -> dict | None:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    cmd = [sys.executable, str(Path(__file__)), "--child", variant, str(n)]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=ROOT,
+                             env=env)
+    except subprocess.TimeoutExpired:
+        return {"error": f"timeout after {timeout:.0f} s"}
+    if out.returncode != 0:
+        lines = (out.stderr or out.stdout).strip().splitlines()
+        return {"error": lines[-1] if lines else f"exit {out.returncode}"}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _available(module: str) -> bool:
+    try:
+        __import__(module)
+    except ImportError:
+        return False
+    return True
+
+
+def _med(runs: list[dict], key: str) -> float:
+    vals = [r[key] for r in runs if r and "error" not in r and key in r]
+    return statistics.median(vals) if vals else float("nan")
+
+
+def _fmt(v: float, scale: float = 1.0, digits: int = 3) -> str:
+    return "-" if v != v else f"{v * scale:.{digits}g}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--ns", type=int, nargs="+", default=[5, 10, 20, 50, 100])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="n = 5, 10, 20; one repeat")
+    ap.add_argument("--child", nargs=2, metavar=("VARIANT", "N"), help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        variant, n = args.child[0], int(args.child[1])
+        fn = {"sympy": child_sympy, "pin": child_pin}.get(variant)
+        print(json.dumps(fn(n) if fn else child_casadi(variant, n)))
+        return
+    ns, repeat = ([5, 10, 20], 1) if args.quick else (args.ns, args.repeat)
+    print(f"load average at start: {os.getloadavg()}  (2 shared cores; CPU times, medians of "
+          f"{repeat} cold processes, variants interleaved)")
+    peers = [p for p, mod in (("sympy", "sympy.physics.mechanics"), ("pin", "pinocchio"))
+             if _available(mod)]
+    for p, mod in (("sympy", "sympy.physics.mechanics"), ("pin", "pinocchio")):
+        if p not in peers:
+            print(f"{mod}: not installed (optional peer)")
+    rows = []
+    for n in ns:
+        variants = ["derived"] + (["printed"] if n <= PRINTED_MAX_N else [])
+        variants += [p for p in peers if p != "sympy" or n <= SYMPY_MAX_N]
+        runs: dict[str, list] = {v: [] for v in variants}
+        for _ in range(repeat):
+            for v in variants:
+                runs[v].append(run_child(v, n, timeout=600.0))
+        d, h = runs["derived"], runs.get("printed", [])
+        errors = {v: r["error"] for v, rs in runs.items() for r in rs if r and "error" in r}
+        rows.append({
+            "n": n,
+            "derived build+lin [s]": _fmt(_med(d, "total")),
+            "printed build+lin [s]": _fmt(_med(h, "total")) if h else "skipped",
+            "ratio printed/derived": _fmt(_med(h, "total") / _med(d, "total")) if h else "-",
+            "derived build/jac/lin [s]": "/".join(_fmt(_med(d, k), digits=2)
+                                                 for k in ("build", "jac", "lin")),
+            "derived RSS [MB]": _fmt(_med(d, "rss"), digits=4),
+            "printed RSS [MB]": _fmt(_med(h, "rss"), digits=4) if h else "-",
+            "lin at eq. derived/printed [ms]": f"{_fmt(_med(d, 'lin_again'), 1e3)}/"
+                                               f"{_fmt(_med(h, 'lin_again'), 1e3)}",
+            "f eval derived/printed [us]": f"{_fmt(_med(d, 'eval'), 1e6)}/"
+                                           f"{_fmt(_med(h, 'eval'), 1e6)}",
+            "sympy derive/lin [s]": "/".join(_fmt(_med(runs.get("sympy", []), k))
+                                             for k in ("build", "lin")),
+            "pin build/lin/ABA [ms]": "/".join(_fmt(_med(runs.get("pin", []), k), 1e3)
+                                               for k in ("build", "lin_again", "aba")),
+        })
+        for v, e in errors.items():
+            print(f"n = {n}, {v}: {e}")
+        print(table(rows[-1:], list(rows[-1])), flush=True)
+    print()
+    print(table(rows, list(rows[0])))
+    by_n = {r["n"]: r for r in rows}
+    if 50 in by_n:
+        r = by_n[50]
+        print(f"target n = 50 build + linearise < 2 s CPU: {r['derived build+lin [s]']} s "
+              f"(printed {r['printed build+lin [s]']} s, ratio {r['ratio printed/derived']}); "
+              f"peak RSS < 400 MB: {r['derived RSS [MB]']} MB (printed {r['printed RSS [MB]']})"
+              f"; linearise a built model < 50 ms: {r['lin at eq. derived/printed [ms]']} ms")
+    if 100 in by_n:
+        print(f"target n = 100 < 10 s CPU: {by_n[100]['derived build+lin [s]']} s")
+    print(f"load average at end: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
