@@ -1,31 +1,13 @@
 """Stable manifolds of the three saddles of geometric PD on SO(3) (paper 002 Figs. 2, 4, 5).
 
-The 3D pendulum under the PD law of Section III-A (J = diag[3, 2, 1], G = diag[0.9, 1, 1.1],
-k_R = k_Omega = 1, R_d = I; gravity cancelled) has saddles at exp(pi e_i^), i = 1, 2, 3,
-with stable manifolds of dimension 3, 4 and 5. Each is grown from 112, 544 and 976
-points of B_delta (delta = 1e-6 in the TSO(3) analogue of (12)) with the Lie group
-variational integrator backward (step 0.002 s), all points per casadi call. The backward
-flow spins up exponentially (|Omega| ~ e^t once nonlinear), so every trajectory is
-stopped when its distance to the saddle exceeds 30 (|Omega| about 30 rad/s, a rotation
-of 0.06 rad per step); stop times are reported.
-
-Section III-D, measured: the rotation of each point relative to the saddle,
-eta = log(R_e^T R), split into its body-axis shares eta_i^2 / |eta|^2 at several t
-(median over the trajectories), and the angle of body axis 3 from its place at the
-saddle:
-
-* exp(pi e1^): rotations about e3 dominate for t <= 15 (fastest mode, (17)); the e1 share
-  exceeds the e2 share (|lambda1| > |lambda2|); later the third axis leaves -e3;
-* exp(pi e2^): rotations about e2 and e3 only (e1 share negligible), the e2 share grows
-  with t and leads at t >= 10 ((18): -1 versus -0.9472);
-* exp(pi e3^): rotations about e3 throughout, body axis 3 does not move ((19));
-* the part of SO(3) the manifolds cover when projected to it (fraction of seeded random
-  attitudes within 0.4 rad of a computed attitude): largest for exp(pi e2^) ("almost
-  cover SO(3)"), smallest for exp(pi e3^).
-
-Validation without pictures: points at several t integrated forward with CVODES approach
-the saddle (d_min / d_start < 1e-3) and return to their seeds; the same points moved off
-by 1e-2 converge to (I, 0). Vectorised versus per-point LGVI, and versus CVODES.
+Under the paper's PD law on the rotation group the 3D pendulum has three saddles, the
+desired attitude turned half a turn about each principal axis. Their stable manifolds (of
+dimensions 3, 4 and 5) are grown backward from tiny spheres with the Lie group variational
+integrator, and the paper's reading of Figs. 2, 4 and 5 is checked in numbers: which body
+axes the motions on each manifold turn about, and that the second saddle's manifold fills
+more of the rotation group than the first's, and the first's more than the third's. States
+on the manifolds return to their saddle; states next to them converge to the desired
+attitude.
 """
 
 from __future__ import annotations
@@ -33,12 +15,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from models import controllers as ctl
 from models import pendulum3d as p3
-from workbench.core.manifolds import SO3, so3_log
+from models.so3_pd_reference import flip
+from workbench.core.manifolds import SO3
 from workbench.global_dynamics import (
     InvariantManifold,
     compare_per_point,
@@ -47,7 +28,13 @@ from workbench.global_dynamics import (
 )
 from workbench.linear import Subspace
 from workbench.simulation import Method
-from workbench.study import Result
+from workbench.study import (
+    Result,
+    axis_shares,
+    body_axis_angle,
+    rotation_cover_fraction,
+    so3_manifold_figure,
+)
 
 TITLE = "Stable manifolds of the three saddles of PD on SO(3) (paper 002 Figs. 2, 4, 5)"
 
@@ -56,6 +43,7 @@ G_DIAG = [0.9, 1.0, 1.1]
 K_R = K_OMEGA = 1.0
 DELTA = 1e-6
 MAX_DISTANCE = 30.0
+FIGURE = {"e1": 2, "e2": 4, "e3": 5}  # paper 002's figure of each saddle
 # saddle -> (points, horizon, validation times, figure times), full and quick
 CASES = {
     "e1": ((112, 30.0, [10.0, 14.0], [10.0, 14.0, 16.0, 18.0]),
@@ -65,41 +53,6 @@ CASES = {
     "e3": ((976, 20.0, [8.0, 10.0], [6.0, 8.0, 10.0, 12.0]),
            (40, 13.0, [8.0, 10.0], [6.0, 8.0, 10.0, 12.0])),
 }
-
-
-def flip(i: int) -> np.ndarray:
-    """``exp(pi hat(e_i)) = 2 e_i e_i^T - I``."""
-    e = np.eye(3)[i]
-    return 2 * np.outer(e, e) - np.eye(3)
-
-
-def axis_shares(R: np.ndarray, R_e: np.ndarray) -> np.ndarray:
-    """``eta_i^2 / |eta|^2`` of ``eta = log(R_e^T R)`` for a stack of rotations ``(n, 3, 3)``."""
-    eta = np.array([so3_log(R_e.T @ r) for r in R])
-    n2 = np.sum(eta**2, axis=1, keepdims=True)
-    return eta**2 / np.maximum(n2, 1e-300)
-
-
-def axis_angle_deg(R: np.ndarray, R_e: np.ndarray, i: int) -> np.ndarray:
-    """Angle [deg] between body axis ``i`` of each ``R`` and of ``R_e`` (atan2 form)."""
-    a, b = R[:, :, i], R_e[:, i]
-    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), a @ b))
-
-
-def quaternions(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions of rotations ``(n, 3, 3)`` (scipy, vectorised; sign arbitrary)."""
-    return Rotation.from_matrix(R).as_quat()
-
-
-def cover_fraction(W: InvariantManifold, test_q: np.ndarray, angle: float,
-                   stride: int) -> float:
-    """Fraction of test attitudes within ``angle`` of a running attitude of the manifold."""
-    run = (W.t[:, None] < W.stop_time[None, :])[::stride]
-    R = W.part("R")[::stride][run]
-    q = quaternions(R)
-    tree = cKDTree(np.vstack([q, -q]))
-    d, _ = tree.query(test_q)
-    return float(np.mean(d <= 2 * np.sin(angle / 4)))  # chord of rotation angle `angle`
 
 
 def _observations(W: InvariantManifold, R_e: np.ndarray, times: list[float]
@@ -114,10 +67,10 @@ def _observations(W: InvariantManifold, R_e: np.ndarray, times: list[float]
         sh = axis_shares(R[k][run], R_e)
         out[t] = {"running": int(run.sum()), "median_share": np.median(sh, axis=0).tolist(),
                   "q10_share": np.quantile(sh, 0.1, axis=0).tolist(),
-                  "median_axis3_angle_deg": float(np.median(axis_angle_deg(R[k][run], R_e,
+                  "median_axis3_angle_deg": float(np.median(body_axis_angle(R[k][run], R_e,
                                                                            2)))}
     run = W.t[:, None] < W.stop_time[None, :]
-    out["max_axis3_angle_deg"] = float(np.max(axis_angle_deg(R[run], R_e, 2)))
+    out["max_axis3_angle_deg"] = float(np.max(body_axis_angle(R[run], R_e, 2)))
     return out
 
 
@@ -134,14 +87,42 @@ def solve(*, quick: bool = False) -> Result:
     Returns
     -------
     Result
+
+    Notes
+    -----
+    The 3D pendulum under the PD law of Section III-A (J = diag[3, 2, 1], G = diag[0.9, 1,
+    1.1], k_R = k_Omega = 1, R_d = I; gravity cancelled) has saddles at exp(pi e_i^), i = 1,
+    2, 3, with stable manifolds of dimension 3, 4 and 5. Each is grown from 112, 544 and 976
+    points of B_delta (delta = 1e-6 in the TSO(3) analogue of (12)) with the Lie group
+    variational integrator backward (step 0.002 s), all points per casadi call. The backward
+    flow spins up exponentially (|Omega| ~ e^t once nonlinear), so every trajectory is
+    stopped when its distance to the saddle exceeds 30 (|Omega| about 30 rad/s, a rotation
+    of 0.06 rad per step); stop times are reported.
+
+    Section III-D, measured: the rotation of each point relative to the saddle, eta =
+    log(R_e^T R), split into its body-axis shares eta_i^2 / |eta|^2 at several t (median
+    over the trajectories), and the angle of body axis 3 from its place at the saddle:
+
+    * exp(pi e1^): rotations about e3 dominate for t <= 15 (fastest mode, (17)); the e1
+       share exceeds the e2 share (|lambda1| > |lambda2|); later the third axis leaves -e3;
+    * exp(pi e2^): rotations about e2 and e3 only (e1 share negligible), the e2 share grows
+       with t and leads at t >= 10 ((18): -1 versus -0.9472);
+    * exp(pi e3^): rotations about e3 throughout, body axis 3 does not move ((19));
+    * the part of SO(3) the manifolds cover when projected to it (fraction of seeded random
+       attitudes within 0.4 rad of a computed attitude): largest for exp(pi e2^) ("almost
+       cover SO(3)"), smallest for exp(pi e3^).
+
+    Validation without pictures: points at several t integrated forward with CVODES approach
+    the saddle (d_min / d_start < 1e-3) and return to their seeds; the same points moved off
+    by 1e-2 converge to (I, 0). Vectorised versus per-point LGVI, and versus CVODES.
     """
     res = Result("stable_manifolds_so3", TITLE, quick=quick)
     model = p3.full(**BODY)
     res.use(model)
     k = ctl.so3_pd(model, np.eye(3), k_R=K_R, k_Omega=K_OMEGA, G=G_DIAG)
     x_goal = model.state(R=np.eye(3), omega=np.zeros(3))
-    test_q = quaternions(np.array([SO3.matrix(SO3().random_point(np.random.default_rng(s)))
-                                   for s in range(2000 if not quick else 500)]))
+    test_R = np.array([SO3.matrix(SO3().random_point(np.random.default_rng(s)))
+                       for s in range(2000 if not quick else 500)])
     values: dict[str, Any] = {}
     cover: dict[str, float] = {}
     for name, (full, small) in CASES.items():
@@ -164,7 +145,9 @@ def solve(*, quick: bool = False) -> Result:
         obs = _observations(W, R_e, [5.0, 8.0, 10.0, 12.0, 14.0, 16.0])
         _check_observations(res, name, obs)
         with res.timed(f"cover of SO(3) {name}"):
-            cover[name] = cover_fraction(W, test_q, 0.4, 1 if quick else 2)
+            running = (W.t[:, None] < W.stop_time[None, :])[::1 if quick else 2]
+            cover[name] = rotation_cover_fraction(W.part("R")[::1 if quick else 2][running],
+                                                  test_R, 0.4)
         with res.timed(f"validation {name} (CVODES forward)"):
             val = validate(W, times=v_times, n_per_time=2 if quick else 3, min_distance=1e-2,
                            extra_time=60.0, perturbation=1e-2, seed=5, rtol=1e-12,
@@ -186,15 +169,17 @@ def solve(*, quick: bool = False) -> Result:
                         if np.isfinite(W.stop_time).any() else [],
                         "validation": val.summary(), "per_point_same_method": same,
                         "per_point_cvodes": ref, "cover_fraction_0.4rad": cover[name]}
-        from workbench.study import so3_manifold_figure
-
-        res.figures[f"stable_manifold_{name}"] = so3_manifold_figure(
-            W, f_times, attitudes={"I": np.eye(3), "saddle": R_e})
+        res.figure(f"stable_manifold_{name}", so3_manifold_figure(
+            W, f_times, attitudes={"I": np.eye(3), "saddle": R_e}), caption=(
+            f"Paper 002 Fig. {FIGURE[name]} recomputed: the stable manifold of the saddle "
+            f"exp(pi {name}^) under PD on SO(3), grown backward with the Lie group variational "
+            "integrator, drawn as the curves of the three body axes R(t) e_i on the sphere, "
+            "coloured by |Omega|, at several backward times t."))
     res.compare("cover of SO(3): exp(pi e2^) covers more than exp(pi e1^)", 1,
                 int(cover["e2"] > cover["e1"]), tolerance=0, source="paper 002 Sec. III-D")
     res.compare("cover of SO(3): exp(pi e1^) covers more than exp(pi e3^)", 1,
                 int(cover["e1"] > cover["e3"]), tolerance=0, source="paper 002 Sec. III-D")
-    values.update(body={k_: np.asarray(v).tolist() for k_, v in BODY.items()}, G=G_DIAG,
+    values.update(body=BODY, G=G_DIAG,
                   k_R=K_R, k_Omega=K_OMEGA, delta=DELTA, max_distance=MAX_DISTANCE,
                   cover_angle_rad=0.4)
     res.values = values
