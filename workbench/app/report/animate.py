@@ -1,11 +1,16 @@
-"""Animations for the HTML report: trajectories on spheres, played back (SVG with SMIL).
+"""Animations for the HTML report: swing-ups and closed loops, played back (SVG with SMIL).
 
-A problem's figures that draw a trajectory on a unit sphere (a 3D panel with a curve of
-unit vectors: the link direction of a swing-up, a closed loop's attitude) are played back
-from the figure's own data: the sphere's outline, the path, and the link from the centre
-to the moving point, seen from the panel's own view angles. The samples are shown at a
-constant rate, in the order they were drawn (time order). The SVG is self-contained: no
-script, no network.
+Only the swing-ups and the closed loops are animated (:data:`SWINGUPS`,
+:data:`CLOSED_LOOPS`), from their figures' own data:
+
+* a trajectory on a unit sphere (a 3D panel with a curve of unit vectors: the link
+  direction of a swing-up) is played back with the sphere's outline, the path, and the
+  link from the centre to the moving point, seen from the panel's own view angles, the
+  samples at a constant rate in the order they were drawn (time order);
+* a panel of time histories (x axis ``t``) is played back with a cursor sweeping the time
+  axis and a dot riding each curve, in the panel's own scales (log where it is log).
+
+The SVG is self-contained: no script, no network; user text in it is escaped.
 """
 
 from __future__ import annotations
@@ -16,7 +21,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Animation", "animations_of", "sphere_animation", "MAX_FRAMES"]
+__all__ = ["Animation", "animations_of", "sphere_animation", "time_animation", "MAX_FRAMES",
+           "SWINGUPS", "CLOSED_LOOPS"]
+
+SWINGUPS = ("swingup_",)
+"""Name prefixes of the swing-up problems (their sphere trajectories are played back)."""
+
+CLOSED_LOOPS = frozenset({"velocity_feedback_hanging", "cart_nonlinear_inverted", "chain_lqr",
+                          "so3_pd_closed_loop", "pendulum3d_cart"})
+"""Problems whose closed-loop time histories are played back."""
 
 MAX_FRAMES = 160
 """Frames of one animation (the path is subsampled to this many points)."""
@@ -106,6 +119,107 @@ def sphere_animation(points: np.ndarray, *, elev: float = 30.0, azim: float = -6
     )
 
 
+def _xy(ax: Any, lines: list[Any]) -> tuple[list[np.ndarray], list[np.ndarray], bool]:
+    log = ax.get_yscale() == "log"
+    xs, ys = [], []
+    for line in lines:
+        x = np.asarray(line.get_xdata(), dtype=float)
+        y = np.asarray(line.get_ydata(), dtype=float)
+        if log:
+            y = np.log10(np.where(y > 0, y, np.nan))
+        xs.append(x)
+        ys.append(y)
+    return xs, ys, log
+
+
+def time_animation(ax: Any, lines: list[Any]) -> str:
+    """SVG playing back the time histories of one panel: a sweeping cursor, a dot per curve.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel (its title, labels and y scale are used).
+    lines : list of matplotlib.lines.Line2D
+        Curves over time (x increasing).
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element.
+    """
+    from html import escape
+
+    from matplotlib.colors import to_hex
+
+    xs, ys, log = _xy(ax, lines)
+    t0 = min(float(np.nanmin(x)) for x in xs)
+    t1 = max(float(np.nanmax(x)) for x in xs)
+    finite = np.concatenate([y[np.isfinite(y)] for y in ys])
+    lo, hi = float(np.min(finite)), float(np.max(finite))
+    hi = hi if hi > lo else lo + 1.0
+    W, H, L, R, T, B = 420.0, 230.0, 46.0, 410.0, 26.0, 196.0
+
+    def sx(t: np.ndarray) -> np.ndarray:
+        return L + (np.asarray(t) - t0) / (t1 - t0) * (R - L)
+
+    def sy(y: np.ndarray) -> np.ndarray:
+        return B - (np.asarray(y) - lo) / (hi - lo) * (B - T)
+
+    frames = np.linspace(t0, t1, MAX_FRAMES)
+    anim = f'dur="{DURATION:g}s" repeatCount="indefinite" calcMode="linear"'
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {W:g} {H:g}" '
+             f'width="{W:g}" height="{H:g}" role="img">',
+             f'<rect x="{L}" y="{T}" width="{R - L}" height="{B - T}" fill="#f6f8fa" '
+             'stroke="#afb8c1"/>',
+             f'<text x="{W / 2}" y="16" font-size="12" text-anchor="middle" fill="#24292f">'
+             f'{escape(ax.get_title())}</text>',
+             f'<text x="{L}" y="{B + 16}" font-size="10" fill="#57606a">{t0:.3g}</text>',
+             f'<text x="{R}" y="{B + 16}" font-size="10" text-anchor="end" fill="#57606a">'
+             f'{t1:.3g}</text>',
+             f'<text x="{(L + R) / 2}" y="{B + 28}" font-size="10" text-anchor="middle" '
+             f'fill="#57606a">{escape(ax.get_xlabel())}</text>',
+             f'<text x="{L - 4}" y="{T + 8}" font-size="10" text-anchor="end" fill="#57606a">'
+             f'{(f"1e{hi:.0f}" if log else f"{hi:.3g}")}</text>',
+             f'<text x="{L - 4}" y="{B}" font-size="10" text-anchor="end" fill="#57606a">'
+             f'{(f"1e{lo:.0f}" if log else f"{lo:.3g}")}</text>']
+    for line, x, y in zip(lines, xs, ys):
+        ok = np.isfinite(y)
+        if ok.sum() < 2:
+            continue
+        color = to_hex(line.get_color())
+        pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(sx(x[ok]), sy(y[ok])))
+        parts.append(f'<polyline points="{pts}" fill="none" stroke="{color}" '
+                     'stroke-width="1.2" stroke-opacity="0.45"/>')
+        yk = np.interp(frames, x[ok], y[ok])
+        cx = ";".join(f"{v:.1f}" for v in sx(frames))
+        cy = ";".join(f"{v:.1f}" for v in sy(yk))
+        parts.append(f'<circle r="4" fill="{color}"><animate attributeName="cx" values="{cx}" '
+                     f'{anim}/><animate attributeName="cy" values="{cy}" {anim}/></circle>')
+    cx = ";".join(f"{v:.1f}" for v in sx(frames))
+    parts.append(f'<line y1="{T}" y2="{B}" stroke="#24292f" stroke-width="1" '
+                 f'stroke-dasharray="3,3"><animate attributeName="x1" values="{cx}" {anim}/>'
+                 f'<animate attributeName="x2" values="{cx}" {anim}/></line></svg>')
+    return "".join(parts)
+
+
+def _time_panels(fig: Any) -> list[tuple[Any, list[Any]]]:
+    """Panels whose x axis is time, with their curves of at least :data:`MIN_POINTS`."""
+    out = []
+    for ax in fig.get_axes():
+        label = ax.get_xlabel().strip()
+        if getattr(ax, "name", "") == "3d" or not (label == "t" or label.startswith("t ")
+                                                   or "time" in label.lower()):
+            continue
+        lines = []
+        for line in ax.get_lines():
+            x = np.asarray(line.get_xdata(), dtype=float)
+            if len(x) >= MIN_POINTS and np.all(np.diff(x) >= 0) and x[-1] > x[0]:
+                lines.append(line)
+        if lines:
+            out.append((ax, lines))
+    return out
+
+
 def _sphere_curves(fig: Any) -> list[tuple[np.ndarray, float, float, str]]:
     """The main unit-vector curve of each 3D panel: (points, elev, azim, panel title)."""
     out = []
@@ -131,7 +245,7 @@ def _sphere_curves(fig: Any) -> list[tuple[np.ndarray, float, float, str]]:
 
 
 def animations_of(run: Any) -> list[Animation]:
-    """Animations of a problem's run: each figure's trajectories on spheres, played back.
+    """Animations of a swing-up or closed-loop problem's run, from its figures' data.
 
     Parameters
     ----------
@@ -141,20 +255,28 @@ def animations_of(run: Any) -> list[Animation]:
     Returns
     -------
     list of Animation
+        Empty for a problem that is neither a swing-up nor a closed loop.
     """
     res = getattr(run, "result", None)
-    if res is None:
+    swing = run.name.startswith(SWINGUPS)
+    if res is None or not (swing or run.name in CLOSED_LOOPS):
         return []
     out = []
     for key, fig in res.figures.items():
-        curves = _sphere_curves(fig)
-        if not curves:
-            continue
-        svgs = [sphere_animation(p, elev=e, azim=a, label=t) for p, e, a, t in curves]
         caption = run.figures[key].caption if key in run.figures else key
-        body = "".join(svgs)
-        out.append(Animation(
-            f"Played back: {caption} (the heaviest curve of each sphere panel, samples at a "
-            f"constant rate in time order; {DURATION:g} s per loop).",
-            f'<div style="display:flex;flex-wrap:wrap;gap:1em">{body}</div>'))
+        curves = _sphere_curves(fig)
+        if curves:
+            body = "".join(sphere_animation(p, elev=e, azim=a, label=t) for p, e, a, t in curves)
+            out.append(Animation(
+                f"Played back: {caption} (the heaviest curve of each sphere panel, samples at "
+                f"a constant rate in time order; {DURATION:g} s per loop).",
+                f'<div style="display:flex;flex-wrap:wrap;gap:1em">{body}</div>'))
+            continue
+        panels = _time_panels(fig)[:4]
+        if panels and run.name in CLOSED_LOOPS:
+            body = "".join(time_animation(ax, lines) for ax, lines in panels)
+            out.append(Animation(
+                f"Played back: {caption} (the time histories of the figure, a cursor sweeping "
+                f"time; {DURATION:g} s per loop).",
+                f'<div style="display:flex;flex-wrap:wrap;gap:1em">{body}</div>'))
     return out

@@ -156,10 +156,11 @@ def run_problem(name: str, *, quick: bool, catalogue: ModuleType) -> ProblemRun:
     )
     for fname, fig in result.figures.items():
         try:
+            own = str(getattr(result, "captions", {}).get(fname, "")).strip()
             size = readable(fig)
-            run.figures[fname] = FigureData(fname, auto_caption(fname, fig),
+            run.figures[fname] = FigureData(fname, own or auto_caption(fname, fig),
                                             figure_svg(fig, salt=f"{name}/{fname}"),
-                                            size["width"], size["height"])
+                                            size["width"], size["height"], own=bool(own))
         except Exception as exc:  # noqa: BLE001 - one bad figure does not lose the problem
             result.notes.append(f"figure {fname!r} could not be drawn: {exc}")
         finally:

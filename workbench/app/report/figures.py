@@ -44,6 +44,9 @@ class FigureData:
         Self-contained SVG text.
     width, height : float
         Printed size [in].
+    own : bool
+        Whether the caption is the problem's own (``Result.figure(..., caption=)``) rather
+        than read from the figure's titles.
     """
 
     name: str
@@ -51,6 +54,7 @@ class FigureData:
     svg: str
     width: float
     height: float
+    own: bool = False
 
 
 STYLE = {

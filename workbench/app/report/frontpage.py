@@ -102,8 +102,9 @@ def _section(out: Any, quick: bool, module: ModuleType | None) -> ProblemSection
     sec.error, sec.traceback = out.error, out.traceback
     sec.cached, sec.peak_mb = out.cached, out.peak_mb
     sec.summary = summary_of(out.name, module)
-    for fig in sec.figures:
-        fig.caption = CAPTIONS.get((out.name, fig.name), fig.caption)
+    for fig in sec.figures:  # the problem's own caption first, then the report's words
+        if not getattr(fig, "own", False):
+            fig.caption = CAPTIONS.get((out.name, fig.name), fig.caption)
     return sec
 
 
