@@ -30,6 +30,8 @@ from workbench.control._tvlqr import (
     TVLQR,
     ClosedLoopRun,
     ClosedLoopStatus,
+    TVLQRChecks,
+    TVLQRCost,
     closed_loop,
     perturbed_starts,
     tvlqr,
@@ -116,4 +118,6 @@ __all__ = [
     "transcribe",
     "tvlqr",
     "tvlqr_along",
+    "TVLQRCost",
+    "TVLQRChecks",
 ]

@@ -35,13 +35,45 @@ import numpy as np
 import scipy.linalg as sla
 
 from workbench.control.ocp.stepper import Stepper
+from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ParameterError, SolverError
-from workbench.core.status import StatusEnum, StatusResult
+from workbench.core.status import Record, StatusEnum, StatusResult
 from workbench.core.types import ArrayLike
 
-__all__ = ["TVLQR", "tvlqr", "tvlqr_along", "ClosedLoopStatus", "ClosedLoopRun", "closed_loop",
-           "perturbed_starts"]
+__all__ = ["TVLQR", "TVLQRCost", "TVLQRChecks", "tvlqr", "tvlqr_along", "ClosedLoopStatus",
+           "ClosedLoopRun", "closed_loop", "perturbed_starts"]
+
+
+@dataclass(frozen=True)
+class TVLQRCost(Record):
+    """What :func:`tvlqr` cost.
+
+    Attributes
+    ----------
+    build_seconds, linearisation_seconds, riccati_seconds : float
+        Building the stepper, linearising along the reference, the Riccati recursion.
+    """
+
+    build_seconds: float
+    linearisation_seconds: float
+    riccati_seconds: float
+
+
+@dataclass(frozen=True)
+class TVLQRChecks(Record):
+    """What :func:`tvlqr` checked.
+
+    Attributes
+    ----------
+    closed_loop_spectral_radius_eq : float
+        Of the discrete closed loop of the handover LQR at the equilibrium (< 1).
+    reference_end_gap : float
+        Distance from the reference's end to the equilibrium, in the equilibrium's chart.
+    """
+
+    closed_loop_spectral_radius_eq: float
+    reference_end_gap: float
 
 
 @dataclass
@@ -70,11 +102,12 @@ class TVLQR:
         Constant LQR gain at the equilibrium (discrete, same ``dt``).
     S_eq : ndarray, shape=(dim, dim)
         Its DARE solution (the terminal cost-to-go of the recursion).
-    cost : dict
+    cost : TVLQRCost
         ``build_seconds``, ``linearisation_seconds``, ``riccati_seconds``.
-    info : dict
+    info : TVLQRChecks
         ``closed_loop_spectral_radius_eq``, ``reference_end_gap`` (distance from the
-        reference's end to the equilibrium, in the equilibrium's chart).
+        reference's end to the equilibrium, in the equilibrium's chart); typed records
+        that also read as mappings.
     """
 
     model: Model
@@ -88,8 +121,8 @@ class TVLQR:
     u_eq: np.ndarray
     gain_eq: np.ndarray
     S_eq: np.ndarray
-    cost: dict[str, float] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)
+    cost: TVLQRCost | dict[str, float] = field(default_factory=dict)
+    info: TVLQRChecks | dict[str, Any] = field(default_factory=dict)
 
     @property
     def T(self) -> float:
@@ -263,9 +296,13 @@ def tvlqr(
     ric = time.perf_counter() - t2
     gap = float(np.max(np.abs(np.asarray(man.chart(xe, X[-1]), float))))
     return TVLQR(model, dt, tv, X, U, gains, S, xe, ue, Ke, Se,
-                 cost={"build_seconds": build, "linearisation_seconds": lin,
-                       "riccati_seconds": ric},
-                 info={"closed_loop_spectral_radius_eq": rho, "reference_end_gap": gap})
+                 cost=TVLQRCost(build_seconds=build, linearisation_seconds=lin,
+                                riccati_seconds=ric),
+                 info=TVLQRChecks(closed_loop_spectral_radius_eq=rho, reference_end_gap=gap))
+
+
+MAX_SAMPLES = 1_000_000
+"""Largest reference grid :func:`tvlqr_along` builds (``N * substeps`` samples)."""
 
 
 def tvlqr_along(
@@ -296,10 +333,15 @@ def tvlqr_along(
     substeps : int
         Samples per interval of the solution (sample period ``T / (N substeps)``).
     """
-    if not isinstance(substeps, (int, np.integer)) or substeps < 1:
-        raise ParameterError(f"substeps must be an integer >= 1; got {substeps!r}")
+    if not all(hasattr(solution, a) for a in ("ocp", "x", "u", "T")):
+        raise ParameterError(f"solution must be an OCPSolution (from solve_ocp); got "
+                             f"{type(solution).__name__}")
+    sub = validate.count("substeps", substeps)
+    if len(solution.u) * sub > MAX_SAMPLES:
+        raise ParameterError(
+            f"substeps = {sub} gives {len(solution.u) * sub} samples > {MAX_SAMPLES} (one "
+            f"CVODES step and one Riccati step each); pass fewer substeps")
     model = solution.ocp.model
-    sub = int(substeps)
     h = solution.T / len(solution.u) / sub
     stepper = Stepper(model, rtol=rtol, atol=rtol) if sub > 1 else None
     X = []

@@ -16,11 +16,13 @@ from workbench.global_dynamics._invariant_manifolds import (
 )
 from workbench.global_dynamics._manifold_validation import (
     Validation,
+    ValidationCost,
     compare_per_point,
     validate,
 )
 from workbench.global_dynamics._phase import (
     PhaseCheck,
+    PhaseCost,
     cone_integral,
     first_self_intersection,
     geometric_phase_check,
@@ -90,4 +92,6 @@ __all__ = [
     "unstable_manifold",
     "validate",
     "wrap_angle",
+    "PhaseCost",
+    "ValidationCost",
 ]

@@ -20,12 +20,29 @@ from typing import Any
 import numpy as np
 
 from workbench.core.errors import ParameterError
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.global_dynamics._invariant_manifolds import InvariantManifold
 from workbench.global_dynamics._seeds import distances
 from workbench.simulation._simulate import GEOMETRIC_METHODS, Method, simulate
 
-__all__ = ["Validation", "validate", "compare_per_point"]
+__all__ = ["Validation", "ValidationCost", "validate", "compare_per_point"]
+
+
+@dataclass(frozen=True)
+class ValidationCost(Record):
+    """What :func:`validate` cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        All simulations.
+    simulations : int
+        Independent integrations run.
+    """
+
+    wall_seconds: float
+    simulations: int
 
 
 @dataclass
@@ -48,15 +65,15 @@ class Validation:
         The independent integrator.
     options : dict
         Knobs as used.
-    cost : dict
-        ``wall_seconds``, ``simulations``.
+    cost : ValidationCost
+        ``wall_seconds``, ``simulations`` (a typed record that also reads as a mapping).
     """
 
     on: list[dict[str, Any]]
     off: list[dict[str, Any]]
     method: Method
     options: dict[str, Any]
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: ValidationCost | dict[str, Any] = field(default_factory=dict)
 
     @property
     def worst_ratio(self) -> float:
@@ -216,7 +233,7 @@ def validate(
                "perturbation": perturbation, "seed": seed, "output_step": dt,
                **{k: (v.value if isinstance(v, Method) else v) for k, v in kw.items()}}
     return Validation(on, off, method, options,
-                      {"wall_seconds": time.perf_counter() - t0, "simulations": runs})
+                      ValidationCost(wall_seconds=time.perf_counter() - t0, simulations=runs))
 
 
 def compare_per_point(

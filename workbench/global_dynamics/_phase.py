@@ -49,6 +49,7 @@ import numpy as np
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import SO3, sphere_basis
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.global_dynamics._poincare import (
     Stepper,
@@ -59,6 +60,7 @@ from workbench.global_dynamics._poincare import (
 )
 
 __all__ = [
+    "PhaseCost",
     "cone_integral",
     "holonomy_angle",
     "wrap_angle",
@@ -209,6 +211,28 @@ def _apex(G: np.ndarray, *, n_sub: int = 64) -> np.ndarray:
     return cand[int(np.argmax(dist))]
 
 
+@dataclass(frozen=True)
+class PhaseCost(Record):
+    """What :func:`geometric_phase_check` cost.
+
+    Attributes
+    ----------
+    wall_seconds : float
+        The whole check.
+    newton_iterations : int
+        Newton iterations locating the return times.
+    n_nodes : int
+        Quadrature nodes of the cap integrals.
+    orbit_steps : int
+        CVODES steps along the orbit.
+    """
+
+    wall_seconds: float
+    newton_iterations: int
+    n_nodes: int
+    orbit_steps: int
+
+
 @dataclass
 class PhaseCheck:
     """Geometric phase along a closed reduced curve: reconstruction versus (5.15).
@@ -242,8 +266,9 @@ class PhaseCheck:
         Solid angle enclosed (signed by the orientation of travel).
     dynamic_phase : float
         ``theta_dyn(t2) - theta_dyn(t1)`` of (5.12) (0 for ``mu = 0``).
-    cost : dict
-        ``wall_seconds``, ``newton_iterations``, ``n_nodes``.
+    cost : PhaseCost
+        ``wall_seconds``, ``newton_iterations``, ``n_nodes``, ``orbit_steps`` (a typed
+        record that also reads as a mapping).
     """
 
     t1: float
@@ -259,7 +284,7 @@ class PhaseCheck:
     signed_area: float
     dynamic_phase: float
     apex: np.ndarray
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: PhaseCost | dict[str, Any] = field(default_factory=dict)
 
 
 def geometric_phase_check(
@@ -399,6 +424,6 @@ def geometric_phase_check(
         caps_differ_by=(theta_a - theta_b) / (4 * np.pi),
         quadrature_error=quad_err, signed_area=area,
         dynamic_phase=float(x2[ps_][0] - x1[ps_][0]), apex=apex,
-        cost={"wall_seconds": time.perf_counter() - t0, "newton_iterations": its,
-              "n_nodes": len(wq), "orbit_steps": int(integ.stats().get("nsteps", 0))},
+        cost=PhaseCost(wall_seconds=time.perf_counter() - t0, newton_iterations=its,
+                       n_nodes=len(wq), orbit_steps=int(integ.stats().get("nsteps", 0))),
     )

@@ -27,12 +27,14 @@ from workbench.linear._eigen import (
     eigenstructure,
 )
 from workbench.linear._linearize import (
+    LinearizationCost,
     LinearModel,
     linearize,
     mechanical_order,
     tangent_labels,
 )
 from workbench.linear._lqr import (
+    LQRCost,
     LQRResult,
     Requirement,
     geometric_feedback,
@@ -80,4 +82,6 @@ __all__ = [
     "second_order_form",
     "symbolic_linearization",
     "tangent_labels",
+    "LQRCost",
+    "LinearizationCost",
 ]

@@ -41,6 +41,7 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import ManifoldError, ModelError
 from workbench.core.manifolds import S1, S2, SO3, TS2, Rn
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike, Matrix, Vector
 from workbench.linear._ambient import (
     EQUILIBRIUM_TOL,
@@ -54,6 +55,7 @@ from workbench.linear._ambient import (
 
 __all__ = [
     "LinearModel",
+    "LinearizationCost",
     "AmbientLinearization",
     "linearize",
     "linearize_ambient",
@@ -171,6 +173,19 @@ def mechanical_order(
 
 
 @dataclass(frozen=True)
+class LinearizationCost(Record):
+    """What :func:`linearize` cost.
+
+    Attributes
+    ----------
+    seconds : float
+        Wall time of the evaluation (graph builds excluded).
+    """
+
+    seconds: float
+
+
+@dataclass(frozen=True)
 class LinearModel:
     """A linearisation ``z-dot = A z + B du`` in tangent coordinates at an equilibrium.
 
@@ -196,8 +211,9 @@ class LinearModel:
         The feedback composed into the field, if any.
     labels : tuple of str
         Names of the tangent coordinates.
-    cost : dict
-        ``seconds`` (wall time of the evaluation, excluding graph builds).
+    cost : LinearizationCost
+        ``seconds`` (wall time of the evaluation, excluding graph builds; a typed record
+        that also reads as a mapping).
     """
 
     A: Matrix
@@ -210,7 +226,7 @@ class LinearModel:
     model: Model
     controller: ca.Function | None = None
     labels: tuple[str, ...] = ()
-    cost: dict[str, Any] = field(default_factory=dict)
+    cost: LinearizationCost | dict[str, Any] = field(default_factory=dict)
 
     @property
     def dim(self) -> int:
@@ -428,4 +444,4 @@ def linearize(
         labels = [f"z{i + 1}" for i in range(N.shape[1])]
     return LinearModel(A=A, B=B, basis=N, transform=T, x_e=xe, u_e=ue, residual=f0,
                        model=model, controller=controller, labels=tuple(labels),
-                       cost={"seconds": seconds})
+                       cost=LinearizationCost(seconds=seconds))

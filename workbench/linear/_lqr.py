@@ -26,13 +26,14 @@ import casadi as ca
 import numpy as np
 
 from workbench.core.errors import ModelError, ParameterError, SolverError
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike, Matrix
 from workbench.core.validate import choice
 from workbench.linear._controllability import PBH_TOL, PBHResult, _matrices, pbh
 from workbench.linear._eigen import default_tol
 from workbench.linear._linearize import LinearModel
 
-__all__ = ["Requirement", "LQRResult", "lqr", "geometric_feedback", "riccati_residual"]
+__all__ = ["Requirement", "LQRCost", "LQRResult", "lqr", "geometric_feedback", "riccati_residual"]
 
 
 class Requirement(Enum):
@@ -48,6 +49,20 @@ class Requirement(Enum):
 
     CONTROLLABLE = "controllable"
     STABILIZABLE = "stabilizable"
+
+
+@dataclass(frozen=True)
+class LQRCost(Record):
+    """What :func:`lqr` cost.
+
+    Attributes
+    ----------
+    pbh_seconds, riccati_seconds : float
+        The PBH test and the Riccati solve.
+    """
+
+    pbh_seconds: float
+    riccati_seconds: float
 
 
 @dataclass(frozen=True)
@@ -74,8 +89,8 @@ class LQRResult:
         The PBH test run before solving.
     linear : LinearModel or None
         The linearisation designed on (None for bare matrices).
-    cost : dict
-        ``seconds`` of the PBH test and of the Riccati solve.
+    cost : LQRCost
+        ``pbh_seconds``, ``riccati_seconds`` (a typed record that also reads as a mapping).
     """
 
     K: Matrix
@@ -87,7 +102,7 @@ class LQRResult:
     riccati_residual: float
     controllability: PBHResult
     linear: LinearModel | None = None
-    cost: dict[str, float] = field(default_factory=dict)
+    cost: LQRCost | dict[str, float] = field(default_factory=dict)
 
     def feedback(self, *, name: str = "lqr_feedback") -> ca.Function:
         """Return the geometric nonlinear feedback of this gain (:func:`geometric_feedback`)."""
@@ -252,7 +267,7 @@ def lqr(
     return LQRResult(
         K=K, P=P, Q=Qm, R=Rm, closed_loop_eigenvalues=ev, method=method,
         riccati_residual=riccati_residual(A, Bm, Qm, Rm, P), controllability=test,
-        linear=lin, cost={"pbh_seconds": t_pbh, "riccati_seconds": t_ric},
+        linear=lin, cost=LQRCost(pbh_seconds=t_pbh, riccati_seconds=t_ric),
     )
 
 

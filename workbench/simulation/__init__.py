@@ -44,6 +44,7 @@ from workbench.simulation.integrators import (
     NEWTON_TOL,
     DiscreteFlow,
     Integration,
+    IntegrationCost,
     integrate,
     lgvi,
     rkmk4,
@@ -90,4 +91,5 @@ __all__ = [
     "simulate",
     "sweep",
     "work_precision",
+    "IntegrationCost",
 ]

@@ -19,6 +19,7 @@ from workbench.simulation.integrators.common import (
     NEWTON_TOL,
     DiscreteFlow,
     Integration,
+    IntegrationCost,
     integrate,
 )
 from workbench.simulation.integrators.lgvi import lgvi
@@ -30,6 +31,7 @@ __all__ = [
     "NEWTON_MAX_ITER",
     "NEWTON_TOL",
     "Integration",
+    "IntegrationCost",
     "DiscreteFlow",
     "integrate",
     "lgvi",

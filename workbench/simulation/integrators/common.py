@@ -34,12 +34,14 @@ from workbench.core._feedback import (
 )
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError, WorkbenchError
+from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.core.validate import count, positive
 
 __all__ = [
     "DiscreteFlow",
     "Integration",
+    "IntegrationCost",
     "NEWTON_TOL",
     "NEWTON_MAX_ITER",
     "CHUNK",
@@ -104,6 +106,28 @@ class DiscreteFlow:
     no_solution: str = ""
 
 
+@dataclass(frozen=True)
+class IntegrationCost(Record):
+    """What :func:`integrate` cost.
+
+    Attributes
+    ----------
+    wall_seconds, setup_seconds : float
+        Stepping, and building the chunk functions.
+    steps, rhs_evaluations, newton_iterations : int
+        Steps, vector-field evaluations outside Newton solves, Newton iterations (total).
+    seconds_per_step : float
+        ``wall_seconds / steps``.
+    """
+
+    wall_seconds: float
+    setup_seconds: float
+    steps: int
+    rhs_evaluations: int
+    newton_iterations: int
+    seconds_per_step: float
+
+
 @dataclass
 class Integration:
     """What :func:`integrate` returns.
@@ -117,10 +141,11 @@ class Integration:
     step : float
         The signed step actually used (the output spacing divided by the steps per
         output interval).
-    cost : dict
+    cost : IntegrationCost
         ``wall_seconds`` (stepping), ``setup_seconds`` (chunk functions), ``steps``,
-        ``rhs_evaluations`` (vector-field evaluations
-        outside Newton solves), ``newton_iterations`` (total), ``seconds_per_step``.
+        ``rhs_evaluations`` (vector-field evaluations outside Newton solves),
+        ``newton_iterations`` (total), ``seconds_per_step`` (a typed record that also
+        reads as a mapping).
     diagnostics : dict
         ``newton`` (tolerance, largest residual, iterations per step: max and mean) and
         ``structure`` (the scheme's :attr:`DiscreteFlow.structure`).
@@ -129,7 +154,7 @@ class Integration:
     t: np.ndarray
     x: np.ndarray
     step: float
-    cost: dict[str, Any]
+    cost: IntegrationCost
     diagnostics: dict[str, Any]
 
 
@@ -447,14 +472,14 @@ def integrate(
     wall = time.perf_counter() - t_run
 
     xs = np.array(out)
-    cost = {
-        "wall_seconds": wall,
-        "setup_seconds": setup,
-        "steps": n_total,
-        "rhs_evaluations": scheme.evaluations_per_step * n_total,
-        "newton_iterations": its_total,
-        "seconds_per_step": wall / n_total,
-    }
+    cost = IntegrationCost(
+        wall_seconds=wall,
+        setup_seconds=setup,
+        steps=n_total,
+        rhs_evaluations=scheme.evaluations_per_step * n_total,
+        newton_iterations=its_total,
+        seconds_per_step=wall / n_total,
+    )
     diagnostics = {
         "newton": {
             "tol": scheme.newton_tol,
