@@ -24,6 +24,8 @@ import re
 import shutil
 import subprocess
 import tempfile
+import time
+import warnings
 from dataclasses import dataclass
 from enum import Enum
 from functools import lru_cache
@@ -34,6 +36,7 @@ import numpy as np
 
 from workbench.codegen.csource import CFLAGS_WARN, CSources
 from workbench.core.errors import ModelError, WorkbenchError
+from workbench.core.files import apply_umask
 from workbench.core.validate import choice
 
 __all__ = [
@@ -44,6 +47,7 @@ __all__ = [
     "ExportError",
     "Optimization",
     "bench_c",
+    "build_cached",
     "cache_root",
     "compile_sources",
     "export",
@@ -245,6 +249,48 @@ def _commands(name: str, compiler: str, opt: Optimization) -> list[list[str]]:
     ]
 
 
+def _digests(directory: Path) -> dict[str, str]:
+    """SHA-256 of every file of a build directory (sources and artefacts), by name."""
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(directory.iterdir()) if p.is_file() and p.name != "manifest.json"}
+
+
+def _verify_entry(entry: Path, full: str) -> str | None:
+    """None if a cache entry is intact (manifest, hash, every file's content hash), else why.
+
+    Checked on every cache hit: a truncated library, an edited source or a missing
+    artefact is found by content, not by the presence of the manifest.
+    """
+    try:
+        manifest = json.loads((entry / "manifest.json").read_text())
+    except (OSError, ValueError) as exc:
+        return f"manifest unreadable: {exc}"
+    if not isinstance(manifest, dict) or manifest.get("hash") != full:
+        return "manifest hash differs from the requested build"
+    recorded = manifest.get("files")
+    if not isinstance(recorded, dict) or not recorded:
+        return "manifest lists no content hashes"
+    try:
+        actual = _digests(entry)
+    except OSError as exc:
+        return f"files unreadable: {exc}"
+    changed = sorted(n for n in set(recorded) | set(actual) if recorded.get(n) != actual.get(n))
+    return f"content hash differs for {changed}" if changed else None
+
+
+def _discard(entry: Path) -> None:
+    """Move a corrupt cache entry aside (atomically), then remove it.
+
+    A concurrent process may have moved it already; then there is nothing to do.
+    """
+    aside = entry.with_name(f".{entry.name}.corrupt-{os.getpid()}-{time.monotonic_ns()}")
+    try:
+        os.rename(entry, aside)
+    except OSError:
+        return
+    shutil.rmtree(aside, ignore_errors=True)
+
+
 def compile_sources(sources: CSources, *, optimization: Optimization,
                     compiler: str = "gcc", cache_dir: str | os.PathLike | None = None
                     ) -> CompiledController:
@@ -273,41 +319,92 @@ def compile_sources(sources: CSources, *, optimization: Optimization,
     """
     opt = choice(Optimization, optimization, "optimization")
     commands = _commands(sources.name, compiler, opt)
+    final, digest, cached = build_cached(
+        sources.name, sources.files, commands, digest=sources.digest, compiler=compiler,
+        cache_dir=cache_dir,
+        manifest={"binding": sources.binding.value, "source_digest": sources.digest,
+                  "nx": sources.nx, "np": sources.n_p, "nu": sources.nu,
+                  "work": sources.work, "with_jacobian": sources.with_jacobian})
+    return CompiledController(sources, opt, final, digest, cached=cached)
+
+
+def build_cached(name: str, files: dict[str, str], commands: list[list[str]], *,
+                 digest: str, compiler: str, cache_dir: str | os.PathLike | None,
+                 manifest: dict) -> tuple[Path, str, bool]:
+    """Run ``commands`` on ``files`` in ``<cache>/<name>-<hash>/`` unless already built.
+
+    The one cache of every compiled artefact (controllers, compiled right-hand sides):
+    the hash covers ``digest`` (of the sources), the commands and the compiler's version;
+    the build happens in a temporary directory renamed into place when complete.
+
+    Parameters
+    ----------
+    name : str
+        Prefix of the cache directory.
+    files : dict of str to str
+        File name -> text, written before the commands run.
+    commands : list of list of str
+        Compiler commands, run in order in the build directory; every exit status checked.
+    digest : str
+        Hash of the sources.
+    compiler : str
+        The compiler command (its ``--version`` enters the hash).
+    cache_dir : path-like or None
+        Cache directory (see :func:`cache_root`).
+    manifest : dict
+        Extra JSON entries of ``manifest.json``.
+
+    Returns
+    -------
+    tuple of (Path, str, bool)
+        The build directory, the full hash, whether it was found in the cache.
+
+    Raises
+    ------
+    CompileError
+        The compiler is missing or failed (its name, exit status and message included).
+    ExportError
+        The cache directory is not writable.
+    """
     h = hashlib.sha256()
-    h.update(sources.digest.encode())
+    h.update(digest.encode())
     h.update(json.dumps(commands).encode())
     h.update(_compiler_version(compiler).encode())
-    digest = h.hexdigest()
+    full = h.hexdigest()
     root = cache_root(cache_dir)
-    final = root / f"{sources.name}-{digest[:20]}"
-    if (final / "manifest.json").is_file():
-        return CompiledController(sources, opt, final, digest, cached=True)
+    final = root / f"{name}-{full[:20]}"
+    if final.exists():
+        problem = _verify_entry(final, full)
+        if problem is None:
+            return final, full, True
+        warnings.warn(f"compile cache entry {str(final)!r} is corrupt ({problem}); it is "
+                      f"rebuilt", RuntimeWarning, stacklevel=2)
+        _discard(final)
     try:
         root.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{sources.name}-", dir=root))
+        tmp = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
     except OSError as exc:
         raise ExportError(f"cache directory {str(root)!r} is not writable ({exc.strerror}); "
                           f"set {CACHE_ENV} or pass cache_dir=") from exc
     try:
-        for fname, text in sources.files.items():
+        for fname, text in files.items():
             (tmp / fname).write_text(text)
         for cmd in commands:
-            _run(cmd, cwd=tmp, what=f"compiling {sources.name}")
+            _run(cmd, cwd=tmp, what=f"compiling {name}")
         (tmp / "manifest.json").write_text(json.dumps({
-            "name": sources.name, "binding": sources.binding.value, "hash": digest,
-            "source_digest": sources.digest, "commands": commands,
-            "compiler": _compiler_version(compiler), "casadi": ca.__version__,
-            "nx": sources.nx, "np": sources.n_p, "nu": sources.nu, "work": sources.work,
-            "with_jacobian": sources.with_jacobian}, indent=2))
+            "name": name, "hash": full, "commands": commands, "files": _digests(tmp),
+            "compiler": _compiler_version(compiler), "casadi": ca.__version__, **manifest},
+            indent=2))
+        apply_umask(tmp, directory=True)
         try:
             os.rename(tmp, final)
         except OSError:
-            if not (final / "manifest.json").is_file():  # not a concurrent identical build
+            if _verify_entry(final, full) is not None:  # not a concurrent identical build
                 raise
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-    return CompiledController(sources, opt, final, digest, cached=False)
+    return final, full, False
 
 
 @dataclass(frozen=True)
@@ -386,7 +483,9 @@ def _writable_target(out_dir: Path) -> Path:
 
 def _temp_dir(parent: Path, prefix: str, out_dir: Path) -> Path:
     try:
-        return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+        apply_umask(tmp, directory=True)  # renamed into place: the user's umask, not 0700
+        return tmp
     except OSError as exc:
         raise ExportError(f"output directory {str(out_dir)!r} is not writable: cannot "
                           f"create files in {str(parent)!r} ({exc.strerror})") from exc
@@ -421,9 +520,15 @@ def export(sources: CSources, out_dir: str | os.PathLike) -> list[Path]:
     try:
         for fname, text in sources.files.items():
             (tmp / fname).write_text(text)
+        renamed = False
         if not out.exists():
-            os.rename(tmp, out)
-        else:
+            try:
+                os.rename(tmp, out)
+                renamed = True
+            except OSError:  # another process created it meanwhile: replace file by file
+                if not out.is_dir():
+                    raise
+        if not renamed:
             for fname in sources.files:
                 os.replace(tmp / fname, out / fname)
     except OSError as exc:

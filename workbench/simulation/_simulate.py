@@ -19,6 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.codegen.functions import Compilation, CompileOptions, compile_function
 from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
@@ -265,6 +266,8 @@ def simulate(
     newton_tol: float = NEWTON_TOL,
     newton_max_iter: int = NEWTON_MAX_ITER,
     jit: bool = False,
+    compilation: Compilation | str = Compilation.NONE,
+    compile_options: CompileOptions | None = None,
 ) -> Trajectory:
     """Integrate a model from ``x0`` and report the cost and the accuracy.
 
@@ -310,6 +313,13 @@ def simulate(
     jit : bool
         Compile the step of a geometric method to C (SX models; ~1 s once per process);
         refused for the casadi methods.
+    compilation : Compilation or str
+        For ``"cvodes"``, ``"rk"`` and ``"collocation"``: ``"c"`` compiles the closed-loop
+        right-hand side (and its Jacobian) to C through the codegen cache
+        (:func:`workbench.codegen.functions.compile_function`); the build cost is in
+        ``cost["compile"]``. Refused for the geometric methods (they have ``jit``).
+    compile_options : CompileOptions, optional
+        Optimisation, compiler, cache and linear-solver replacement of that build.
 
     Returns
     -------
@@ -336,6 +346,10 @@ def simulate(
     max_steps = count("max_steps", max_steps, error=ModelError)
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    compilation = choice(Compilation, compilation, "compilation", error=ModelError)
+    if compilation is not Compilation.NONE and method in GEOMETRIC_METHODS:
+        raise ModelError(f"method {method.value!r} does not use compilation="
+                         f"{compilation.value!r} (it compiles its step with jit=True)")
     x0v = model.check_state(x0, name="x0", tol=tol)
     tv = _times(t, max_points)
     horizon = abs(tv[-1] - tv[0])
@@ -378,6 +392,11 @@ def simulate(
     xs, ps = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params)
     sign = 1.0 if tv[-1] > tv[0] else -1.0
     ode = sign * loop(xs, ps)[0]
+    compiled = None
+    if compilation is Compilation.C:
+        ode, compiled = _compiled_ode(model, xs, ps, ode, compile_options,
+                                      jacobian=method is not Method.RK)
+        options_used["compilation"] = compilation.value
     s_grid = sign * (tv - tv[0])
     dae = {"x": xs, "p": ps, "ode": ode}
     p_in: np.ndarray = model.p
@@ -419,6 +438,11 @@ def simulate(
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
+    if compiled is not None:
+        cost["compile"] = {"generate_seconds": compiled.generate_seconds,
+                           "compile_seconds": compiled.compile_seconds,
+                           "cached": compiled.cached, "hash": compiled.hash,
+                           "substitutions": list(compiled.substitutions)}
     if method is Method.CVODES:
         cost.update(steps=int(stats.get("nsteps", -1)), rhs_evaluations=int(stats["nfevals"]),
                     jacobian_evaluations=int(stats.get("n_call_jacF", 0)))
@@ -432,6 +456,19 @@ def simulate(
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
     return traj
+
+
+def _compiled_ode(model: Model, xs: Any, ps: Any, ode: Any,
+                  options: CompileOptions | None, *, jacobian: bool) -> tuple[Any, Any]:
+    """The right-hand side ``ode(xs, ps)`` as a call of its compiled library."""
+    opts = CompileOptions() if options is None else options
+    if not isinstance(opts, CompileOptions):
+        raise ModelError(f"compile_options must be a CompileOptions; got "
+                         f"{type(opts).__name__}")
+    name = "rhs_" + "".join(c if c.isalnum() else "_" for c in model.name)
+    fn = ca.Function(name, [xs, ps], [ode], ["x", "p"], ["xdot"])
+    compiled = compile_function(fn, with_jacobian=jacobian, **opts.keywords())
+    return compiled.function()(xs, ps), compiled
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:

@@ -1,0 +1,166 @@
+"""Compiled right-hand sides (issue 17): agreement with casadi, the cache, the errors.
+
+Every compilation goes to a temporary cache; states are seeded. Small models keep the
+builds short (the chain with two links for the linear-solve replacement).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import assert_close
+
+from models import pendulum3d
+from models.chain_cart import chain_cart
+from workbench.codegen import CompileError
+from workbench.codegen.functions import (
+    BatchEvaluator,
+    Compilation,
+    CompileOptions,
+    LinearSolver,
+    compile_function,
+    generable,
+)
+from workbench.core import Evaluator
+from workbench.core.errors import ModelError
+from workbench.simulation._simulate import simulate
+
+N = 500
+J = np.array([[3.0, 0.2, 0.1], [0.2, 2.0, 0.0], [0.1, 0.0, 1.0]])
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("fn-cache")
+
+
+@pytest.fixture(scope="module")
+def top():
+    return pendulum3d.reduced(J=J, rho=[0.0, 0.1, 0.3], m=2.0, g=9.81)
+
+
+def _states(model, n, seed):
+    rng = np.random.default_rng(seed)
+    return np.array([model.manifold.random_point(rng) for _ in range(n)])
+
+
+def _rel(a, b):
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def test_compiled_batch_equals_casadi_on_seeded_states(top, cache):
+    f = top.function("f")
+    X, U = _states(top, N, 0), np.random.default_rng(1).normal(size=(N, top.n_inputs))
+    ref = BatchEvaluator(f, N, shared=("p",))(X, U, top.p)
+    ev = BatchEvaluator(f, N, shared=("p",), compilation=Compilation.C, cache_dir=cache)
+    got = ev(X, U, top.p)
+    assert got.shape == (N, top.manifold.ambient_dim)
+    assert _rel(got, ref) <= 1e-14
+    assert ev.compiled is not None and ev.compiled.substitutions == ()
+    assert ev.compiled.build_seconds > 0 and ev.compiled.library.is_file()
+    # one state through the buffered Evaluator of the compiled library
+    one = Evaluator(compile_function(f, cache_dir=cache).function())
+    assert_close(one(X[3], U[3], top.p), ref[3], atol=1e-14 * np.max(np.abs(ref[3])),
+                 what="single compiled state")
+
+
+def test_cache_hit_by_content_hash(top, cache):
+    f = top.function("f")
+    a = compile_function(f, cache_dir=cache)
+    b = compile_function(f, cache_dir=cache)
+    assert b.cached and b.hash == a.hash and b.directory == a.directory
+    assert b.compile_seconds == 0.0
+    other = compile_function(top.with_parameters(m=3.0).function("f", frozen=True),
+                             cache_dir=cache)
+    assert other.hash != a.hash
+
+
+@pytest.mark.parametrize("solver", [LinearSolver.DENSE_LDL, LinearSolver.QR])
+def test_linear_solves_are_replaced_and_reported(solver, cache):
+    """The chain's LAPACK LU cannot be generated: replaced, reported, same field."""
+    m = chain_cart(2)
+    f = m.function("f")
+    X, U = _states(m, 200, 2), np.random.default_rng(3).normal(size=(200, 2))
+    ref = BatchEvaluator(f, 200, shared=("p",))(X, U, m.p)
+    swapped, subs = generable(f, solver)
+    assert subs and solver.value in subs[0]
+    same_graph = BatchEvaluator(swapped, 200, shared=("p",))(X, U, m.p)
+    ev = BatchEvaluator(f, 200, shared=("p",), compilation="c", linear_solver=solver,
+                        cache_dir=cache)
+    assert ev.compiled.substitutions == subs
+    got = ev(X, U, m.p)
+    assert _rel(got, same_graph) <= 1e-14          # compiled = casadi on the same graph
+    assert _rel(got, ref) <= 1e-12                 # another factorisation of (12)
+
+
+def test_uncompiled_path_needs_no_compiler(top):
+    f = top.function("f")
+    ev = BatchEvaluator(f, 3, shared=("p",))
+    assert ev.compiled is None and ev(_states(top, 3, 4), np.zeros((3, 3)), top.p).shape \
+        == (3, 6)
+
+
+@pytest.mark.parametrize(("compiler", "match", "status"),
+                         [("/nonexistent/bin/cc", "cannot run '/nonexistent/bin/cc'", None),
+                          ("false", r"exit status 1.*false --version", 1)])
+def test_missing_or_failing_compiler_is_a_clear_error(top, tmp_path, compiler, match, status):
+    f = top.function("f")
+    with pytest.raises(CompileError, match=match) as err:
+        compile_function(f, compiler=compiler, cache_dir=tmp_path)
+    assert err.value.returncode == status
+    with pytest.raises(CompileError, match=match):
+        BatchEvaluator(f, 4, shared=("p",), compilation="c", compiler=compiler,
+                       cache_dir=tmp_path)
+    x0 = _states(top, 1, 5)[0]
+    with pytest.raises(CompileError, match=match):
+        simulate(top, x0, [0.0, 0.1], compilation="c",
+                 compile_options=CompileOptions(compiler=compiler, cache_dir=tmp_path))
+    # the uncompiled paths stay available
+    assert simulate(top, x0, [0.0, 0.1]).x.shape == (2, 6)
+    assert BatchEvaluator(f, 4, shared=("p",))(_states(top, 4, 6), np.zeros((4, 3)),
+                                               top.p).shape == (4, 6)
+
+
+def test_simulate_with_the_compiled_rhs(top, cache):
+    x0 = _states(top, 1, 7)[0]
+    t = np.linspace(0.0, 1.0, 11)
+    opts = CompileOptions(cache_dir=cache)
+    rk = simulate(top, x0, t, method="rk", step=1e-3)
+    rk_c = simulate(top, x0, t, method="rk", step=1e-3, compilation="c", compile_options=opts)
+    assert_close(rk_c.x, rk.x, atol=1e-13, what="rk, compiled vs casadi")
+    assert rk_c.options["compilation"] == "c" and "compile" in rk_c.cost
+    rtol = 1e-10
+    cv = simulate(top, x0, t, rtol=rtol, atol=rtol)
+    fine = simulate(top, x0, t, rtol=rtol / 10, atol=rtol / 10)
+    cv_c = simulate(top, x0, t, rtol=rtol, atol=rtol, compilation=Compilation.C,
+                    compile_options=opts)
+    tol = max(10 * rtol, float(np.max(np.abs(cv.x - fine.x))))
+    assert_close(cv_c.x, cv.x, atol=tol, what="cvodes, compiled vs casadi")
+    again = simulate(top, x0, t, rtol=rtol, atol=rtol, compilation="c", compile_options=opts)
+    assert again.cost["compile"]["cached"] and again.cost["compile"]["compile_seconds"] == 0
+
+
+def test_bad_options_are_refused(top):
+    f = top.function("f")
+    with pytest.raises(ModelError, match="compilation must be one of"):
+        BatchEvaluator(f, 2, compilation="gpu")
+    with pytest.raises(ModelError, match="parallelization must be one of"):
+        BatchEvaluator(f, 2, parallelization="openmp")
+    with pytest.raises(ModelError, match="linear_solver must be one of"):
+        generable(chain_cart(1).function("f"), "lapacklu")
+    with pytest.raises(ModelError, match=r"shared inputs \['q'\]"):
+        BatchEvaluator(f, 2, shared=("q",))
+    with pytest.raises(ModelError, match="n must"):
+        BatchEvaluator(f, 0)
+    ev = BatchEvaluator(f, 2, shared=("p",))
+    with pytest.raises(ModelError, match=r"input 'x' must have shape \(2, 6\)"):
+        ev(np.zeros((3, 6)), np.zeros((2, 3)), top.p)
+    with pytest.raises(ModelError, match="takes 3 inputs"):
+        ev(np.zeros((2, 6)), top.p)
+    with pytest.raises(ModelError, match="casadi.Function"):
+        compile_function("f")
+    x0 = _states(top, 1, 8)[0]
+    with pytest.raises(ModelError, match="does not use compilation"):
+        simulate(top, x0, [0.0, 0.1], method="rkmk4", step=0.01, compilation="c")
+    with pytest.raises(ModelError, match="compile_options must be a CompileOptions"):
+        simulate(top, x0, [0.0, 0.1], compilation="c", compile_options={"compiler": "gcc"})
