@@ -56,7 +56,7 @@ def test_inertia_parameter_checked_again_on_new_values():
 
 
 def test_kinetic_energy_missing_a_velocity():
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     s.rn("y", 1)
     with pytest.raises(ModelError, match="does not depend on the velocity of factor 'y'"):
         s.model()
@@ -89,7 +89,7 @@ def test_kinetic_energy_singular_at_a_given_state():
 
 
 def test_positions_and_potentials_must_not_depend_on_velocities_or_inputs():
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     with pytest.raises(ModelError, match=r"position .*velocity .*'v'"):
         s.point_mass(m, ca.vertcat(cart.v, 0))
     u = s.input(2)
@@ -112,7 +112,7 @@ def test_positions_and_potentials_must_not_depend_on_velocities_or_inputs():
     (lambda s, c, k: s.rn("z", 0), "integer >= 1"),
 ])
 def test_unknown_names_and_misused_factors(call, fragment):
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     with pytest.raises(ModelError, match=fragment):
         call(s, cart, link)
 
@@ -126,13 +126,13 @@ def test_unknown_names_and_misused_factors(call, fragment):
     (lambda s, c, k, m: s.rigid_body(m, np.eye(3), k.q), r"attitude must have shape"),
 ])
 def test_wrong_shapes(call, fragment):
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     with pytest.raises(ModelError, match=fragment):
         call(s, cart, link, m)
 
 
 def test_foreign_and_mx_symbols_and_bad_numbers():
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     with pytest.raises(ModelError, match="did not create"):
         s.potential(ca.SX.sym("z") * cart.x[0])
     with pytest.raises(ModelError, match="MX"):
@@ -146,7 +146,7 @@ def test_foreign_and_mx_symbols_and_bad_numbers():
 
 
 def test_wrong_momentum_declaration_is_caught():
-    s, cart, link, m, l = _cart_pendulum()
+    s, cart, link, m, _ = _cart_pendulum()
     s.potential(0.5 * ca.dot(cart.x, cart.x))  # a spring ties the cart to the origin
     s.momentum("px", translate={cart: [1.0, 0.0]})
     with pytest.raises(ModelError, match="'px' is not conserved"):
