@@ -14,19 +14,19 @@ import time
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from enum import Enum
 from types import ModuleType
 from typing import Any, TextIO
 
 from workbench.app.report.figures import FigureData, auto_caption, readable
 from workbench.core._model import Model
+from workbench.core.status import StatusEnum, StatusResult
 from workbench.study._result import Result
 
 __all__ = ["Status", "ProblemRun", "models_of", "figure_svg", "run_problem", "run_problems"]
 
 
-class Status(str, Enum):
-    """Outcome of one problem in a report.
+class Status(str, StatusEnum):
+    """Outcome of one problem in a report (short values: they label the report's tables).
 
     Attributes
     ----------
@@ -45,9 +45,13 @@ class Status(str, Enum):
     FAILED = "failed"
     TIMED_OUT = "timed out"
 
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"OK"})
+
 
 @dataclass
-class ProblemRun:
+class ProblemRun(StatusResult):
     """One problem as run for a report.
 
     Attributes
