@@ -33,7 +33,6 @@ from workbench.global_dynamics._poincare import (
     OrbitCost,
     OrbitStatus,
     PoincareOrbit,
-    Stepper,
     poincare_map,
 )
 from workbench.global_dynamics._sections import (
@@ -65,7 +64,6 @@ __all__ = [
     "PhaseCheck",
     "PoincareOrbit",
     "Section",
-    "Stepper",
     "VECTORISED_METHODS",
     "Validation",
     "ball_points",

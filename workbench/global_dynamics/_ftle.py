@@ -22,11 +22,11 @@ from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice
 from workbench.global_dynamics._poincare import (
-    Stepper,
     _cvodes_options,
     _positive,
     stabilized_field,
 )
+from workbench.simulation._simulate import Multistep
 
 __all__ = ["FTLECost", "LyapunovEstimate", "lyapunov_exponent"]
 
@@ -71,7 +71,7 @@ class LyapunovEstimate:
 
 def lyapunov_exponent(
     model: Model, x0: ArrayLike, *, t_final: float, renormalize_every: float = 5.0,
-    rtol: float = 1e-10, atol: float = 1e-10, stepper: Stepper = Stepper.ADAMS,
+    rtol: float = 1e-10, atol: float = 1e-10, multistep: Multistep = Multistep.ADAMS,
     stabilization: float = 0.0, direction: Sequence[float] | None = None,
 ) -> LyapunovEstimate:
     """Largest finite-time Lyapunov exponent along the orbit of ``x0``.
@@ -92,7 +92,7 @@ def lyapunov_exponent(
         Horizon [s].
     renormalize_every : float
         Renormalisation interval [s].
-    rtol, atol, stepper, stabilization
+    rtol, atol, multistep, stabilization
         As in :func:`poincare_map`.
     direction : sequence of float, optional
         Initial tangent vector in the coordinates of ``tangent_basis(x0)``.
@@ -118,7 +118,8 @@ def lyapunov_exponent(
     F = ca.integrator("tangent", "cvodes", {"x": ca.vertcat(xs, vs), "p": ps,
                                             "ode": ca.vertcat(f, ca.jtimes(f, xs, vs))},
                       0.0, every,
-                      _cvodes_options(choice(Stepper, stepper, "stepper"), rtol, atol, 1_000_000))
+                      _cvodes_options(choice(Multistep, multistep, "multistep"), rtol, atol,
+                                      1_000_000))
     n_int = max(1, int(round(t_final / every)))
     z, total, running, steps = np.r_[xc, v], 0.0, [], 0
     t0 = time.perf_counter()

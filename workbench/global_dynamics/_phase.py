@@ -52,12 +52,12 @@ from workbench.core.manifolds import SO3, sphere_basis
 from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.global_dynamics._poincare import (
-    Stepper,
     _cvodes_options,
     _positive,
     _rk_flow,
     stabilized_field,
 )
+from workbench.simulation._simulate import Multistep
 
 __all__ = [
     "PhaseCost",
@@ -352,7 +352,7 @@ def geometric_phase_check(
     n = int(round(t_max / sample_step))
     integ = ca.integrator("orbit", "cvodes", {"x": xs, "p": ps, "ode": fld(xs, ps)}, 0.0,
                           sample_step * np.arange(1, n + 1),
-                          _cvodes_options(Stepper.ADAMS, rtol, atol, 1_000_000))
+                          _cvodes_options(Multistep.ADAMS, rtol, atol, 1_000_000))
     try:
         X = np.vstack([xc, np.asarray(integ(x0=xc, p=model.p)["xf"]).T])
     except RuntimeError as exc:

@@ -56,7 +56,6 @@ from workbench.simulation._simulate import Multistep
 
 __all__ = [
     "Direction",
-    "Stepper",
     "OrbitStatus",
     "OrbitCost",
     "Section",
@@ -68,12 +67,10 @@ __all__ = [
 ]
 
 
-Stepper = Multistep
-"""CVODES' multistep family (the same choice as :class:`workbench.simulation._simulate.Multistep`).
-
-Adams (with functional iteration here) is the efficient choice for these non-stiff
-Hamiltonian orbits (about 2.5x fewer steps than BDF at the same tolerance).
-"""
+# CVODES' multistep family is the simulation's Multistep: Adams (with functional iteration
+# here) is the efficient choice for these non-stiff Hamiltonian orbits (about 2.5x fewer
+# steps than BDF at the same tolerance). (It was called Stepper here, a word the OCP uses
+# for its one-step integrator.)
 
 
 class OrbitStatus(StatusEnum):
@@ -139,10 +136,10 @@ def _event_function(model: Model, section: Section, field_fn: ca.Function) -> ca
     return ca.Function("event", [ctx.x, ctx.p], [ca.vertcat(g, gdot, s)], ["x", "p"], ["gs"])
 
 
-def _cvodes_options(stepper: Stepper, rtol: float, atol: float, max_steps: int) -> dict:
+def _cvodes_options(multistep: Multistep, rtol: float, atol: float, max_steps: int) -> dict:
     opts: dict[str, Any] = {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
-                            "linear_multistep_method": stepper.value}
-    if stepper is Stepper.ADAMS:
+                            "linear_multistep_method": multistep.value}
+    if multistep is Multistep.ADAMS:
         opts["nonlinear_solver_iteration"] = "functional"
     return opts
 
@@ -290,7 +287,7 @@ def poincare_map(
     chunk: float = 25.0,
     rtol: float = 1e-10,
     atol: float = 1e-10,
-    stepper: Stepper = Stepper.ADAMS,
+    multistep: Multistep = Multistep.ADAMS,
     stabilization: float = 0.0,
     constraint_tol: float = 1e-6,
     refine_substeps: int = 16,
@@ -321,8 +318,9 @@ def poincare_map(
         Length of one integrator call; the constraint residual is checked after each.
     rtol, atol : float
         CVODES tolerances, for the orbit and the refining re-integrations alike.
-    stepper : Stepper
-        CVODES method family.
+    multistep : Multistep
+        CVODES method family (Adams by default: about 2.5x fewer steps than BDF on these
+        non-stiff Hamiltonian orbits).
     stabilization : float
         Gain ``k`` of the constraint-stabilised field (see the module notes); 0 for the
         model's own field.
@@ -364,7 +362,7 @@ def poincare_map(
                                      ("constraint_tol", constraint_tol)))
     if chunk < sample_step:
         raise ParameterError(f"chunk must be at least sample_step = {sample_step}; got {chunk}")
-    stepper = choice(Stepper, stepper, "stepper")
+    multistep = choice(Multistep, multistep, "multistep")
     if not isinstance(refine_substeps, (int, np.integer)) or refine_substeps < 1:
         raise ParameterError(f"refine_substeps must be an integer >= 1; got {refine_substeps!r}")
     if invariant is not None and invariant not in model.invariant_names:
@@ -381,7 +379,7 @@ def poincare_map(
     ev_map = ev_fn.map(n_per + 1)
     S = model.sym
     xs, ps, tau = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("tau")
-    opts = _cvodes_options(stepper, rtol, atol, max_steps)
+    opts = _cvodes_options(multistep, rtol, atol, max_steps)
     grid = dt * np.arange(1, n_per + 1)
     orbit_int = ca.integrator("orbit", "cvodes", {"x": xs, "p": ps, "ode": field_fn(xs, ps)},
                               0.0, grid, opts)
@@ -480,7 +478,7 @@ def poincare_map(
         refine_error=np.array(ref_err), newton_iterations=np.array(iters, dtype=int),
         status=status, t_end=float(t_end),
         options={"sample_step": dt, "chunk": chunk, "rtol": rtol, "atol": atol,
-                 "stepper": stepper.value, "stabilization": stabilization,
+                 "multistep": multistep.value, "stabilization": stabilization,
                  "refine_substeps": int(refine_substeps), "time_tol": time_tol,
                  "n_crossings": int(n_crossings), "t_max": t_max},
         cost=OrbitCost(wall_seconds=wall + refine_wall, integrate_seconds=wall,
