@@ -279,3 +279,30 @@ def test_so3_measures_axis_shares_body_axis_angle_and_cover():
     # both signs of the quaternion: the rotation by 2 pi - 0.05 is 0.05 away
     wrap = np.array([R_e @ Rotation.from_rotvec([0, 0, 2 * np.pi - 0.05]).as_matrix()])
     assert rotation_cover_fraction(near, wrap, 0.1) == 1.0
+
+
+
+def test_compare_lyapunov_on_a_damped_oscillator():
+    import casadi as ca
+
+    from models.spherical import spherical_pendulum
+    from workbench.control import Lyapunov
+    from workbench.simulation import simulate
+    from workbench.study import compare_lyapunov
+
+    # the hanging spherical pendulum damped by u = -c omega: V = energy decreases
+    model = spherical_pendulum(m=1.0, l=1.0, g=9.81)
+    x = ca.SX.sym("x", 6)
+    k = ca.Function("damping", [x, ca.SX.sym("p", model.n_params)], [-0.5 * x[3:]])
+    V = Lyapunov(model, lambda ctx: 0.5 * ca.dot(ctx["q"][3:], ctx["q"][3:])
+                 + 9.81 * (1 - ctx["q"][2]), name="energy")
+    q0 = np.array([np.sin(0.5), 0.0, np.cos(0.5), 0.0, 0.3, 0.0])
+    tr = simulate(model, model.state(q=q0), np.linspace(0, 5, 101), controller=k,
+                  rtol=1e-10, atol=1e-10)
+    res = Result("t", "t")
+    mono = compare_lyapunov(res, V, tr, k, name="V (energy)", along="the run",
+                            source="damping")
+    assert [c.quantity for c in res.comparisons] == [
+        "max relative rise of V (energy) along the run",
+        "max V-dot (energy) along the run, from the graph"]
+    assert all(c.ok for c in res.comparisons) and mono.relative_increase <= 1e-8

@@ -6,6 +6,7 @@ from workbench.study._cases import CLEAR, CORRECT, DEFECT, Cases, Check, run_iso
 from workbench.study._compare import (
     SpectrumMatch,
     compare_counts,
+    compare_lyapunov,
     compare_rows,
     compare_spectrum,
     compare_stability,
@@ -54,6 +55,7 @@ __all__ = [
     "Panel",
     "SpectrumMatch",
     "compare_counts",
+    "compare_lyapunov",
     "compare_rows",
     "compare_spectrum",
     "compare_stability",

@@ -16,7 +16,9 @@ recurring pieces live here, once:
 * :func:`sign_pattern` -- how many eigenvalues are zero, real negative, real positive, in
   each open half plane;
 * :func:`decay_rate` -- the exponential rate of a decaying signal, to set beside a
-  spectral abscissa.
+  spectral abscissa;
+* :func:`compare_lyapunov` -- along a closed-loop run, that a Lyapunov function never
+  rises and that its derivative from the graph is never positive.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from workbench.study._result import Comparison, Result
 __all__ = [
     "SpectrumMatch",
     "compare_counts",
+    "compare_lyapunov",
     "compare_rows",
     "compare_spectrum",
     "compare_stability",
@@ -308,3 +311,46 @@ def decay_rate(t: ArrayLike, z: ArrayLike, lo: float = 1e-9, hi: float = 1e-2) -
     if idx.size < 5:
         return float("nan")
     return float(np.polyfit(t[idx], np.log(z[idx]), 1)[0])
+
+
+def compare_lyapunov(res: Result, V: Any, trajectory: Any, controller: Any, *, name: str,
+                     along: str, source: str, rise_tolerance: float = 1e-8,
+                     derivative_tolerance: float = 1e-12) -> Any:
+    """Record that a Lyapunov function decreases along a closed-loop run.
+
+    Two comparisons: the largest relative rise of ``V`` between samples of the trajectory
+    (against 0, to ``rise_tolerance``), and the largest ``V-dot`` at the samples, from the
+    graph with the controller composed in (against 0, to ``derivative_tolerance``).
+
+    Parameters
+    ----------
+    res : Result
+        Where the comparisons go.
+    V : Lyapunov
+        From :mod:`workbench.control` (``monotonicity``, ``derivative_values``).
+    trajectory : Trajectory
+        The closed-loop run.
+    controller : casadi.Function
+        The feedback of the run.
+    name : str
+        How ``V`` is named (e.g. ``"V (25)"``).
+    along : str
+        What the run is (e.g. ``"Fig. 5"``).
+    source : str
+        Where the decrease is stated.
+    rise_tolerance, derivative_tolerance : float
+        The tolerances of the two comparisons.
+
+    Returns
+    -------
+    Monotonicity
+        ``V.monotonicity(trajectory)``.
+    """
+    mono = V.monotonicity(trajectory, tolerance=rise_tolerance)
+    vdot = float(np.max(V.derivative_values(trajectory.x, controller)))
+    res.compare(f"max relative rise of {name} along {along}", 0.0, mono.relative_increase,
+                tolerance=rise_tolerance, source=source)
+    symbol, _, tag = name.partition(" ")  # "V (25)" -> "V-dot (25)"
+    res.compare(f"max {symbol}-dot{' ' + tag if tag else ''} along {along}, from the graph",
+                0.0, max(0.0, vdot), tolerance=derivative_tolerance, source=source)
+    return mono
