@@ -11,7 +11,8 @@ paper; nothing here is derived from a model's graph.
 * :func:`rotation_taking` -- an attitude with a given reduced attitude (hanging or
   inverted members of H and I, (3.12)-(3.13));
 * :func:`equilibrium_attitude` -- the hanging or inverted attitude for a given ``rho``;
-* :func:`prop9` -- Proposition 9 (with the erratum): a relative equilibrium at ``alpha``;
+* :func:`prop9`, :func:`relative_equilibrium` -- Proposition 9 (with the erratum): a
+  relative equilibrium at ``alpha``, with its angular velocity and momentum (5.22);
 * :func:`remark_polynomial`, :func:`velocity_feedback_lemma` -- paper 001: the closed-loop
   characteristic polynomial of Remarks 2-3 and the sign patterns of Lemmas 1-4 under
   angular-velocity feedback.
@@ -26,7 +27,7 @@ from workbench.core.manifolds import hat, so3_exp
 from workbench.core.types import ArrayLike
 
 __all__ = ["equilibrium_attitude", "frequencies", "modal_basis", "modal_state_matrix", "prop9",
-           "remark_polynomial",
+           "relative_equilibrium", "remark_polynomial",
            "rotation_taking", "simultaneous_diagonalisation", "velocity_feedback_lemma"]
 
 E3 = np.array([0.0, 0.0, 1.0])
@@ -198,6 +199,42 @@ def prop9(J: ArrayLike, rho: ArrayLike, a: float, m: float = 1.0, g: float = 9.8
     n = np.linalg.solve(np.asarray(J, dtype=float) - np.eye(3) / a, np.asarray(rho, float))
     gamma = -n / np.linalg.norm(n)
     return gamma, float(np.sqrt(m * g / np.linalg.norm(n)) * n @ gamma)
+
+
+def relative_equilibrium(J: ArrayLike, rho: ArrayLike, a: float, *, m: float, g: float,
+                         omega_hint: ArrayLike) -> tuple[np.ndarray, np.ndarray, float]:
+    """Prop. 9 cases 4/5 with the erratum, and (5.22): ``Gamma``, ``omega``, ``mu`` at alpha.
+
+    ``Gamma = -n/|n|``, ``omega = +-sqrt(m g/|n|) n`` with ``n = (J - I/a)^-1 rho``, and
+    ``mu = (omega . Gamma)(Gamma^T J Gamma)``; the sign of omega (case 4 or 5) is the one
+    closer to ``omega_hint``.
+
+    Parameters
+    ----------
+    J : array-like, shape=(3, 3)
+        Inertia.
+    rho : array-like, shape=(3,)
+        Centre of mass in the body frame.
+    a : float
+        The family parameter alpha.
+    m, g : float
+        Mass and gravitational acceleration.
+    omega_hint : array-like, shape=(3,)
+        Picks the sign of omega.
+
+    Returns
+    -------
+    Gamma, omega : ndarray, shape=(3,)
+    mu : float
+    """
+    J = np.asarray(J, dtype=float)
+    n = np.linalg.solve(J - np.eye(3) / a, np.asarray(rho, dtype=float))
+    nn = np.linalg.norm(n)
+    gam = -n / nn
+    om = np.sqrt(m * g / nn) * n
+    if om @ np.asarray(omega_hint, dtype=float) < 0:
+        om = -om
+    return gam, om, float(om @ gam * (gam @ J @ gam))
 
 
 def remark_polynomial(d: ArrayLike, mgl: ArrayLike, k: int) -> np.ndarray:

@@ -54,6 +54,7 @@ __all__ = [
     "slice_zeros",
     "static_equilibria",
     "stability_label",
+    "describe_stability",
     "limit_at_infinity",
 ]
 
@@ -455,3 +456,22 @@ def stability_label(model: Model, x: ArrayLike, *, tol: float | None = None) -> 
     ev = np.linalg.eigvals(A)
     unstable = ev.real > t
     return int(np.sum(unstable)), int(np.sum(unstable & (np.abs(ev.imag) > t)))
+
+
+def describe_stability(label: tuple[int, int]) -> str:
+    """Words for a :func:`stability_label` (number of unstable eigenvalues, of which complex).
+
+    Parameters
+    ----------
+    label : (int, int)
+        From :func:`stability_label`.
+
+    Returns
+    -------
+    str
+    """
+    n, c = label
+    if n == 0:
+        return "spectrally stable (all eigenvalues on the imaginary axis)"
+    kind = "a complex quadruplet" if c else "real"
+    return f"unstable: {n} eigenvalue(s) with positive real part ({kind})"

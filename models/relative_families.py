@@ -44,7 +44,7 @@ from workbench.equilibria import (
     switch_branch,
 )
 
-__all__ = ["RelativeEquilibria", "trace_relative_equilibria", "at_alpha"]
+__all__ = ["RelativeEquilibria", "trace_relative_equilibria", "at_alpha", "family_name"]
 
 
 @dataclass
@@ -310,3 +310,35 @@ def at_alpha(
                f"= {v:g}; if a branch tends to it as |k| -> infinity, limit_at_infinity "
                f"shows it")
     return {"points": points, "whole_branches": whole, "message": msg}
+
+
+def family_name(alphas: np.ndarray, J_diag: np.ndarray) -> str:
+    """Paper 000 Section 4.3's name L1..L4 of a branch, from the alpha values along it.
+
+    With ``1/J1 < 1/J2 < 1/J3``: L2 has ``0 < alpha < 1/J1``, L3 lies between ``1/J1`` and
+    ``1/J2``, L4 between ``1/J2`` and ``1/J3``, and L1 contains negative alpha or alpha
+    beyond ``1/J3``.
+
+    Parameters
+    ----------
+    alphas : ndarray, shape=(n,)
+        The family parameter along the branch (non-finite and zero values are skipped).
+    J_diag : ndarray, shape=(3,)
+        Principal moments, ``J1 >= J2 >= J3``.
+
+    Returns
+    -------
+    str
+        ``"L1"`` .. ``"L4"``, or ``"other"``.
+    """
+    a = alphas[np.isfinite(alphas) & (alphas != 0.0)]
+    inv = np.sort(1.0 / np.asarray(J_diag, dtype=float))
+    if np.any(a < 0) or np.any(a > inv[2]):
+        return "L1"
+    if np.all(a < inv[0]):
+        return "L2"
+    if np.all((a > inv[0]) & (a < inv[1])):
+        return "L3"
+    if np.all((a > inv[1]) & (a < inv[2])):
+        return "L4"
+    return "other"

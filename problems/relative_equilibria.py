@@ -1,26 +1,12 @@
 """Relative equilibria of the 3D pendulum: the elliptic cylinder of paper 000 Section 4.3.
 
-The Lagrange-Poincare reduced model (4.3)-(4.4) of the elliptic cylinder
-(J = diag(0.4486, 0.3943, 0.0772), rho = (-0.0140, 0.1044, 0.4989), m = 1, g = 9.81).
-Its equilibria are found from the model graph alone (models.relative_equilibria): the
-hanging and inverted equilibria by Newton on the sphere; the families of relative
-equilibria omega = k Gamma by pseudo-arclength continuation of the zeros of
-f((Gamma, k Gamma), 0) on S^2 x R, from the static equilibria in both directions of k and
-from the ends at infinity (the zeros on the slices |k| = k_max); the two equilibria
-(4.10) as the events k1 = 0 (alpha = +-infinity) on the branches through the inverted
-equilibrium. Along every branch: the residual of (4.3)-(4.4), the family parameter
-alpha = k^2/k1, the momentum mu (the model's invariant h, (5.22)) with the residual of the
-Routh model (5.7) at (Gamma, 0) with that mu (Prop. 20), and the spectral stability from
-the linearisation of the reduced model, with the changes located.
-
-References (closed forms, used only as the reference column): Prop. 9 with the erratum of
-papers/README.md (Gamma_e = -n_a/|n_a| for every alpha, n_a = (J - I/alpha)^-1 rho;
-omega_e = +-sqrt(mg/|n_a|) n_a), mu = omega_e.Gamma_e (Gamma_e^T J Gamma_e) (5.22), the
-limits alpha -> 0+ (hanging), 0- (inverted), +-infinity ((4.10)), 1/J_i (principal axes)
-of Section 4.3. The degenerate cases 6 (a zero component of rho) and 7 (J1 = J2) of
-Prop. 9 are traced too: their extra families are found as families (through branch
-points at alpha = 1/J_i, or as two-dimensional zero sets), and checked against (4.13) and
-case 7. A balanced body (rho = 0) is rejected with a clear error.
+Besides hanging and upside down, an asymmetric rigid pendulum can spin steadily about the
+vertical in whole families of tilted attitudes (relative equilibria). For the elliptic
+cylinder of paper 000 Section 4.3 the workbench finds them from the model alone, by
+Newton's method and continuation, and recovers the paper's four families L1-L4, where they
+begin and end, the two special equilibria (4.10), their momentum and where their stability
+changes; it confirms the corrected closed form of Proposition 9 (an erratum) and treats
+the degenerate bodies of cases 6 and 7.
 """
 
 from __future__ import annotations
@@ -30,14 +16,16 @@ from typing import Any
 import numpy as np
 
 from models import pendulum3d as p3
+from models import pendulum3d_reference as paper
 from models.relative_equilibria import (
     alpha,
+    describe_stability,
     limit_at_infinity,
     slice_zeros,
     sphere_points,
     static_equilibria,
 )
-from models.relative_families import RelativeEquilibria, trace_relative_equilibria
+from models.relative_families import RelativeEquilibria, family_name, trace_relative_equilibria
 from workbench.core import DenseEvaluator
 from workbench.core.errors import ParameterError
 from workbench.equilibria import Branch, EndReason, PointKind, StepControl
@@ -60,52 +48,6 @@ DEGENERATE = {
     "case 7(b), J1 = J2, rho_3 = 0": {"J": np.diag([0.4486, 0.4486, 0.0772]),
                                       "rho": np.array([-0.0140, 0.1044, 0.0])},
 }
-
-STABILITY_WORDS = {(0, 0): "spectrally stable (all eigenvalues on the imaginary axis)"}
-
-
-def describe_label(label: tuple[int, int]) -> str:
-    """Words for a stability label (number unstable, of which complex)."""
-    if label in STABILITY_WORDS:
-        return STABILITY_WORDS[label]
-    n, c = label
-    kind = "a complex quadruplet" if c else "real"
-    return f"unstable: {n} eigenvalue(s) with positive real part ({kind})"
-
-
-# ----------------------------------------------------------------------------------------
-# closed forms of paper 000 (reference column only)
-
-
-def closed_form(J: np.ndarray, rho: np.ndarray, m: float, g: float, a: float,
-                omega_hint: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Prop. 9 case 4/5 with the erratum, and (5.22): Gamma, omega, mu at alpha = a.
-
-    The sign of omega (case 4 or 5) is the one closer to ``omega_hint``.
-    """
-    n = np.linalg.solve(J - np.eye(3) / a, rho)
-    nn = np.linalg.norm(n)
-    gam = -n / nn
-    om = np.sqrt(m * g / nn) * n
-    if om @ omega_hint < 0:
-        om = -om
-    return gam, om, float(om @ gam * (gam @ J @ gam))
-
-
-def family_of(alphas: np.ndarray, Jd: np.ndarray) -> str:
-    """The paper's name L1..L4 of a branch from the alpha values along it."""
-    a = alphas[np.isfinite(alphas) & (alphas != 0.0)]
-    inv = np.sort(1.0 / Jd)[::1]  # 1/J1 < 1/J2 < 1/J3 for J1 >= J2 >= J3
-    if np.any(a < 0) or np.any(a > inv[2]):
-        return "L1"
-    if np.all(a < inv[0]):
-        return "L2"
-    if np.all((a > inv[0]) & (a < inv[1])):
-        return "L3"
-    if np.all((a > inv[1]) & (a < inv[2])):
-        return "L4"
-    return "other"
-
 
 # ----------------------------------------------------------------------------------------
 # checks of one branch
@@ -156,7 +98,7 @@ def _check_branch(res: Result, name: str, b: Branch, atlas: RelativeEquilibria,
         r_routh.append(routh.residual(y[:3], mui))
         if ai == 0.0 or not np.isfinite(ai):
             continue
-        gam, om, mu_cf = closed_form(J, rho, m, g, ai, ki * y[:3])
+        gam, om, mu_cf = paper.relative_equilibrium(J, rho, ai, m=m, g=g, omega_hint=ki * y[:3])
         dG.append(float(np.max(np.abs(gam - y[:3]))))
         dW.append(float(np.max(np.abs(om - ki * y[:3]))))
         dmu.append(abs(mu_cf - mui))
@@ -193,15 +135,15 @@ def _check_branch(res: Result, name: str, b: Branch, atlas: RelativeEquilibria,
                     np.sqrt(m * g * np.linalg.norm(Jr)), abs(sp.y[3]), tolerance=1e-10,
                     relative=True, source="Prop. 9 case 3 (4.10)")
     changes = [{"alpha": float(alpha(sp.data["k"], sp.data["k1"])), "k": sp.data["k"],
-                "mu": sp.data["mu"], "before": describe_label(sp.data["before"]),
-                "after": describe_label(sp.data["after"])}
+                "mu": sp.data["mu"], "before": describe_stability(sp.data["before"]),
+                "after": describe_stability(sp.data["after"])}
                for sp in b.specials(PointKind.CLASS_CHANGE)]
     return {
         "n_points": len(b), "alpha_range": [float(np.min(a)), float(np.max(a))],
         "k_range": [float(np.min(k)), float(np.max(k))],
         "mu_range": [float(np.min(mu)), float(np.max(mu))],
         "ends": ends, "end_reason": b.end.code,
-        "stability_at_start": describe_label(b.labels[0]) if b.labels else None,
+        "stability_at_start": describe_stability(b.labels[0]) if b.labels else None,
         "stability_changes": changes,
         "case3_events": len(b.specials(PointKind.EVENT, "k1")),
         "corrector_iterations_mean": float(np.mean(b.corrector_iterations[1:])),
@@ -292,6 +234,30 @@ def solve(*, quick: bool = False) -> Result:
     Returns
     -------
     Result
+
+    Notes
+    -----
+    The Lagrange-Poincare reduced model (4.3)-(4.4) of the elliptic cylinder (J =
+    diag(0.4486, 0.3943, 0.0772), rho = (-0.0140, 0.1044, 0.4989), m = 1, g = 9.81). Its
+    equilibria are found from the model graph alone (models.relative_equilibria): the
+    hanging and inverted equilibria by Newton on the sphere; the families of relative
+    equilibria omega = k Gamma by pseudo-arclength continuation of the zeros of f((Gamma, k
+    Gamma), 0) on S^2 x R, from the static equilibria in both directions of k and from the
+    ends at infinity (the zeros on the slices |k| = k_max); the two equilibria (4.10) as the
+    events k1 = 0 (alpha = +-infinity) on the branches through the inverted equilibrium.
+    Along every branch: the residual of (4.3)-(4.4), the family parameter alpha = k^2/k1,
+    the momentum mu (the model's invariant h, (5.22)) with the residual of the Routh model
+    (5.7) at (Gamma, 0) with that mu (Prop. 20), and the spectral stability from the
+    linearisation of the reduced model, with the changes located.
+
+    References (closed forms, used only as the reference column): Prop. 9 with the erratum
+    of papers/README.md (Gamma_e = -n_a/|n_a| for every alpha, n_a = (J - I/alpha)^-1 rho;
+    omega_e = +-sqrt(mg/|n_a|) n_a), mu = omega_e.Gamma_e (Gamma_e^T J Gamma_e) (5.22), the
+    limits alpha -> 0+ (hanging), 0- (inverted), +-infinity ((4.10)), 1/J_i (principal axes)
+    of Section 4.3. The degenerate cases 6 (a zero component of rho) and 7 (J1 = J2) of
+    Prop. 9 are traced too: their extra families are found as families (through branch
+    points at alpha = 1/J_i, or as two-dimensional zero sets), and checked against (4.13)
+    and case 7. A balanced body (rho = 0) is rejected with a clear error.
     """
     res = Result("relative_equilibria", TITLE, quick=quick)
     model = p3.reduced(**BODY)
@@ -313,7 +279,7 @@ def solve(*, quick: bool = False) -> Result:
     with res.timed("checks against the closed forms"):
         for b in atlas.branches:
             a = alpha(b.monitors["k"], b.monitors["k1"])
-            fam = family_of(a, np.diag(J))
+            fam = family_name(a, np.diag(J))
             sign = "+" if np.nanmean(b.monitors["k"]) > 0 else "-"
             name = f"{fam}{sign}"
             if name in families:  # the same family traced twice would be a bug; keep both
@@ -369,7 +335,11 @@ def solve(*, quick: bool = False) -> Result:
         "extrapolations from slices at k_max, 2, 4, 8 k_max.",
         *atlas.notes,
     ]
-    res.figures["relative_equilibria"] = _figure(atlas, names, J)
+    res.figure("relative_equilibria", _figure(atlas, names, J), caption=(
+        "Paper 000 Fig. 4.1 recomputed: the attitudes Gamma_e of the relative equilibria of "
+        "the elliptic cylinder, coloured by the family parameter alpha, seen from two sides "
+        "(the hanging and inverted equilibria and the equilibria (4.10) marked), and the "
+        "momentum mu along each family L1-L4 with its stable and unstable stretches."))
     return res.finish()
 
 
