@@ -1,10 +1,11 @@
 """LQR stabilisation of the five-link chain on a cart, paper 003 Section 5 (Figs. 3 and 4).
 
 The five-link chain pendulum on a cart is stabilised by LQR, hanging straight down and in
-a partly folded position (three links up, two down), as in paper 003 Section 5. The
-paper's gains are computed from its printed weights and turned into a geometric feedback
-on the full nonlinear state; from the printed initial conditions of Figs. 3 and 4 both
-closed loops converge, and they decay at the rate the linearisation predicts.
+a partly folded position (three links up, two down), as in paper 003 Section 5. LQR gains
+are computed from the paper's printed weights (it prints no gains) and turned into a
+geometric feedback on the full nonlinear state; from the printed initial conditions of
+Figs. 3 and 4 both closed loops converge, and they decay at the rate the linearisation
+predicts.
 """
 
 from __future__ import annotations
