@@ -101,7 +101,7 @@ def solve(*, quick: bool = False) -> Result:
                 float(sol.status.name == "SUCCESS"), tolerance=0,
                 source=f"Ipopt: {sol.status.value}")
     res.values["swingup"] = {"cost": sol.objective, "iterations": sol.cost["iterations"],
-                             "local_defect": sol.error.get("local_defect", np.inf)}
+                             "local_defect": sol.error.get("local_defect")}
     with tempfile.TemporaryDirectory() as out:
         exported = codegen.export_feedback(act, k, out, name="pendulum3d_cart_lqr",
                                            title="LQR of the 3D pendulum on a cart, inverted",
