@@ -8,25 +8,33 @@ it returns today): the right-hand side ``f(x, u, p)`` on 1000 seeded states per 
 * ``BatchEvaluator`` through casadi's virtual machine (``Function.map``, serial);
 * ``BatchEvaluator`` compiled to C (``-O2``), with each replacement of the LAPACK solve
   that casadi cannot generate: ``dense_ldl`` (straight-line LDL^T, mass matrices),
-  ``ldl`` and ``qr`` (casadi's sparse factorisations),
+  ``ldl`` and ``qr`` (casadi's sparse factorisations); and ``dense_ldl`` at
+  ``-O3 -march=native`` (fused multiply-adds: last-bit differences),
 
 all timed in turn, round after round, in CPU time (medians), with the build cost of each
 compiled variant (generation + compiler wall seconds; 0 compiler seconds when found in the
-cache) printed beside it and the agreement with the baseline. Then ``simulate`` (rk,
-fixed step) with and without the compiled right-hand side.
+cache) printed beside it and the agreement with the baseline. On a loaded machine every
+CPU time grows (shared caches and cores), so each row also gives its speed-up over the
+baseline of the same run, and the estimate for the issue's quiet-machine baseline (9.7 /
+24 us, measured on the chain before the mechanics rewrite) divided by that speed-up. Then ``simulate`` (rk, fixed step) with and without the
+compiled right-hand side.
 
 Target: compiled batch < 2 us per state at n = 5 and n = 10.
 
-Usage: python benchmarks/bench_compiled.py [--quick] [--cvodes]
+Usage: python benchmarks/bench_compiled.py [--quick] [--cvodes] [--before]
 (--quick: dense_ldl only, fewer rounds; --cvodes adds a CVODES run, whose compiled
-Jacobian is a long build).
+Jacobian is a long build; --before also measures the chain as written before the
+mechanics layer derived it, ``models/chain_cart.py`` of commit 94f3b89~1, read with
+``git show``).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import subprocess
 import sys
-import time
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +43,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _timing import interleaved_cpu, table  # noqa: E402
 
 from models.chain_cart import chain_cart  # noqa: E402
+from workbench.codegen import Optimization  # noqa: E402
 from workbench.codegen.functions import (  # noqa: E402
     BatchEvaluator,
     CompileOptions,
@@ -44,6 +53,25 @@ from workbench.core import Evaluator  # noqa: E402
 from workbench.simulation import simulate  # noqa: E402
 
 N_STATES = 1000
+QUIET_BASELINE_US = {5: 9.7, 10: 24.0}
+"""The issue's Evaluator times per call on a quiet machine (issue 17)."""
+
+
+BEFORE = "94f3b89~1"
+"""The last commit whose chain_cart wrote its equations by hand (SX assembly + LU)."""
+
+
+def chain_before():
+    """``chain_cart`` of :data:`BEFORE`, loaded from ``git show`` into a temporary module."""
+    root = Path(__file__).resolve().parents[1]
+    text = subprocess.run(["git", "show", f"{BEFORE}:models/chain_cart.py"], cwd=root,
+                          capture_output=True, text=True, check=True).stdout
+    path = Path(tempfile.mkdtemp(prefix="chain-before-")) / "chain_cart_before.py"
+    path.write_text(text)
+    spec = importlib.util.spec_from_file_location("chain_cart_before", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.chain_cart
 
 
 def states(model, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -52,19 +80,19 @@ def states(model, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return X, rng.normal(size=(n, model.n_inputs))
 
 
-def rhs_rows(n_links: int, solvers: list[LinearSolver], rounds: int) -> list[dict]:
-    model = chain_cart(n_links)
+def rhs_rows(n_links: int, variants: list[tuple[LinearSolver, Optimization]],
+             rounds: int, build=chain_cart, label: str = "") -> list[dict]:
+    model = build(n_links)
     f = model.function("f")
     X, U = states(model, N_STATES, seed=n_links)
     one = Evaluator(f)
     vm = BatchEvaluator(f, N_STATES, shared=("p",))
     ref = vm(X, U, model.p)
     compiled = {}
-    for s in solvers:
-        t0 = time.perf_counter()
-        compiled[s] = BatchEvaluator(f, N_STATES, shared=("p",), compilation="c",
-                                     linear_solver=s)
-        compiled[s].wall = time.perf_counter() - t0
+    for s, opt in variants:
+        label = s.value if opt is Optimization.O2 else f"{s.value} {opt.value}"
+        compiled[label] = BatchEvaluator(f, N_STATES, shared=("p",), compilation="c",
+                                         linear_solver=s, optimization=opt)
     k = 50  # single calls per sample of the baseline
 
     def baseline():
@@ -72,19 +100,20 @@ def rhs_rows(n_links: int, solvers: list[LinearSolver], rounds: int) -> list[dic
             one(X[i], U[i], model.p)
 
     fns = {"evaluator": baseline, "vm batch": lambda: vm(X, U, model.p)}
-    fns.update({s.value: (lambda e=e: e(X, U, model.p)) for s, e in compiled.items()})
+    fns.update({s: (lambda e=e: e(X, U, model.p)) for s, e in compiled.items()})
     med = interleaved_cpu(fns, rounds=rounds)
     per_state = {"evaluator": med["evaluator"] / k,
                  **{name: med[name] / N_STATES for name in fns if name != "evaluator"}}
     base = per_state["evaluator"]
     rows = []
     for name, t in per_state.items():
-        e = compiled.get(LinearSolver(name)) if name in [s.value for s in solvers] else None
+        e = compiled.get(name)
         err = "-" if e is None else \
             f"{np.max(np.abs(e(X, U, model.p) - ref)) / np.max(np.abs(ref)):.1e}"
         rows.append({
-            "n": n_links, "evaluation": name if e is None else f"compiled C, {name}",
+            "n": f"{n_links}{label}", "evaluation": name if e is None else f"compiled C, {name}",
             "us/state": f"{1e6 * t:.3f}", "speed-up": f"{base / t:.1f}x",
+            "quiet est. [us]": f"{QUIET_BASELINE_US[n_links] * t / base:.2f}",
             "build [s]": "-" if e is None else f"{e.compiled.build_seconds:.1f}"
                          + (" (cached)" if e.compiled.cached else ""),
             "rel. diff": err, "_t": t, "_name": name})
@@ -124,18 +153,26 @@ def simulate_rows(n_links: int, cvodes: bool, rounds: int) -> list[dict]:
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     quick = "--quick" in argv
-    solvers = [LinearSolver.DENSE_LDL] if quick else list(LinearSolver)
+    o2 = Optimization.O2
+    variants = [(LinearSolver.DENSE_LDL, o2)] if quick else \
+        [(s, o2) for s in LinearSolver] + [(LinearSolver.DENSE_LDL, Optimization.NATIVE)]
     rounds = 5 if quick else 15
-    rows = [r for n in (5, 10) for r in rhs_rows(n, solvers, rounds)]
+    rows = [r for n in (5, 10) for r in rhs_rows(n, variants, rounds)]
+    if "--before" in argv:
+        old = chain_before()
+        rows += [r for n in (5, 10) for r in rhs_rows(n, variants, rounds, old, " before")]
     print(f"Chain on a cart, right-hand side on {N_STATES} states: CPU-time medians per state "
           f"({rounds} rounds, in turn); build = generation + compiler wall seconds")
     print(table(rows, [k for k in rows[0] if not k.startswith("_")]))
     for n in (5, 10):
-        best = min((r for r in rows if r["n"] == n and r["build [s]"] != "-"),
+        best = min((r for r in rows if r["n"] == str(n) and r["build [s]"] != "-"),
                    key=lambda r: r["_t"])
         us = 1e6 * best["_t"]
-        print(f"target n = {n}: < 2 us per state compiled: {us:.2f} us ({best['_name']}; "
-              f"{'met' if us < 2 else 'NOT met'})")
+        est = float(best["quiet est. [us]"])
+        print(f"target n = {n}: < 2 us per state compiled: {us:.2f} us measured here "
+              f"({best['_name']}; {'met' if us < 2 else 'NOT met'} at this load), "
+              f"{est:.2f} us estimated on the issue's quiet baseline "
+              f"({'met' if est < 2 else 'NOT met'})")
     sims = [r for n in (5, 10) for r in simulate_rows(n, "--cvodes" in argv, 3)]
     print("simulate over 1 s, casadi vs compiled right-hand side (dense_ldl), CPU-time "
           "medians of 3 runs in turn")

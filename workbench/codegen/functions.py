@@ -270,7 +270,9 @@ def generable(fn: ca.Function, linear_solver: LinearSolver | str = LinearSolver.
     """``fn`` with every linear solve of its graph replaced by ``linear_solver``.
 
     Only needed for MX functions whose solves use a plugin casadi cannot write as C; SX
-    functions and functions without solves are returned unchanged. With
+    functions and functions without solves are returned unchanged. Calls of nested MX
+    functions are inlined (their values are kept; a custom Jacobian attached to one is
+    replaced by automatic differentiation of its inlined graph). With
     :attr:`LinearSolver.DENSE_LDL` the result is expanded to one SX function (straight-line
     code) when the rest of the graph allows it.
 

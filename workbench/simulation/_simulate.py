@@ -19,7 +19,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from workbench.codegen.functions import Compilation, CompileOptions, compile_function
+from workbench.codegen.functions import Compilation, CompileOptions
 from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
@@ -27,6 +27,7 @@ from workbench.core.errors import ModelError, SolverError
 from workbench.core.manifolds import DEFAULT_TOL, SO3
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
+from workbench.simulation._compiled_rhs import compiled_ode
 from workbench.simulation.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -394,8 +395,9 @@ def simulate(
     ode = sign * loop(xs, ps)[0]
     compiled = None
     if compilation is Compilation.C:
-        ode, compiled = _compiled_ode(model, xs, ps, ode, compile_options,
-                                      jacobian=method is not Method.RK)
+        ode, compiled = compiled_ode(model, xs, ps, ode, compile_options,
+                                     jacobian=method is not Method.RK,
+                                     key=(model.function("f"), controller, sign))
         options_used["compilation"] = compilation.value
     s_grid = sign * (tv - tv[0])
     dae = {"x": xs, "p": ps, "ode": ode}
@@ -456,19 +458,6 @@ def simulate(
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
     return traj
-
-
-def _compiled_ode(model: Model, xs: Any, ps: Any, ode: Any,
-                  options: CompileOptions | None, *, jacobian: bool) -> tuple[Any, Any]:
-    """The right-hand side ``ode(xs, ps)`` as a call of its compiled library."""
-    opts = CompileOptions() if options is None else options
-    if not isinstance(opts, CompileOptions):
-        raise ModelError(f"compile_options must be a CompileOptions; got "
-                         f"{type(opts).__name__}")
-    name = "rhs_" + "".join(c if c.isalnum() else "_" for c in model.name)
-    fn = ca.Function(name, [xs, ps], [ode], ["x", "p"], ["xdot"])
-    compiled = compile_function(fn, with_jacobian=jacobian, **opts.keywords())
-    return compiled.function()(xs, ps), compiled
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
