@@ -117,7 +117,7 @@ def test_so3_pd_classification_of_paper_002():
 def test_bad_input():
     with pytest.raises(ModelError, match="square"):
         eigenstructure(np.zeros((2, 3)))
-    with pytest.raises(ModelError, match="tol must be positive"):
+    with pytest.raises(ModelError, match="tol must be a positive"):
         eigenstructure(np.eye(2), tol=-1.0)
     with pytest.raises(ModelError, match="basis must have 2 columns"):
         eigenstructure(np.eye(2), basis=np.eye(3))

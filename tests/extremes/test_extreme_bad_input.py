@@ -209,7 +209,7 @@ CASES = [
     # --- model parameters
     case("J-vector", lambda: p3.full(J=[1, 2, 3], rho=RHO0), P, "'J'", "3x3", "3-vector"),
     case("J-str", lambda: p3.full(J="J", rho=RHO0), P, "'J'", "numeric", "'J'"),
-    case("J-none", lambda: p3.full(J=None, rho=RHO0), P, "'J'", "shape (3, 3)", "shape ()"),
+    case("J-none", lambda: p3.full(J=None, rho=RHO0), P, "'J'", "real numeric array", "None"),
     case("J-non-symmetric", lambda: p3.full(J=[[1, 1, 0], [0, 1, 0], [0, 0, 1]], rho=RHO0), P,
          "'J'", "symmetric positive definite", "non-symmetric"),
     case("J-indefinite", lambda: p3.full(J=np.diag([1, 1, -1]), rho=RHO0), P,
@@ -320,7 +320,7 @@ CASES = [
     case("pbh-str", lambda: pbh("A", "B"), D, "numeric", "'A'"),
     case("pbh-nan", lambda: pbh(np.full((2, 2), NAN), np.ones((2, 1))), D, "finite"),
     case("pbh-tol", lambda: pbh(lin(), tol=2), D, "tol", "(0, 1)", "2"),
-    case("kalman-tol", lambda: kalman_rank(lin(), tol=-1), D, "tol", "(0, 1)", "-1"),
+    case("kalman-tol", lambda: kalman_rank(lin(), tol=-1), D, "tol", "positive", "-1"),
     case("kalman-str", lambda: kalman_rank("A", "B"), D, "numeric"),
     case("lqr-Q-shape", lambda: lqr(lin(), np.eye(2), np.eye(3)), P, "Q", "(5, 5)", "(2, 2)"),
     case("lqr-Q-non-symmetric", lambda: lqr(lin(), np.triu(np.ones((5, 5))), np.eye(3)), P,
@@ -383,7 +383,8 @@ CASES = [
     # --- controllers and Lyapunov functions
     case("damping-indefinite", lambda: C.angular_velocity_feedback(full(), D=-np.eye(3)), P,
          "D", "symmetric positive definite", "-1."),
-    case("damping-str", lambda: C.angular_velocity_feedback(full(), D="D"), P, "D", "(3, 3)", "'D'"),
+    case("damping-str", lambda: C.angular_velocity_feedback(full(), D="D"), P, "D", "(3, 3)",
+         "'D'"),
     case("damping-nan", lambda: C.angular_velocity_feedback(full(), D=np.full((3, 3), NAN)), P,
          "D", "finite"),
     case("damping-wrong-model",

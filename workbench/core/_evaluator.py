@@ -40,6 +40,8 @@ class Evaluator:
     """
 
     def __init__(self, fn: ca.Function) -> None:
+        if not isinstance(fn, ca.Function):
+            raise ModelError(f"fn must be a casadi.Function; got {type(fn).__name__}")
         self.fn = fn
         self._buf, self._eval = fn.buffer()
         self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]

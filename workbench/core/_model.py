@@ -24,11 +24,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._evaluator import Evaluator
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
 from workbench.core.types import ArrayLike, Vector
-from workbench.core import validate
 from workbench.core.validate import choice
 
 __all__ = [
@@ -133,6 +133,18 @@ class Parameter:
     shape: tuple[int, ...]
     description: str
     check: Callable[[np.ndarray], str | None] | None = finite
+
+    def __post_init__(self) -> None:
+        validate.identifier("Parameter name", self.name, error=ParameterError)
+        shape = self.shape
+        if not isinstance(shape, tuple) or not all(
+                isinstance(s, (int, np.integer)) and not isinstance(s, bool) and s >= 0
+                for s in shape):
+            raise ParameterError(f"shape of parameter {self.name!r} must be a tuple of "
+                                 f"non-negative ints; got {shape!r}")
+        if not isinstance(self.description, str):
+            raise ParameterError(f"description of parameter {self.name!r} must be a str; got "
+                                 f"{type(self.description).__name__}")
 
     @property
     def size(self) -> int:
@@ -301,7 +313,8 @@ class Model:
         input_description: str = "",
     ) -> None:
         symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
-        validate.count("n_inputs", n_inputs, minimum=0, error=ModelError)
+        validate.count("n_inputs", n_inputs, minimum=0, maximum=validate.MAX_DIM,
+                       error=ModelError)
         if not name:
             raise ModelError(f"name must be a non-empty str; got {name!r}")
         validate.single_line("name", name, error=ModelError)
@@ -555,10 +568,25 @@ class Model:
         return xv
 
     def rhs(self, x: ArrayLike, u: ArrayLike | None = None) -> Vector:
-        """Evaluate the vector field at a numeric state (no manifold check)."""
-        return np.asarray(
-            self.function("f")(self._raw_state(x), self._input(u), self.p)
-        ).ravel()
+        """Evaluate the vector field at a numeric state (no manifold check).
+
+        Raises ModelError if the value is not finite (e.g. parameters so large that the
+        field overflows): never a NaN or inf in a result.
+        """
+        xv, uv = self._raw_state(x), self._input(u)
+        try:
+            out = np.asarray(self.function("f")(xv, uv, self.p)).ravel()
+        except RuntimeError as exc:  # casadi's evaluation failed (e.g. a singular solve)
+            raise ModelError(
+                f"the vector field of {self.name!r} cannot be evaluated at x = {xv.tolist()}, "
+                f"u = {uv.tolist()} with parameters {self.p.tolist()}: "
+                f"{str(exc).strip().splitlines()[-1]}") from exc
+        if not np.all(np.isfinite(out)):
+            raise ModelError(
+                f"the vector field of {self.name!r} is not finite at x = {xv.tolist()}, "
+                f"u = {uv.tolist()} with parameters {self.p.tolist()}: the values overflow "
+                f"(f = {out.tolist()})")
+        return out
 
     def invariants(self, x: ArrayLike) -> dict[str, float]:
         """All invariants at a numeric state."""

@@ -42,6 +42,7 @@ import numpy as np
 from workbench.core.errors import ParameterError, WorkbenchError
 
 __all__ = [
+    "MAX_DIM",
     "choice",
     "positive",
     "nonnegative",
@@ -57,9 +58,20 @@ __all__ = [
     "entries_finite",
     "entries_positive",
     "entries_nonnegative",
+    "optional",
+    "instance",
+    "arguments",
+    "bound",
+    "text",
+    "parameter",
 ]
 
 E = TypeVar("E", bound=Enum)
+
+MAX_DIM = 100_000
+"""Largest dimension of a symbolic vector (a state factor R^n, a model's inputs): a casadi
+graph over more symbols does not fit in memory in any analysis (a hostile ``n_inputs=10**9``
+took 20 GB before it was refused)."""
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
@@ -436,34 +448,14 @@ def array(
 
 
 def entries_finite(value: np.ndarray) -> str | None:
-    """``None`` if every entry is finite, else the message fragment ``"must be finite; ..."``.
-
-    Parameters
-    ----------
-    value : ndarray
-        Already a real float array.
-
-    Returns
-    -------
-    str or None
-    """
+    """``None`` if every entry of the real array is finite, else a message fragment."""
     if not np.all(np.isfinite(value)):
         return f"must be finite; got {np.array2string(np.asarray(value), precision=6)}"
     return None
 
 
 def entries_positive(value: np.ndarray) -> str | None:
-    """``None`` if every entry is finite and ``> 0``, else a message fragment.
-
-    Parameters
-    ----------
-    value : ndarray
-        Already a real float array.
-
-    Returns
-    -------
-    str or None
-    """
+    """``None`` if every entry is finite and ``> 0``, else a message fragment."""
     msg = entries_finite(value)
     if msg:
         return msg
@@ -473,17 +465,7 @@ def entries_positive(value: np.ndarray) -> str | None:
 
 
 def entries_nonnegative(value: np.ndarray) -> str | None:
-    """``None`` if every entry is finite and ``>= 0``, else a message fragment.
-
-    Parameters
-    ----------
-    value : ndarray
-        Already a real float array.
-
-    Returns
-    -------
-    str or None
-    """
+    """``None`` if every entry is finite and ``>= 0``, else a message fragment."""
     msg = entries_finite(value)
     if msg:
         return msg
@@ -593,3 +575,16 @@ def output_path(
     if isinstance(text, bytes) or not text.strip() or "\x00" in text:
         raise error(f"{name} must be a non-empty path; got {_show(value)}")
     return Path(text)
+
+
+# ----------------------------------------------------------------------------------------
+# the boundary of a public function (implemented in _arguments, part of this layer)
+
+from workbench.core._arguments import (  # noqa: E402
+    arguments,
+    bound,
+    instance,
+    optional,
+    parameter,
+    text,
+)

@@ -79,6 +79,12 @@ class Section:
     direction: Direction = Direction.BOTH
     description: str = ""
 
+    def __post_init__(self) -> None:
+        validate.text("name", self.name)
+        if not callable(self.event) or (self.side is not None and not callable(self.side)):
+            raise ParameterError(f"section {self.name!r}: event (and side) must be builders "
+                                 f"ctx -> casadi expression; got {type(self.event).__name__}")
+
 
 def _axis(axis: ArrayLike) -> np.ndarray:
     a = validate.array("axis", axis, size=3).reshape(-1)

@@ -278,7 +278,7 @@ class Factor(ABC):
         if not np.all(np.isfinite(xv)):
             raise ManifoldError(f"{name} must be finite; got {xv.tolist()}")
         res = self.scaled_residual_norm(xv)
-        if res > tol:
+        if not res <= tol:  # also an overflowing (inf or nan) residual
             raise ManifoldError(
                 f"{name} is not on {self.kind}: {self.describe_residual(xv)} "
                 f"(max scaled constraint residual {res:.3g} > tol {tol:.1g}). Nothing is "

@@ -37,8 +37,10 @@ class Rn(Factor):
     n: int
 
     def __post_init__(self) -> None:
-        if not isinstance(self.n, (int, np.integer)) or self.n < 1:
-            raise ManifoldError(f"Rn needs an integer n >= 1; got n={self.n!r}")
+        if (isinstance(self.n, (bool, np.bool_)) or not isinstance(self.n, (int, np.integer))
+                or not 1 <= self.n <= validate.MAX_DIM):
+            raise ManifoldError(f"Rn needs an integer n >= 1 (and <= validate.MAX_DIM = "
+                                f"{validate.MAX_DIM}); got n={self.n!r}")
 
     @property
     def ambient_dim(self) -> int:  # type: ignore[override]

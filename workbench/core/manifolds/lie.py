@@ -117,11 +117,18 @@ def so3_exp(v: Expr) -> Expr:
         k = hat(v)
         return ca.DM.eye(3) + a * k + b * (k @ k)
     v = _finite_array(v, "v (so3_exp)", (3,))
-    a, b = _exp_coefficients(float(v @ v))
+    theta2 = float(v @ v)
+    if not np.isfinite(theta2):  # |v| > 1e154: the squares overflow; rotate about the axis
+        big = float(np.max(np.abs(v)))
+        theta = big * float(np.linalg.norm(v / big))
+        k = hat(v / theta)
+        return np.eye(3) + np.sin(theta) * k + (1.0 - np.cos(theta)) * (k @ k)
+    a, b = _exp_coefficients(theta2)
     k = hat(v)
     return np.eye(3) + a * k + b * (k @ k)
 
 
+@validate.arguments(error=ManifoldError, tol=validate.tolerance)
 def so3_log(R: ArrayLike, *, tol: float = 1e-6) -> Vector:
     """Logarithm of SO(3) (numeric), accurate near angles 0 and pi.
 

@@ -1,0 +1,276 @@
+"""Faults while writing (issue 16): full, read-only and shared folders, interrupts, corrupt caches.
+
+Every writer (Result.write_json, the command line's --json, the report, the C export) goes
+through :func:`workbench.core.files.write_atomic`; these tests attack it and its users:
+
+- a full disk (a real 64 kB tmpfs where this process may mount one, and ENOSPC injected
+  into ``os.write`` everywhere) and a read-only folder (a tmpfs remounted read-only, which
+  even root cannot write) give one clear error, leave no file behind and the target as it
+  was;
+- a KeyboardInterrupt in the middle of a write leaves nothing partial;
+- a user's files next to the target (``PATH.probe``, ``PATH.partial``) are never touched;
+- new files and folders get the umask's mode, not 0600/0700;
+- generated C and Makefiles do not carry injected code from free-text fields;
+- a corrupt compile-cache entry is found by content hash, rebuilt with a warning;
+- two processes exporting the same controller into the same folder and cache at once both
+  succeed with complete, identical files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import errno
+import json
+import multiprocessing as mp
+import os
+import re
+import stat
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from workbench.core import files
+from workbench.core.errors import OutputError
+from workbench.study._result import Result
+
+
+def _listing(path: Path) -> list[str]:
+    return sorted(p.relative_to(path).as_posix() for p in path.rglob("*"))
+
+
+def _result() -> Result:
+    res = Result("faults", "writer faults")
+    res.values = {"x": 1.0, "y": [1, 2, 3]}
+    return res
+
+
+@pytest.fixture
+def tiny_tmpfs(tmp_path):
+    """A 64 kB tmpfs (a full disk is easy to reach); skipped where mounting is not allowed."""
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)],
+                          capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {proc.stderr.strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+# ----------------------------------------------------------------------------------------
+# the writer itself
+
+
+def test_full_disk_real_tmpfs_leaves_nothing_and_keeps_the_old_file(tiny_tmpfs):
+    target = tiny_tmpfs / "r.json"
+    target.write_text("old")
+    with pytest.raises(OutputError, match=r"r\.json.*No space left") as info:
+        files.write_atomic(target, "x" * 200_000)
+    assert "\n" not in str(info.value)
+    assert target.read_text() == "old"
+    assert _listing(tiny_tmpfs) == ["r.json"]
+
+
+def test_read_only_folder_real_tmpfs(tiny_tmpfs):
+    (tiny_tmpfs / "keep.txt").write_text("mine")
+    subprocess.run(["mount", "-o", "remount,ro", str(tiny_tmpfs)], check=True)
+    with pytest.raises(OutputError, match="Read-only file system"):
+        files.write_atomic(tiny_tmpfs / "r.json", "{}")
+    with pytest.raises(OutputError, match="Read-only"):
+        _result().write_json(tiny_tmpfs / "r.json")
+    assert _listing(tiny_tmpfs) == ["keep.txt"]
+
+
+@pytest.mark.parametrize("fault", [OSError(errno.ENOSPC, "No space left on device"),
+                                   KeyboardInterrupt()])
+def test_a_fault_mid_write_leaves_nothing_partial(tmp_path, monkeypatch, fault):
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    real_write, calls = os.write, []
+
+    def write(fd, data):  # the first chunk goes through, then the fault
+        calls.append(len(data))
+        if len(calls) > 1:
+            raise fault
+        return real_write(fd, bytes(data[:10]))
+
+    monkeypatch.setattr(os, "write", write)
+    expected = OutputError if isinstance(fault, OSError) else KeyboardInterrupt
+    with pytest.raises(expected):
+        files.write_atomic(target, "y" * 1000)
+    monkeypatch.undo()
+    assert len(calls) == 2, "the fault must hit in the middle of the write"
+    assert target.read_text() == "old"
+    assert _listing(tmp_path) == ["r.json"]
+
+
+def test_interrupt_at_the_rename_leaves_nothing(tmp_path, monkeypatch):
+    def replace(src, dst):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt):
+        _result().write_json(tmp_path / "r.json")
+    monkeypatch.undo()
+    assert _listing(tmp_path) == []
+
+
+def test_the_users_files_next_to_the_target_are_never_touched(tmp_path):
+    for name in ("r.json.probe", "r.json.partial", ".r.json.partial"):
+        (tmp_path / name).write_text(f"user data {name}")
+    _result().write_json(tmp_path / "r.json")
+    for name in ("r.json.probe", "r.json.partial", ".r.json.partial"):
+        assert (tmp_path / name).read_text() == f"user data {name}"
+    assert json.loads((tmp_path / "r.json").read_text())["name"] == "faults"
+    assert _listing(tmp_path) == sorted(["r.json", "r.json.probe", "r.json.partial",
+                                         ".r.json.partial"])
+
+
+def test_new_files_and_folders_follow_the_umask(tmp_path):
+    old = os.umask(0o027)
+    try:
+        f = files.write_atomic(tmp_path / "a.txt", "a")
+        d = files.temp_dir(tmp_path, "d-")
+        m = files.make_dir(tmp_path / "made")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(f.stat().st_mode) == 0o640
+    assert stat.S_IMODE(d.stat().st_mode) == 0o750
+    assert stat.S_IMODE(m.stat().st_mode) == 0o750
+
+
+@pytest.mark.parametrize("bad", ["", "   ", None, 3])
+def test_an_empty_or_non_path_output_is_an_error(tmp_path, bad):
+    with pytest.raises(OutputError, match="path"):
+        files.write_atomic(bad, "x")
+    with pytest.raises(OutputError, match="path"):
+        _result().write_json(bad)
+    assert _listing(tmp_path) == []
+
+
+# ----------------------------------------------------------------------------------------
+# the command line
+
+
+def test_cli_json_on_a_full_disk_is_one_line_and_nothing_partial(tmp_path, monkeypatch,
+                                                                 capsys):
+    from workbench.app import cli
+
+    class Tiny:
+        def solve(self, quick=False):
+            return _result()
+
+    monkeypatch.setattr(cli, "_problems", lambda: type(
+        "P", (), {"names": staticmethod(lambda: ["tiny"]),
+                  "load": staticmethod(lambda name: Tiny())}))
+
+    def full(fd, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    (tmp_path / "out.json.probe").write_text("user")
+    monkeypatch.setattr(os, "write", full)
+    code = cli.main(["run", "tiny", "--json", str(tmp_path / "out.json")])
+    monkeypatch.undo()
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "No space left" in err and "Traceback" not in err
+    assert _listing(tmp_path) == ["out.json.probe"]
+
+
+@pytest.mark.parametrize("argv", [["run", "pendulum3d_invariants", "--json", ""],
+                                  ["report", "--out", ""]])
+def test_cli_empty_output_path_is_an_error_before_any_work(argv, capsys):
+    from workbench.app import cli
+
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "non-empty path" in err
+
+
+# ----------------------------------------------------------------------------------------
+# generated files and the compile cache
+
+
+def _strip_c_comments(code: str) -> str:
+    return re.sub(r"/\*.*?\*/", "", code, flags=re.S)
+
+
+def test_free_text_cannot_inject_c_code_or_make_recipes(tmp_path):
+    from workbench.app.catalogue import build
+    from workbench.codegen import Binding, compile_sources, generate
+
+    base = build("s2_pd")
+    evil = "x */ int injected_c = 1; /* y\nall:\n\techo injected_make \\"
+    c = dataclasses.replace(base, title=evil, singular=evil, example_note=evil)
+    src = generate(c, binding=Binding.FROZEN)
+    for name, text in src.files.items():
+        if name.endswith((".c", ".h")):
+            assert "injected_c" not in _strip_c_comments(text), name
+    mk = src.files["Makefile"]
+    assert all(line.startswith("#") for line in mk.splitlines() if "injected" in line)
+    # and the sources still compile warning-free (-Wall -Wextra -Werror: no nested /*)
+    compiled = compile_sources(src, optimization="O2", cache_dir=tmp_path / "cache")
+    assert compiled.library.is_file()
+
+
+@pytest.mark.parametrize("name", ["1abc", "a b", "x*/", "", "name\n"])
+def test_export_names_must_be_c_identifiers(name):
+    from workbench.app.catalogue import build
+    from workbench.core.errors import ModelError
+
+    with pytest.raises(ModelError, match="identifier"):
+        dataclasses.replace(build("s2_pd"), name=name)
+
+
+def test_a_corrupt_cache_entry_is_found_by_content_and_rebuilt(tmp_path):
+    from workbench.app.catalogue import build
+    from workbench.codegen import Binding, compile_sources, generate
+
+    src = generate(build("s2_pd"), binding=Binding.FROZEN)
+    first = compile_sources(src, optimization="O2", cache_dir=tmp_path)
+    again = compile_sources(src, optimization="O2", cache_dir=tmp_path)
+    assert not first.cached and again.cached and again.directory == first.directory
+    lib = first.library
+    lib.write_bytes(lib.read_bytes()[:100])  # truncated: the manifest is still there
+    with pytest.warns(RuntimeWarning, match="corrupt.*content hash differs"):
+        rebuilt = compile_sources(src, optimization="O2", cache_dir=tmp_path)
+    assert not rebuilt.cached and rebuilt.library.stat().st_size > 1000
+    (first.directory / "manifest.json").write_text("{not json")
+    with pytest.warns(RuntimeWarning, match="manifest unreadable"):
+        assert not compile_sources(src, optimization="O2", cache_dir=tmp_path).cached
+    assert compile_sources(src, optimization="O2", cache_dir=tmp_path).cached
+
+
+def _export_worker(out: str, cache: str, queue) -> None:
+    from workbench.app.catalogue import build
+    from workbench.codegen import Binding, export_c
+
+    try:
+        res = export_c(build("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+        queue.put(("ok", sorted(p.name for p in res.files)))
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent
+        queue.put(("error", f"{type(exc).__name__}: {exc}"))
+
+
+def test_two_processes_export_into_the_same_folder_and_cache_at_once(tmp_path):
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    procs = [ctx.Process(target=_export_worker, args=(str(out), str(cache), queue))
+             for _ in range(2)]
+    for p in procs:
+        p.start()
+    results = [queue.get(timeout=300) for _ in procs]
+    for p in procs:
+        p.join(timeout=60)
+    assert [r[0] for r in results] == ["ok", "ok"], results
+    names = results[0][1]
+    assert sorted(p.name for p in out.iterdir()) == names  # no temp files left behind
+    assert all((out / n).stat().st_size > 0 for n in names)
+    entries = [p for p in cache.iterdir() if not p.name.startswith(".")]
+    assert len(entries) == 1 and not [p for p in cache.iterdir() if p.name.startswith(".")]
+    manifest = json.loads((entries[0] / "manifest.json").read_text())
+    assert set(manifest["files"]) >= {"s2_pd.c", "libs2_pd.so"}
