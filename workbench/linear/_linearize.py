@@ -38,6 +38,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ManifoldError, ModelError
 from workbench.core.manifolds import S1, S2, SO3, TS2, Rn
@@ -388,6 +389,10 @@ def _basis(model: Model, x_e: Vector, basis: ArrayLike | None, tol: float) -> tu
 # public entry points
 
 
+@validate.arguments(
+    error=ModelError, model=validate.instance(Model, "a workbench Model"),
+    tol=validate.tolerance, manifold_tol=validate.tolerance
+)
 def linearize(
     model: Model,
     x_e: ArrayLike,
