@@ -243,6 +243,10 @@ class AmbientLinearization:
         return np.linalg.eigvals(restricted), spurious
 
 
+@validate.arguments(
+    error=ModelError, model=validate.instance(Model, "a workbench Model"),
+    tol=validate.tolerance, manifold_tol=validate.tolerance
+)
 def linearize_ambient(
     model: Model,
     x_e: ArrayLike,
