@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from workbench.core import validate
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike, Matrix
 from workbench.core.validate import choice
@@ -208,6 +209,7 @@ def _invariant_basis(A: Matrix, select: Any) -> Matrix:
     return Z[:, :sdim]
 
 
+@validate.arguments(error=ModelError, tol=validate.optional(validate.tolerance))
 def eigenstructure(
     system: Any, *, tol: float | None = None, basis: ArrayLike | None = None
 ) -> Eigenstructure:
