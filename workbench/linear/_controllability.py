@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
+from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike, Matrix, Vector
@@ -203,6 +204,7 @@ def _check_tols(tol: float, cluster_tol: float) -> None:
             raise ModelError(f"{name} must be in (0, 1); got {v!r}")
 
 
+@validate.arguments(error=ModelError, tol=validate.tolerance, cluster_tol=validate.tolerance)
 def pbh(
     system: Any,
     B: ArrayLike | None = None,
@@ -269,6 +271,7 @@ class KalmanResult:
         return self.rank == self.n
 
 
+@validate.arguments(error=ModelError, tol=validate.tolerance)
 def kalman_rank(
     system: Any, B: ArrayLike | None = None, *, tol: float = 1e-10
 ) -> KalmanResult:
@@ -372,6 +375,10 @@ def _energy_derivatives(model: Model, energy: str) -> ca.Function:
     return model._build(f"{energy}_hessian", make)  # noqa: SLF001 - the model's graph cache
 
 
+@validate.arguments(
+    error=ModelError, model=validate.instance(Model, "a workbench Model"),
+    tol=validate.tolerance
+)
 def second_order_form(
     model: Model,
     x_e: ArrayLike,
@@ -457,6 +464,22 @@ def second_order_form(
                            linear=lin, checks=checks)
 
 
+def _form_or_matrix(name: str, value: Any, *, error: type = ModelError) -> Any:
+    """A SecondOrderForm as it is, anything else as a real matrix (validate.array)."""
+    return value if isinstance(value, SecondOrderForm) else _matrix(name, value, error=error)
+
+
+def _matrix(name: str, value: Any, *, error: type = ModelError) -> Any:
+    """A real matrix (or vector), never an array of more than two axes."""
+    arr = validate.array(name, value, error=error)
+    if arr.ndim > 2:
+        raise error(f"{name} must be a matrix; got shape {arr.shape}")
+    return arr
+
+
+@validate.arguments(error=ModelError, tol=validate.tolerance, cluster_tol=validate.tolerance,
+                    M=_form_or_matrix, G=validate.optional(_matrix),
+                    B=validate.optional(_matrix))
 def pbh_second_order(
     M: Any,
     G: ArrayLike | None = None,
