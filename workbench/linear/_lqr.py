@@ -25,6 +25,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.status import Record
 from workbench.core.types import ArrayLike, Matrix
@@ -174,6 +175,7 @@ def riccati_residual(A: Matrix, B: Matrix, Q: Matrix, R: Matrix, P: Matrix) -> f
     return float(np.linalg.norm(res) / max(1.0, np.linalg.norm(Q), np.linalg.norm(AP)))
 
 
+@validate.arguments(pbh_tol=validate.tolerance, Q=validate.array, R=validate.array)
 def lqr(
     system: Any,
     Q: ArrayLike,
@@ -279,6 +281,8 @@ def _has_slycot() -> bool:
     return True
 
 
+@validate.arguments(lin=validate.instance(LinearModel, "a LinearModel (from linearize)"),
+                    K=validate.array, name=validate.identifier)
 def geometric_feedback(
     lin: LinearModel, K: ArrayLike, *, name: str = "geometric_feedback"
 ) -> ca.Function:
