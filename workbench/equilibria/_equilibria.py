@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError
 from workbench.core.manifolds import DEFAULT_TOL
@@ -77,6 +78,10 @@ def _prepare(model: Model, params: Mapping[str, ArrayLike] | None) -> Model:
     return model
 
 
+@validate.arguments(
+    model=validate.instance(Model, "a workbench Model", ModelError), tol=validate.tolerance,
+    rank_rtol=validate.tolerance, guess_tol=validate.tolerance, max_iterations=validate.count
+)
 def find_equilibrium(
     model: Model,
     guess: ArrayLike,
@@ -182,6 +187,13 @@ class EquilibriumSet:
         return len(self.equilibria)
 
 
+@validate.arguments(
+    model=validate.instance(Model, "a workbench Model", ModelError),
+    distinct_tol=validate.tolerance,
+    tol=validate.tolerance, rank_rtol=validate.tolerance, guess_tol=validate.tolerance,
+    guesses=lambda name, value, error: list(validate.array(
+        name, value, allow_empty=False, finite=False, error=error)),
+)
 def enumerate_equilibria(
     model: Model,
     guesses: Sequence[ArrayLike],
