@@ -38,6 +38,7 @@ from collections.abc import Callable, Hashable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import brentq
 
+from workbench.core import validate
 from workbench.core.errors import ParameterError, SolverError
 from workbench.core.status import raise_if
 from workbench.core.types import ArrayLike, Vector
@@ -79,6 +80,9 @@ __all__ = [
 ]
 
 
+@validate.arguments(start_tol=validate.tolerance, max_points=validate.count,
+                    direction=validate.optional(validate.array),
+                    problem=validate.instance(ZeroProblem, "a ZeroProblem"))
 def continue_branch(
     problem: ZeroProblem,
     start: ArrayLike,
