@@ -276,6 +276,11 @@ def _hermite_dips(G: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+@validate.arguments(
+    model=validate.instance(Model, "a workbench Model"), n_crossings=validate.count,
+    t_max=validate.positive, rtol=validate.tolerance, atol=validate.tolerance,
+    constraint_tol=validate.tolerance, time_tol=validate.tolerance
+)
 def poincare_map(
     model: Model,
     x0: ArrayLike,
