@@ -46,6 +46,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Evaluator, Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import SO3, sphere_basis
@@ -287,6 +288,14 @@ class PhaseCheck:
     cost: PhaseCost | dict[str, Any] = field(default_factory=dict)
 
 
+MAX_SAMPLES = 10**8
+"""Largest number of stored samples (``t_max / sample_step``) of a phase check."""
+
+
+@validate.arguments(
+    model=validate.instance(Model, "a workbench Model"), t_max=validate.positive,
+    rtol=validate.tolerance, atol=validate.tolerance
+)
 def geometric_phase_check(
     model: Model, x0: ArrayLike, *, density: Callable[[np.ndarray], np.ndarray],
     t_max: float, sample_step: float = 0.01,
@@ -336,6 +345,10 @@ def geometric_phase_check(
             raise ModelError(f"model {model.name!r} has no factor {name!r}; factors: "
                              f"{model.manifold.names}")
     t_max, sample_step = _positive("t_max", t_max), _positive("sample_step", sample_step)
+    if t_max / sample_step > MAX_SAMPLES:
+        raise ParameterError(f"t_max / sample_step = {t_max / sample_step:.3g} samples > "
+                             f"MAX_SAMPLES = {MAX_SAMPLES:.0e}; use a shorter t_max or a "
+                             f"larger sample_step")
     xc = model.check_state(x0, name="x0")
     sl = model.manifold.slices
     gs, ls, ps_ = sl[factor], sl[lift], sl[phase]
