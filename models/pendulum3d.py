@@ -28,7 +28,7 @@ import numpy as np
 
 from workbench import mechanics
 from workbench.control import as_states, state_function
-from workbench.core import Context, Model, Parameter, finite, positive, spd3
+from workbench.core import Context, Model, Parameter, finite, positive, spd3, validate
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, hat, so3_exp
 from workbench.core.types import ArrayLike
@@ -57,6 +57,11 @@ PARAMETERS = (
 )
 
 
+# the builders refuse complex, bool, str, None and NaN before any conversion (never truncated)
+_ARRAY = validate.parameter(validate.array)
+_SCALAR = validate.parameter(validate.array, shape=())
+
+
 def _values(J: ArrayLike, rho: ArrayLike, m: float, g: float) -> dict[str, ArrayLike]:
     try:
         Jm = np.asarray(J, dtype=float)
@@ -83,6 +88,7 @@ def _energy(ctx: Context, gamma: ca.SX, omega: ca.SX) -> ca.SX:
     return 0.5 * ca.dot(omega, ctx["J"] @ omega) - ctx["m"] * ctx["g"] * ca.dot(ctx["rho"], gamma)
 
 
+@validate.arguments(J=_ARRAY, rho=_ARRAY, m=_SCALAR, g=_SCALAR)
 def full(
     *, J: ArrayLike, rho: ArrayLike, m: float = 1.0, g: float = 9.81
 ) -> Model:
@@ -131,6 +137,7 @@ def full(
     )
 
 
+@validate.arguments(J=_ARRAY, rho=_ARRAY, m=_SCALAR, g=_SCALAR)
 def reduced(
     *, J: ArrayLike, rho: ArrayLike, m: float = 1.0, g: float = 9.81
 ) -> Model:
@@ -190,6 +197,7 @@ def _routh_terms(ctx: Context) -> dict[str, ca.SX]:
             "omega_hor": gxg - b * gam}
 
 
+@validate.arguments(J=_ARRAY, rho=_ARRAY, m=_SCALAR, g=_SCALAR, mu=_SCALAR)
 def routh(
     *, J: ArrayLike, rho: ArrayLike, mu: float, m: float = 1.0, g: float = 9.81
 ) -> Model:
