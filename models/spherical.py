@@ -21,13 +21,18 @@ from __future__ import annotations
 import numpy as np
 
 from workbench import mechanics
-from workbench.core import Model, positive
+from workbench.core import Model, positive, validate
 
 __all__ = ["spherical_pendulum", "E3"]
 
 E3 = np.array([0.0, 0.0, 1.0])
 
 
+_SCALAR = validate.parameter(validate.array, shape=())
+"""The builder refuses complex, bool, str, None and NaN before any conversion."""
+
+
+@validate.arguments(m=_SCALAR, l=_SCALAR, g=_SCALAR)
 def spherical_pendulum(*, m: float = 1.0, l: float = 1.0, g: float = 9.81) -> Model:  # noqa: E741
     """Build the spherical pendulum of paper 002, Section II.
 
