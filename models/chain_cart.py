@@ -28,7 +28,10 @@ from workbench import mechanics
 from workbench.core import Model, positive
 from workbench.core.errors import ParameterError
 from workbench.core.types import ArrayLike
+from workbench.core.validate import arguments as _arguments
+from workbench.core.validate import array as _array
 from workbench.core.validate import count as _count
+from workbench.core.validate import parameter as _parameter
 
 __all__ = ["chain_cart", "link_state", "E3", "C"]
 
@@ -68,6 +71,8 @@ def _memory_gb(n: int) -> float:
     return 0.16 + 3.6e-5 * n**2
 
 
+@_arguments(m=_parameter(_array, shape=()), masses=_parameter(_array),
+            lengths=_parameter(_array), g=_parameter(_array, shape=()))
 def chain_cart(
     n: int,
     *,
