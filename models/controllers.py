@@ -43,7 +43,7 @@ from models.lyapunov_functions import (
     velocity_feedback_lyapunov,
 )
 from workbench.control import state_function
-from workbench.core import Context, Model
+from workbench.core import Context, Model, validate
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import S2, SO3, TS2, Rn, vee
 from workbench.core.types import ArrayLike
@@ -182,6 +182,7 @@ def psi_feedback(
     return state_function(model, name, build)
 
 
+@validate.arguments(error=ModelError, model=validate.instance(Model, "a workbench Model"))
 def angular_velocity_feedback(model: Model, *, D: ArrayLike) -> ca.Function:
     """Linear angular-velocity feedback ``u = -D omega``, paper 001 (14) with ``Psi = D``.
 
@@ -208,6 +209,7 @@ def angular_velocity_feedback(model: Model, *, D: ArrayLike) -> ca.Function:
     )
 
 
+@validate.arguments(error=ModelError, model=validate.instance(Model, "a workbench Model"))
 def saturated_velocity_feedback(model: Model, *, P: ArrayLike, k: float) -> ca.Function:
     """Saturated angular-velocity feedback, paper 001 (34).
 
@@ -278,6 +280,7 @@ def saturated_velocity_law(ctx: Context, *, P: Any, k: Any) -> Any:
 # paper 002: geometric PD with cancellation
 
 
+@validate.arguments(error=ModelError, model=validate.instance(Model, "a workbench Model"))
 def s2_pd(model: Model, q_d: ArrayLike, *, k_q: float, k_w: float) -> ca.Function:
     """Geometric PD on S^2 with gravity cancellation, paper 002 Section II-A.
 
@@ -364,6 +367,8 @@ def _diag_gain(G: ArrayLike) -> np.ndarray:
     return a
 
 
+@validate.arguments(error=ModelError, model=validate.instance(Model, "a workbench Model"),
+                    G=validate.array)
 def so3_pd(
     model: Model, R_d: ArrayLike, *, k_R: float, k_Omega: float, G: ArrayLike
 ) -> ca.Function:
