@@ -18,7 +18,7 @@ import numpy as np
 
 from models._checks import E3, positive_scalar, require_model
 from workbench.control import state_function
-from workbench.core import Context, Model
+from workbench.core import Context, Model, validate
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import TS2, Rn
 
@@ -80,6 +80,7 @@ def _require_cart(model: Model, who: str) -> None:
                          f"factors {model.manifold.names}")
 
 
+@validate.arguments(error=ModelError, model=validate.instance(Model, "a workbench Model"))
 def cart_inverted_feedback(
     model: Model, *, k_y: float, k_ydot: float, k_w: float, k_q: float
 ) -> ca.Function:
