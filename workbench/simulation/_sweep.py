@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from workbench.core import validate
 from workbench.core.errors import ParameterError, SolverError, WorkbenchError
 from workbench.core.status import Record, StatusEnum, StatusResult
 from workbench.core.validate import choice
@@ -288,6 +289,7 @@ def _progress_bar(total: int, desc: str, progress: bool | None) -> Any:
     return tqdm(total=total, desc=desc, unit="item", file=sys.stderr)
 
 
+@validate.arguments(desc=validate.text)
 def sweep(
     fn: Callable[..., Any],
     items: Sequence[Mapping[str, Any]],
