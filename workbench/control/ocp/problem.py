@@ -28,6 +28,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ManifoldError, ModelError, ParameterError
 from workbench.core.manifolds import DEFAULT_TOL, S1, S2, SO3, TS2, ProductManifold
@@ -197,8 +198,20 @@ class TargetSet(Target):
     description: str = "terminal set"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "value", np.asarray(self.value, float).ravel())
-        object.__setattr__(self, "witness", np.asarray(self.witness, float).ravel())
+        object.__setattr__(self, "value", validate.array("value", self.value).ravel())
+        object.__setattr__(self, "witness", validate.array("witness", self.witness).ravel())
+        n = self.manifold.ambient_dim
+        if self.witness.size != n:
+            raise ParameterError(f"witness must be a point of {self.manifold.describe()} "
+                                 f"({n} entries); got {self.witness.size}")
+        try:
+            m = int(ca.vec(self.map(ca.SX.sym("x", n))).numel())
+        except RuntimeError as exc:
+            raise ParameterError(f"map must take a symbolic state of {n} entries; casadi: "
+                                 f"{str(exc).strip().splitlines()[-1]}") from exc
+        if self.value.size != m:
+            raise ParameterError(f"value must have {m} entries (the size of map(x)); got "
+                                 f"{self.value.size}")
 
     def phi(self, x: Expr) -> Expr:  # noqa: D102
         return ca.vec(self.map(x))
@@ -289,7 +302,9 @@ class OCP:
     _cache: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
-        m = self.model
+        m = validate.instance(Model, "a workbench Model")("model", self.model, error=ModelError)
+        self.name = validate.text("name", self.name)
+        self.tol = validate.tolerance("tol", self.tol)
         self.x0 = m.check_state(self.x0, name="x0", tol=self.tol)
         if not isinstance(self.target, Target):
             raise ModelError(
@@ -317,7 +332,7 @@ class OCP:
                 )
 
     def _bound(self, value: ArrayLike, name: str) -> Vector:
-        arr = np.asarray(value, dtype=float)
+        arr = np.asarray(validate.bound(name, value), dtype=float)
         if arr.ndim == 0:
             arr = np.full(self.model.n_inputs, float(arr))
         if arr.shape != (self.model.n_inputs,) or np.any(np.isnan(arr)):
@@ -330,10 +345,11 @@ class OCP:
     @staticmethod
     def _horizon(T: float | tuple[float, float]) -> tuple[float, float]:
         try:
-            if np.ndim(T) == 0:
-                lo = hi = float(T)  # type: ignore[arg-type]
+            Tv = validate.array("T", T)
+            if Tv.ndim == 0:
+                lo = hi = float(Tv)
             else:
-                lo, hi = (float(v) for v in T)  # type: ignore[union-attr]
+                lo, hi = (float(v) for v in Tv)
         except (TypeError, ValueError) as exc:
             raise ParameterError(
                 f"T must be a final time or a range (T_min, T_max); got {T!r}"
