@@ -37,6 +37,7 @@ import numpy as np
 from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
+from workbench.core import validate
 from workbench.core.errors import ModelError, ParameterError
 
 __all__ = [
@@ -143,6 +144,7 @@ class MultipleShooting:
     def __post_init__(self) -> None:
         _check_int(self.N, "N", 1)
         _check_int(self.steps, "steps", 1)
+        object.__setattr__(self, "rtol", validate.tolerance("rtol", self.rtol))
         if not isinstance(self.integrator, Integrator):
             raise ParameterError(f"integrator must be an Integrator; got {self.integrator!r}")
 
