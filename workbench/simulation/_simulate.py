@@ -211,7 +211,7 @@ def _times(t: ArrayLike, max_points: int = MAX_POINTS) -> np.ndarray:
             f"t has {n} output times > max_points = {max_points} (about "
             f"{n * 8 / 1e6:.0f} MB per state entry, and every invariant is evaluated at "
             f"every time); pass a coarser t, or raise max_points= if you mean it")
-    tv = validate.array("t (output times)", t, finite=False, error=ModelError)
+    tv = validate.array("t (a 1-D array of output times)", t, finite=False, error=ModelError)
     if tv.ndim != 1:
         raise ModelError(f"t must be a 1-D array of output times; got shape {tv.shape}")
     if tv.size < 2:
