@@ -158,7 +158,13 @@ class _Flow:
         self.p = model.p
 
     def __call__(self, x: np.ndarray, u: np.ndarray, h: float) -> tuple[np.ndarray, ...]:
-        xf, Fx, Fu = self.fn(x, u, h, self.p)
+        try:
+            xf, Fx, Fu = self.fn(x, u, h, self.p)
+        except RuntimeError as exc:  # CVODES failed on this sample: a domain error
+            raise SolverError(f"the flow over one sample (h = {h:.3g}) failed from x = "
+                              f"{np.asarray(x).tolist()} with u = {np.asarray(u).tolist()}: "
+                              f"{str(exc).strip().splitlines()[-1]}",
+                              status="cvodes") from exc
         return (np.asarray(xf, float).ravel(), np.asarray(Fx, float), np.asarray(Fu, float))
 
 
@@ -166,6 +172,9 @@ def _weights(W: ArrayLike, n: int, name: str, *, definite: bool) -> np.ndarray:
     M = np.asarray(W, dtype=float)
     if not np.all(np.isfinite(M)):
         raise ParameterError(f"{name} must be finite; got {M.tolist()}")
+    if M.ndim == 1 and M.size != n:
+        raise ParameterError(f"{name} must be a scalar, a vector of {n} or a ({n}, {n}) "
+                             f"matrix; got shape {M.shape}")
     if M.ndim == 0 or M.ndim == 1:
         M = np.diag(np.broadcast_to(M, (n,)).astype(float))
     if M.shape != (n, n) or not np.allclose(M, M.T, atol=1e-12 * max(1.0, np.abs(M).max())):
@@ -178,6 +187,10 @@ def _weights(W: ArrayLike, n: int, name: str, *, definite: bool) -> np.ndarray:
     return M
 
 
+@validate.arguments(model=validate.instance(Model, "a workbench Model"), rtol=validate.tolerance,
+                    t=validate.array, x_ref=validate.array, u_ref=validate.array,
+                    x_eq=validate.array, u_eq=validate.optional(validate.array),
+                    Q=validate.array, R=validate.array)
 def tvlqr(
     model: Model,
     t: ArrayLike,
