@@ -15,11 +15,14 @@ Strategies for nonconvex problems (seeded starts, coarse-to-fine, continuation) 
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from enum import Enum
+from functools import lru_cache
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.guess import Guess
@@ -32,6 +35,7 @@ from workbench.control.ocp.transcription import (
     Transcription,
     check_method,
 )
+from workbench.core import validate
 from workbench.core.errors import ParameterError, SolverError
 
 __all__ = ["OCPStatus", "OCPSolution", "solve", "transcribe"]
@@ -233,12 +237,37 @@ WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-6, "warm_start_bound
 """Ipopt options added when a solution of the same transcription warm-starts a solve."""
 
 
+DEFECT_TOL = 1e-2
+"""Default ``defect_tol`` of :func:`solve`: the largest accepted local defect (relative to
+``max(1, max |x|)``); a converged solve above it is INACCURATE, not SUCCESS."""
+
+
+@lru_cache(maxsize=64)
+def _check_ipopt_options(items: str) -> None:
+    """Let Ipopt itself read the options on a one-variable problem; ParameterError if not."""
+    x = ca.SX.sym("x")
+    try:
+        ca.nlpsol("check", "ipopt", {"x": x, "f": x**2},
+                  {"print_time": False, "ipopt": dict(json.loads(items))})
+    except RuntimeError as exc:
+        reason = str(exc).strip().splitlines()
+        raise ParameterError(f"ipopt_options must be Ipopt options with valid values; got "
+                             f"{items} (Ipopt: {' '.join(reason)[-300:]})") from exc
+
+
 def _ipopt_options(tol: float, max_iter: int, print_level: int,
                    extra: dict[str, Any] | None) -> dict[str, Any]:
-    if not (np.isfinite(tol) and tol > 0):
-        raise ParameterError(f"tol must be positive and finite; got {tol!r}")
-    if not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ParameterError(f"max_iter must be an integer >= 1; got {max_iter!r}")
+    tol = validate.tolerance("tol", tol)
+    max_iter = validate.count("max_iter", max_iter)
+    if extra is not None:
+        if not isinstance(extra, dict) or not all(isinstance(k, str) for k in extra):
+            raise ParameterError(f"ipopt_options must be a dict of Ipopt option names to "
+                                 f"values; got {extra!r}")
+        try:
+            _check_ipopt_options(json.dumps(sorted(extra.items())))
+        except TypeError as exc:
+            raise ParameterError(f"ipopt_options values must be numbers or strings; got "
+                                 f"{extra!r}") from exc
     if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
         raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
     opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
@@ -280,6 +309,7 @@ def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = Manifol
     return tr, True
 
 
+@validate.arguments(ocp=validate.instance(OCP, "an OCP"))
 def solve(
     ocp: OCP,
     method: Method | None = None,
@@ -292,7 +322,7 @@ def solve(
     print_level: int = 0,
     ipopt_options: dict[str, Any] | None = None,
     raise_on_failure: bool = True,
-    defect_tol: float | None = None,
+    defect_tol: float | None = DEFECT_TOL,
 ) -> OCPSolution:
     """Transcribe and solve an OCP with Ipopt (exact Hessian).
 
@@ -321,11 +351,13 @@ def solve(
         Further Ipopt options.
     raise_on_failure : bool
         Raise :class:`SolverError` unless the status is SUCCESS or ACCEPTABLE.
-    defect_tol : float, optional
-        Largest accepted ``error["local_defect"]`` of a converged solve; above it the
-        status is INACCURATE (a too coarse transcription, e.g. a long horizon on few
-        intervals, can converge to an NLP solution that is no trajectory of the model).
-        Without it the defect is only measured and reported.
+    defect_tol : float or None
+        Largest accepted ``error["local_defect"]`` of a converged solve, relative to
+        ``max(1, max |x|)`` over the nodes; above it the status is INACCURATE (a too
+        coarse transcription, e.g. a long horizon on few intervals, can converge to an NLP
+        solution that is no trajectory of the model) and, with ``raise_on_failure``, a
+        SolverError quotes the measured defect. On by default (:data:`DEFECT_TOL`);
+        ``None`` explicitly asks for a report only.
 
     Returns
     -------
@@ -338,10 +370,8 @@ def solve(
     """
     method = method or Collocation()
     opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
-    if defect_tol is not None and not (isinstance(defect_tol, (int, float, np.number))
-                                       and np.isfinite(defect_tol) and defect_tol > 0):
-        raise ParameterError(f"defect_tol must be a positive finite number or None; got "
-                             f"{defect_tol!r}")
+    if defect_tol is not None:
+        defect_tol = validate.tolerance("defect_tol", defect_tol)
     tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
     lbw, ubw = tr.bounds(ocp)
     args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg, "ubg": tr.ubg,
@@ -394,8 +424,11 @@ def solve(
     )
     if status.ok:
         out.error["local_defect"] = _local_defect(out)
-        if defect_tol is not None and not out.error["local_defect"] <= defect_tol:
+        limit = (None if defect_tol is None else
+                 validate.scaled_tolerance(defect_tol, float(np.max(np.abs(out.x)))))
+        if limit is not None and not out.error["local_defect"] <= limit:
             out.status = status = OCPStatus.INACCURATE
+            out.error["defect_limit"] = limit
     if raise_on_failure and not status.ok:
         err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=ipopt_status)
         err.solution = out  # type: ignore[attr-defined]
