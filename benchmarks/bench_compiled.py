@@ -16,8 +16,8 @@ compiled variant (generation + compiler wall seconds; 0 compiler seconds when fo
 cache) printed beside it and the agreement with the baseline. On a loaded machine every
 CPU time grows (shared caches and cores), so each row also gives its speed-up over the
 baseline of the same run, and the estimate for the issue's quiet-machine baseline (9.7 /
-24 us, measured on the chain before the mechanics rewrite) divided by that speed-up. Then ``simulate`` (rk, fixed step) with and without the
-compiled right-hand side.
+24 us, measured on the chain before the mechanics rewrite) divided by that speed-up.
+Then ``simulate`` (rk, fixed step) with and without the compiled right-hand side.
 
 Target: compiled batch < 2 us per state at n = 5 and n = 10.
 
@@ -90,8 +90,8 @@ def rhs_rows(n_links: int, variants: list[tuple[LinearSolver, Optimization]],
     ref = vm(X, U, model.p)
     compiled = {}
     for s, opt in variants:
-        label = s.value if opt is Optimization.O2 else f"{s.value} {opt.value}"
-        compiled[label] = BatchEvaluator(f, N_STATES, shared=("p",), compilation="c",
+        name = s.value if opt is Optimization.O2 else f"{s.value} {opt.value}"
+        compiled[name] = BatchEvaluator(f, N_STATES, shared=("p",), compilation="c",
                                          linear_solver=s, optimization=opt)
     k = 50  # single calls per sample of the baseline
 
