@@ -10,13 +10,13 @@ rest with the cart at the origin to upright at rest, with the cart back at the o
 ``T = 1.5 s``.
 
 Drake's side (when ``pydrake`` is installed; ``pip install
-'geometric-pendulum-workbench[peers]'``): a MultibodyPlant (two prismatic joints for the
-cart, a UniversalJoint for the pendulum: two angles, Drake has no S^2), transcribed by
-``pydrake.planning.DirectCollocation`` (Hermite-Simpson, first-order-hold controls,
-trapezoidal running cost) and solved by Drake's ``IpoptSolver`` with its default options
-(a limited-memory Hessian: Drake does not give Ipopt second derivatives). The iteration
-count is read from Ipopt's output file. CPU seconds are ``time.process_time`` around
-``Solve`` (building the program excluded).
+'geometric-pendulum-workbench[peers]'``) is ``problems/_drake_peer.py``: a MultibodyPlant
+(two prismatic joints for the cart, a UniversalJoint for the pendulum: two angles, Drake
+has no S^2), transcribed by ``pydrake.planning.DirectCollocation`` (Hermite-Simpson,
+first-order-hold controls, trapezoidal running cost) and solved by Drake's ``IpoptSolver``
+with its default options (a limited-memory Hessian: Drake does not give Ipopt second
+derivatives). The iteration count is read from Ipopt's output file. CPU seconds are
+``time.process_time`` around ``Solve`` (building the program excluded).
 
 The workbench's side: the same NLP (Hermite-Simpson, first-order hold, trapezoid, 40
 intervals) on the model in ambient coordinates, exact Hessian, automatic gauge of the
@@ -27,16 +27,22 @@ Both sides run interleaved (drake, workbench, drake, ...) and the medians of the
 times are compared. Without Drake, the figures recorded in issue 17 are printed, labelled
 as recorded. This script installs nothing.
 
-Usage: python benchmarks/bench_drake_swingup.py [--quick] [--repeat K]
+Further targets of issue 17, measured here too: the workbench's own reference swing-up
+(``swingup_spherical_cart``) from its default guess (iterations, < 100), multistart of its
+12 seeded starts in processes on all cores (wall seconds, < 3 s on 2 cores; the best cost
+and how many starts reached it), and the compiled NLP (``Compiled()``: build seconds
+against solve seconds, both ways) on the reduced 3D pendulum, whose NLP is small enough
+to compile (the cart's exact Hessian generates ~115 MB of C at N = 40, refused by
+``Compiled.max_source_mb``). The load average is printed: the machine is shared.
+
+Usage: python benchmarks/bench_drake_swingup.py [--quick] [--repeat K] [--drake-only]
 """
 
 from __future__ import annotations
 
 import os
-import re
 import statistics
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -46,117 +52,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parent.parent))
 from _timing import table  # noqa: E402
 
-RECORDED = {
-    "origin": {"cpu_seconds": 7.2, "iterations": 121, "cost": 5.2289},
-    "free": {"cpu_seconds": 7.67, "iterations": None, "cost": None},
-}
-"""Drake 1.51 IPOPT on this machine class, as recorded in issue 17 (not measured here)."""
+from problems import _drake_peer as peer  # noqa: E402
 
-KNOTS = 41
-U_MAX = 10.0
-T_RANGE = (0.5, 3.0)
-T_GUESS = 1.5
-L, M_TIP, M_CART, G = 0.1, 0.1, 0.5, 9.81
 TARGET_RATIO = 10.0
-
-
-def drake_available() -> bool:
-    """Whether pydrake imports."""
-    try:
-        import pydrake.planning  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-# Drake ---------------------------------------------------------------------------------
-
-
-def drake_plant():
-    """The cart-pendulum as a MultibodyPlant: prismatic x, prismatic y, universal joint."""
-    from pydrake.math import RigidTransform
-    from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import (
-        PrismaticJoint,
-        SpatialInertia,
-        UnitInertia,
-        UniversalJoint,
-        WeldJoint,
-    )
-
-    plant = MultibodyPlant(0.0)
-
-    def point_mass(mass):
-        return SpatialInertia(mass, np.zeros(3), UnitInertia(0.0, 0.0, 0.0))
-
-    carriage = plant.AddRigidBody("carriage", point_mass(0.0))
-    cart = plant.AddRigidBody("cart", point_mass(M_CART))
-    link = plant.AddRigidBody("link", point_mass(0.0))
-    bob = plant.AddRigidBody("bob", point_mass(M_TIP))
-    jx = plant.AddJoint(PrismaticJoint("x", plant.world_frame(), carriage.body_frame(),
-                                       [1.0, 0.0, 0.0]))
-    jy = plant.AddJoint(PrismaticJoint("y", carriage.body_frame(), cart.body_frame(),
-                                       [0.0, 1.0, 0.0]))
-    plant.AddJoint(UniversalJoint("swing", cart.body_frame(), link.body_frame()))
-    plant.AddJoint(WeldJoint("rod", link.body_frame(), bob.body_frame(),
-                             RigidTransform([0.0, 0.0, -L])))
-    plant.AddJointActuator("fx", jx)
-    plant.AddJointActuator("fy", jy)
-    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -G])
-    plant.Finalize()
-    return plant
-
-
-def drake_program(plant, *, cart_free: bool):
-    """Drake's DirectCollocation of the swing-up (state: x, y, angles, their rates)."""
-    from pydrake.planning import DirectCollocation
-    from pydrake.trajectories import PiecewisePolynomial
-
-    n = KNOTS - 1
-    dc = DirectCollocation(plant, plant.CreateDefaultContext(), KNOTS, T_RANGE[0] / n,
-                           T_RANGE[1] / n, plant.get_actuation_input_port().get_index())
-    dc.AddEqualTimeIntervalsConstraints()
-    dc.AddDurationBounds(*T_RANGE)
-    u = dc.input()
-    for i in range(2):
-        dc.AddConstraintToAllKnotPoints(u[i] <= U_MAX)
-        dc.AddConstraintToAllKnotPoints(u[i] >= -U_MAX)
-    x0 = np.zeros(8)
-    xf = np.array([0.0, 0.0, np.pi, 0.0, 0.0, 0.0, 0.0, 0.0])  # upright: pi about x
-    prog = dc.prog()
-    prog.AddBoundingBoxConstraint(x0, x0, dc.initial_state())
-    k = 2 if cart_free else 0
-    prog.AddBoundingBoxConstraint(xf[k:], xf[k:], dc.final_state()[k:])
-    dc.AddRunningCost(u.dot(u))
-    dc.AddFinalCost(dc.time())
-    dc.SetInitialTrajectory(
-        PiecewisePolynomial.FirstOrderHold([0.0, T_GUESS], np.zeros((2, 2))),
-        PiecewisePolynomial.FirstOrderHold([0.0, T_GUESS], np.column_stack([x0, xf])))
-    return dc
-
-
-def drake_solve(plant, *, cart_free: bool) -> dict:
-    """Build Drake's program, solve it with Drake's IpoptSolver; CPU and wall seconds."""
-    from pydrake.solvers import IpoptSolver, SolverOptions
-
-    dc = drake_program(plant, cart_free=cart_free)
-    options = SolverOptions()
-    fd, log = tempfile.mkstemp(suffix=".ipopt.txt")
-    os.close(fd)
-    options.SetOption(IpoptSolver.id(), "output_file", log)
-    options.SetOption(IpoptSolver.id(), "file_print_level", 3)
-    solver = IpoptSolver()
-    c0, t0 = time.process_time(), time.perf_counter()
-    result = solver.Solve(dc.prog(), None, options)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
-    text = Path(log).read_text()
-    os.unlink(log)
-    found = re.search(r"Number of Iterations\.+:\s*(\d+)", text)
-    exit_line = re.search(r"EXIT: (.*)", text)
-    return {"side": "drake", "cpu": cpu, "wall": wall,
-            "iterations": int(found.group(1)) if found else -1,
-            "cost": float(result.get_optimal_cost()), "ok": bool(result.is_success()),
-            "status": exit_line.group(1).strip() if exit_line else "unknown"}
 
 
 # workbench -----------------------------------------------------------------------------
@@ -190,8 +88,8 @@ def main() -> None:
     repeat = 1 if quick else 3
     if "--repeat" in sys.argv:
         repeat = int(sys.argv[sys.argv.index("--repeat") + 1])
-    have_drake = drake_available()
-    plant = drake_plant() if have_drake else None
+    have_drake = peer.drake_available()
+    plant = peer.drake_plant() if have_drake else None
     rows = []
     for case in ("origin", "free"):
         free = case == "free"
@@ -200,19 +98,19 @@ def main() -> None:
         except ImportError as exc:  # the workbench's side lands with its problem module
             print(f"workbench side unavailable ({exc}); Drake only")
             if have_drake:
-                print(drake_solve(plant, cart_free=free))
+                print(peer.drake_solve(plant, cart_free=free))
             continue
         drake_runs, ours = [], []
         for _ in range(repeat):  # interleaved: drake, workbench, drake, workbench, ...
             if have_drake:
-                drake_runs.append(drake_solve(plant, cart_free=free))
+                drake_runs.append(peer.drake_solve(plant, cart_free=free))
             ours.append(workbench_solve(setup))
         if have_drake:
             d = {"cpu": _median(drake_runs, "cpu"), "wall": _median(drake_runs, "wall"),
                  **{k: drake_runs[-1][k] for k in ("iterations", "cost", "status")},
                  "source": "measured"}
         else:
-            d = dict(RECORDED[case], status="n/a", wall=float("nan"),
+            d = dict(peer.RECORDED[case], status="n/a", wall=float("nan"),
                      source="RECORDED (issue 17)")
             d["cpu"] = d.pop("cpu_seconds")
         w_cpu = _median(ours, "cpu")
@@ -230,7 +128,7 @@ def main() -> None:
             "target": f"{'met' if ratio >= TARGET_RATIO else 'MISSED'} (>= {TARGET_RATIO:g}x)",
         })
         if case == "origin":
-            rows[-1]["target"] += (" cost ok" if ours[-1]["cost"] <= RECORDED["origin"]["cost"]
+            rows[-1]["target"] += (" cost ok" if ours[-1]["cost"] <= peer.RECORDED["origin"]["cost"]
                                    else " COST ABOVE 5.2289")
     if not have_drake:
         print("drake not installed: Drake's figures below are the ones RECORDED in issue 17, "
@@ -242,6 +140,65 @@ def main() -> None:
     print(f"(CPU-time medians of {repeat} interleaved runs; building excluded on both sides; "
           f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; gauge: "
           f"{ours[-1]['gauge']})")
+    if "--drake-only" not in sys.argv:
+        others()
+
+
+def others() -> None:
+    """The reference swing-up's iterations, multistart on all cores, the compiled NLP."""
+    from problems import swingup_spherical_cart as cart
+    from workbench.control.ocp import (
+        Collocation,
+        Compiled,
+        Guess,
+        HermiteSimpson,
+        multistart,
+        solve,
+        transcribe,
+    )
+    from workbench.control.ocp.study import effort_time_ocp
+
+    ocp = cart.problem()
+    s = solve(ocp, Collocation(N=40), raise_on_failure=False)
+    print(f"reference swing-up, default guess, Legendre N = 40: {s.status.name}, "
+          f"{s.cost['iterations']} iterations (target < 100), cost {s.objective:.4f}, "
+          f"CPU {s.cost['solve_cpu_seconds']:.2f} s, build {s.cost['first_build_seconds']:.1f}"
+          f" s; {s.gauge}")
+    ladder = [Collocation(N=n) for n in (10, 20, 40)]
+    for m in ladder:  # built once before timing: the workers inherit the builds
+        transcribe(ocp, m)
+    workers = os.cpu_count() or 1
+    t0 = time.perf_counter()
+    best, rec = multistart(ocp, ladder[0], seeds=range(12), T_guesses=cart.T_GUESSES,
+                           refine_with=ladder[1:], max_iter=150, workers=workers)
+    wall = time.perf_counter() - t0
+    n = sum(r["reached_best"] for r in rec)
+    print(f"multistart, 12 starts N = 10 -> 20 -> 40 on {workers} processes: {wall:.2f} s wall "
+          f"(target < 3 s on 2 cores; builds excluded), best {best.objective:.4f} reached by "
+          f"{n} of 12 (best known 4.2351), load {os.getloadavg()[0]:.1f}")
+    from models import pendulum3d as p3
+
+    body = p3.reduced(J=np.diag([0.13, 0.28, 0.17]), rho=[0, 0, 0.3], m=1.0, g=9.81)
+    e3 = np.eye(3)[2]
+    pend = effort_time_ocp(body, np.r_[e3, 0.0, 0.0, 0.0], np.r_[-e3, 0.0, 0.0, 0.0],
+                           u_max=3.0, T=(0.5, 3.0), name="bench_compiled")
+    g = Guess.geodesic(pend, T=1.5, rng=np.random.default_rng(3), noise=0.3)
+    for comp in (None, Compiled()):
+        t0 = time.perf_counter()
+        first = solve(pend, HermiteSimpson(N=60), guess=g, compiled=comp,
+                      raise_on_failure=False)
+        build = time.perf_counter() - t0 - first.cost["solve_seconds"]
+        cpu = statistics.median(
+            solve(pend, HermiteSimpson(N=60), guess=g, compiled=comp,
+                  raise_on_failure=False).cost["solve_cpu_seconds"] for _ in range(3))
+        info = first.cost["compile"] or {}
+        print(f"3D pendulum (reduced), HS N = 60, {'compiled' if comp else 'casadi VM'}: "
+              f"build+first-call overhead {build:.2f} s"
+              + (f" (generate {info['generate_seconds']:.2f} s, compile "
+                 f"{info['compile_seconds']:.2f} s, {info['source_mb']:.1f} MB of C, cached "
+                 f"{info['cached']})" if info else "")
+              + f", solve CPU median {cpu:.3f} s, {first.cost['iterations']} iterations, "
+                f"cost {first.objective:.5f}")
 
 
 if __name__ == "__main__":

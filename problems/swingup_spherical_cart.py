@@ -17,6 +17,7 @@ seeded perturbed starts.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import casadi as ca
@@ -104,13 +105,16 @@ def solve(*, quick: bool = False) -> Result:
     with res.timed("seeded coarse starts refined to N = 40"):
         best, starts = multistart(
             ocp, ladder[0], seeds=range(4 if quick else 12), T_guesses=T_GUESSES,
-            refine_with=ladder[1:], max_iter=150, describe=lambda s: swings(height(s.x)))
+            refine_with=ladder[1:], max_iter=150, describe=lambda s: swings(height(s.x)),
+            workers=os.cpu_count() or 1)
     res.values["reference"] = {
         "problem": "integral u^T u dt + T, |u_i| <= 10 N, T in [0.5, 3] s, N = 40, "
                    "Legendre d = 3, ambient coordinates",
         "cold_start": solution_row(cold, height=height),
         "cold_start_iterations_N10_20_40": [p.cost["iterations"] for p in cold_path],
         "seeded_starts": starts,
+        "starts_reaching_best": sum(r["reached_best"] for r in starts),
+        "gauge": best.gauge,
         "local_minima": _minima(starts),
         "best": solution_row(best, height=height),
         "strategy": "seeded geodesic guesses (random great circles, control noise 0.1, T "

@@ -4,16 +4,20 @@
 ...           u_upper=10, T=(0.5, 3.0), running_cost=lambda x, u: u.T @ u,
 ...           terminal_cost=lambda x, T: T)                      # doctest: +SKIP
 >>> sol = solve(ocp, Collocation(N=40, degree=3))                # doctest: +SKIP
+>>> sol = solve(ocp, HermiteSimpson(N=40))      # Drake's transcription # doctest: +SKIP
 >>> sol.status, sol.message                                      # doctest: +SKIP
 """
 
+from workbench.control.ocp.compiled import Compiled
 from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.hermite_simpson import HermiteSimpson
 from workbench.control.ocp.local import ProductLocal, local_for
 from workbench.control.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
 from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
 from workbench.control.ocp.stepper import Stepper
 from workbench.control.ocp.strategies import coarse_to_fine, continuation, multistart, refine
+from workbench.control.ocp.symmetry import Symmetry, detect_symmetry
 from workbench.control.ocp.transcription import (
     Collocation,
     Graph,
@@ -27,8 +31,10 @@ from workbench.control.ocp.transcription import (
 __all__ = [
     "OCP",
     "Collocation",
+    "Compiled",
     "Graph",
     "Guess",
+    "HermiteSimpson",
     "Integrator",
     "ManifoldHandling",
     "MultipleShooting",
@@ -38,11 +44,13 @@ __all__ = [
     "ProductLocal",
     "Scheme",
     "Stepper",
+    "Symmetry",
     "TargetPoint",
     "TargetSet",
     "Transcription",
     "coarse_to_fine",
     "continuation",
+    "detect_symmetry",
     "local_for",
     "multistart",
     "refine",

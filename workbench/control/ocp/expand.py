@@ -60,67 +60,77 @@ def sx_function(fn: ca.Function, *, name: str | None = None) -> ca.Function:
         op = fn.instruction_id(k)
         node = fn.instruction_MX(k)
         i_in, i_out = fn.instruction_input(k), fn.instruction_output(k)
-        if op == ca.OP_INPUT:
-            info = node.info()
-            nz = ca.vec(ins[info["ind"]])[info["offset"]: info["offset"] + node.nnz()]
-            work[i_out[0]] = _reshape(nz, node.sparsity())
-        elif op == ca.OP_OUTPUT:
-            info = node.info()
-            val = ca.vec(work[i_in[0]])
-            flat = ca.vec(outs[info["ind"]])
-            flat[info["offset"]: info["offset"] + val.numel()] = val
-            outs[info["ind"]] = _reshape(flat, fn.sparsity_out(info["ind"]))
-        elif op == ca.OP_CONST:
-            work[i_out[0]] = ca.SX(ca.evalf(node))
-        elif op == ca.OP_PARAMETER:
-            raise ModelError(f"graph of {fn.name()!r} has a free parameter node; {_UNSUPPORTED}")
+        if op in (ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST, ca.OP_PARAMETER):
+            _io(fn, op, node, i_in, i_out, work, ins, outs)
         elif op == ca.OP_GETNONZEROS:
-            src = ca.vec(work[i_in[0]])
-            info = node.info()
-            if "slice" in info:
-                s = info["slice"]
-                idx = list(range(s["start"], s["stop"], s["step"]))
-            elif "nz" in info:
-                idx = list(info["nz"])
-            else:
-                raise ModelError(f"nonzero selection {info} in {fn.name()!r}; {_UNSUPPORTED}")
-            work[i_out[0]] = _reshape(src[idx], node.sparsity())
+            work[i_out[0]] = _get_nonzeros(fn, node, work[i_in[0]])
         elif op == ca.OP_CALL:
             sub = sx_function(node.which_function())
             res = sub.call([work[i] for i in i_in])
             for j, r in zip(i_out, res):
                 if j >= 0:
                     work[j] = r
-        elif op == ca.OP_SOLVE:
-            b, A = work[i_in[0]], work[i_in[1]]
-            if node.info().get("tr", False):
-                A = A.T
-            work[i_out[0]] = ca.solve(A, b)
-        elif op == ca.OP_MTIMES:
-            z, x, y = (work[i] for i in i_in)
-            work[i_out[0]] = z + ca.mtimes(x, y)
-        elif op == ca.OP_VERTCAT:
-            work[i_out[0]] = ca.vertcat(*[work[i] for i in i_in])
-        elif op == ca.OP_HORZCAT:
-            work[i_out[0]] = ca.horzcat(*[work[i] for i in i_in])
-        elif op == ca.OP_TRANSPOSE:
-            work[i_out[0]] = work[i_in[0]].T
-        elif op == ca.OP_RESHAPE:
-            work[i_out[0]] = _reshape(ca.vec(work[i_in[0]]), node.sparsity())
-        elif len(i_in) in (1, 2) and _elementwise(op):
-            args = [work[i] for i in i_in]
-            work[i_out[0]] = (ca.SX.unary(op, args[0]) if len(args) == 1
-                              else ca.SX.binary(op, args[0], args[1]))
         else:
-            raise ModelError(
-                f"operation {node} (op code {op}) in {fn.name()!r}; {_UNSUPPORTED}"
-            )
+            work[i_out[0]] = _operation(fn, op, node, [work[i] for i in i_in])
     return ca.Function(
         new_name, ins, outs,
         [fn.name_in(i) for i in range(fn.n_in())],
         [fn.name_out(i) for i in range(fn.n_out())],
         {"cse": True},
     )
+
+
+def _io(fn: ca.Function, op: int, node: ca.MX, i_in: list, i_out: list, work: dict,
+        ins: list, outs: list) -> None:
+    """Inputs, outputs and constants of the replay (updates ``work`` and ``outs``)."""
+    if op == ca.OP_INPUT:
+        info = node.info()
+        nz = ca.vec(ins[info["ind"]])[info["offset"]: info["offset"] + node.nnz()]
+        work[i_out[0]] = _reshape(nz, node.sparsity())
+    elif op == ca.OP_OUTPUT:
+        info = node.info()
+        val = ca.vec(work[i_in[0]])
+        flat = ca.vec(outs[info["ind"]])
+        flat[info["offset"]: info["offset"] + val.numel()] = val
+        outs[info["ind"]] = _reshape(flat, fn.sparsity_out(info["ind"]))
+    elif op == ca.OP_CONST:
+        work[i_out[0]] = ca.SX(ca.evalf(node))
+    else:
+        raise ModelError(f"graph of {fn.name()!r} has a free parameter node; {_UNSUPPORTED}")
+
+
+def _get_nonzeros(fn: ca.Function, node: ca.MX, value: ca.SX) -> ca.SX:
+    src = ca.vec(value)
+    info = node.info()
+    if "slice" in info:
+        s = info["slice"]
+        idx = list(range(s["start"], s["stop"], s["step"]))
+    elif "nz" in info:
+        idx = list(info["nz"])
+    else:
+        raise ModelError(f"nonzero selection {info} in {fn.name()!r}; {_UNSUPPORTED}")
+    return _reshape(src[idx], node.sparsity())
+
+
+def _operation(fn: ca.Function, op: int, node: ca.MX, args: list) -> ca.SX:
+    """One arithmetic or structural operation of the replay, on SX arguments."""
+    if op == ca.OP_SOLVE:
+        b, A = args[0], args[1]
+        return ca.solve(A.T if node.info().get("tr", False) else A, b)
+    if op == ca.OP_MTIMES:
+        return args[0] + ca.mtimes(args[1], args[2])
+    if op == ca.OP_VERTCAT:
+        return ca.vertcat(*args)
+    if op == ca.OP_HORZCAT:
+        return ca.horzcat(*args)
+    if op == ca.OP_TRANSPOSE:
+        return args[0].T
+    if op == ca.OP_RESHAPE:
+        return _reshape(ca.vec(args[0]), node.sparsity())
+    if len(args) in (1, 2) and _elementwise(op):
+        return (ca.SX.unary(op, args[0]) if len(args) == 1
+                else ca.SX.binary(op, args[0], args[1]))
+    raise ModelError(f"operation {node} (op code {op}) in {fn.name()!r}; {_UNSUPPORTED}")
 
 
 def _reshape(v: ca.SX, sp: ca.Sparsity) -> ca.SX:

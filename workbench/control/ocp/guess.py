@@ -36,8 +36,9 @@ class Guess:
         Normalised sample times, increasing from 0 to 1.
     x : ndarray, shape=(n, ambient_dim)
         States at ``s``.
-    u : ndarray, shape=(n - 1, n_inputs)
-        Control on each sample interval.
+    u : ndarray, shape=(n - 1, n_inputs) or (n, n_inputs)
+        Control on each sample interval, or at each sample (first-order hold: linear in
+        between).
     T : float
         Final time.
     local : ProductLocal
@@ -60,11 +61,31 @@ class Guess:
             return self.x[k + 1]
         return self.local.interpolate(self.x[k], self.x[k + 1], float(a))
 
+    @property
+    def first_order_hold(self) -> bool:
+        """Whether the controls are sample values, linear in between."""
+        return len(self.u) == len(self.s)
+
+    def _at(self, s: np.ndarray) -> np.ndarray:
+        if self.first_order_hold:
+            return np.column_stack([np.interp(s, self.s, uj) for uj in self.u.T])
+        idx = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.u) - 1)
+        return self.u[idx]
+
     def controls(self, N: int) -> np.ndarray:
         """Control on each of ``N`` equal intervals (sample-and-hold at their midpoints)."""
-        mid = (np.arange(N) + 0.5) / N
-        idx = np.clip(np.searchsorted(self.s, mid, side="right") - 1, 0, len(self.u) - 1)
-        return self.u[idx]
+        return self._at((np.arange(N) + 0.5) / N)
+
+    def node_controls(self, N: int) -> np.ndarray:
+        """Control at the ``N + 1`` knots of ``N`` equal intervals (first-order hold).
+
+        A piecewise-constant guess gives the mean of the two intervals meeting at a knot.
+        """
+        s = np.linspace(0.0, 1.0, N + 1)
+        if self.first_order_hold:
+            return self._at(s)
+        eps = 1e-9
+        return 0.5 * (self._at(np.clip(s - eps, 0, 1)) + self._at(np.clip(s + eps, 0, 1)))
 
     @classmethod
     def geodesic(
@@ -142,8 +163,8 @@ class Guess:
             Times from 0 to T.
         x : array-like, shape=(n, ambient_dim)
             States.
-        u : array-like, shape=(n - 1, n_inputs)
-            Controls per interval.
+        u : array-like, shape=(n - 1, n_inputs) or (n, n_inputs)
+            Controls per interval, or at the samples (first-order hold).
         """
         t = np.asarray(t, float)
         return cls(t / t[-1], np.asarray(x, float), np.asarray(u, float), float(t[-1]),

@@ -286,6 +286,18 @@ class OCP:
         Largest accepted manifold residual of ``x0`` and of a target point.
     name : str
         For messages and results.
+    gauge : bool
+        Gauge a continuous symmetry automatically (default): when
+        :attr:`symmetry` finds a rotation that maps the problem to itself (the cart
+        pendulums about the vertical), the transcriptions add the phase condition of
+        :mod:`workbench.control.ocp.symmetry`, which picks one optimum of each circle; the
+        solution says so. ``False`` solves the problem as posed.
+
+    Attributes
+    ----------
+    symmetry : Symmetry or None
+        The verified rotation symmetry (detected on first use, shared with the problems
+        of :meth:`with_bounds`), whether or not it is gauged.
     """
 
     model: Model
@@ -299,6 +311,7 @@ class OCP:
     path_constraints: Sequence[PathConstraint] = ()
     tol: float = DEFAULT_TOL
     name: str = "ocp"
+    gauge: bool = True
     _cache: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -325,11 +338,36 @@ class OCP:
                 f"{self.u_upper.tolist()}"
             )
         self.T_range = self._horizon(self.T)
+        self._check_costs()
+        if not isinstance(self.gauge, (bool, np.bool_)):
+            raise ParameterError(f"gauge must be True or False; got {self.gauge!r}")
         for c in self.path_constraints:
             if not isinstance(c, PathConstraint):
                 raise ModelError(
                     f"path_constraints must hold PathConstraint objects; got {type(c).__name__}"
                 )
+
+    def _check_costs(self) -> None:
+        """Each cost must be a scalar expression of the symbolic state and input."""
+        m = self.model
+        x, u = m.sym.sym("x", m.manifold.ambient_dim), m.sym.sym("u", m.n_inputs)
+        for name, fn, args in (("running_cost", self.running_cost, (x, u)),
+                               ("terminal_cost", self.terminal_cost, (x, ca.MX.sym("T")
+                                                                       if m.sym is ca.MX
+                                                                       else ca.SX.sym("T")))):
+            if fn is None:
+                continue
+            if not callable(fn):
+                raise ModelError(f"{name} must be a callable; got {type(fn).__name__}")
+            try:
+                value = ca.vec(fn(*args))
+            except (RuntimeError, TypeError, IndexError) as exc:
+                raise ModelError(f"{name} must be a casadi expression of the symbolic "
+                                 f"arguments {[str(a.shape) for a in args]}; it failed: "
+                                 f"{str(exc).strip().splitlines()[-1]}") from exc
+            if value.numel() != 1:
+                raise ModelError(f"{name} must be a scalar expression; got shape "
+                                 f"{value.shape}")
 
     def _bound(self, value: ArrayLike, name: str) -> Vector:
         arr = np.asarray(validate.bound(name, value), dtype=float)
@@ -359,15 +397,26 @@ class OCP:
         return lo, hi
 
     @property
+    def symmetry(self) -> Any:
+        """The verified rotation symmetry of the problem, or None (detected once)."""
+        if "symmetry" not in self._cache:
+            from workbench.control.ocp.symmetry import detect_symmetry
+
+            self._cache["symmetry"] = detect_symmetry(self)
+        return self._cache["symmetry"]
+
+    @property
     def free_time(self) -> bool:
         """Whether the final time is a decision variable."""
         return self.T_range[0] < self.T_range[1]
 
     def with_bounds(self, *, u_lower: ArrayLike | None = None, u_upper: ArrayLike | None = None,
-                    T: float | tuple[float, float] | None = None) -> OCP:
-        """The same problem with other control bounds or horizon (for continuation).
+                    T: float | tuple[float, float] | None = None,
+                    gauge: bool | None = None) -> OCP:
+        """The same problem with other control bounds, horizon or gauge (for continuation).
 
-        Built transcriptions are shared: bounds are data of the NLP, not of its graph.
+        Built transcriptions are shared: bounds are data of the NLP, not of its graph (the
+        gauged and the ungauged NLP are two transcriptions in the shared cache).
         """
         new = OCP(
             model=self.model, x0=self.x0, target=self.target,
@@ -375,7 +424,7 @@ class OCP:
             u_upper=self.u_upper if u_upper is None else u_upper,
             T=self.T if T is None else T, running_cost=self.running_cost,
             terminal_cost=self.terminal_cost, path_constraints=self.path_constraints,
-            tol=self.tol, name=self.name,
+            tol=self.tol, name=self.name, gauge=self.gauge if gauge is None else gauge,
         )
         new._cache = self._cache
         return new

@@ -25,6 +25,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.control.ocp.compiled import Compiled
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.transcription import (
@@ -89,9 +90,10 @@ class OCPSolution:
         Node times.
     x : ndarray, shape=(N+1, ambient_dim)
         Node states.
-    u : ndarray, shape=(N, n_inputs)
-        Piecewise-constant control.
-    method : Collocation or MultipleShooting
+    u : ndarray, shape=(N, n_inputs) or (N+1, n_inputs)
+        Piecewise-constant control, or the knot values of a first-order hold
+        (:class:`~workbench.control.ocp.hermite_simpson.HermiteSimpson`: linear in between).
+    method : Collocation, MultipleShooting or HermiteSimpson
         The transcription.
     handling : ManifoldHandling
         Manifold handling.
@@ -100,7 +102,8 @@ class OCPSolution:
     cost : dict
         ``build_seconds`` (0 when the transcription was cached), ``transcription_cached``
         (whether this solve reused an earlier build), ``first_build_seconds``,
-        ``solve_seconds``, ``iterations``, ``nlp_variables``, ``nlp_constraints``.
+        ``solve_seconds``, ``solve_cpu_seconds``, ``iterations``, ``nlp_variables``,
+        ``nlp_constraints``.
     error : dict
         ``constraint_violation`` (max over the NLP's constraints, from their bounds),
         ``manifold_residual`` (max over the nodes), ``target_residual``,
@@ -113,6 +116,10 @@ class OCPSolution:
         The problem.
     w, lam_x, lam_g : ndarray
         Primal and dual NLP solution (for warm starts).
+    gauge : str
+        How a continuous symmetry of the problem was handled: ``"none"`` (no symmetry
+        found), the symmetry and its phase condition with the condition's multiplier (zero
+        when the gauge only picks one optimum of a circle), or why it was not used.
     """
 
     status: OCPStatus
@@ -131,6 +138,18 @@ class OCPSolution:
     w: np.ndarray = field(repr=False)
     lam_x: np.ndarray = field(repr=False)
     lam_g: np.ndarray = field(repr=False)
+    gauge: str = "none"
+
+    @property
+    def first_order_hold(self) -> bool:
+        """Whether :attr:`u` holds knot values, linear in between."""
+        return len(self.u) == len(self.x)
+
+    def interval_inputs(self) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        """Per interval: ``(u, None)`` (constant) or ``(u_k, u_(k+1))`` (linear)."""
+        if self.first_order_hold:
+            return list(zip(self.u[:-1], self.u[1:]))
+        return [(u, None) for u in self.u]
 
     @property
     def message(self) -> str:
@@ -142,7 +161,7 @@ class OCPSolution:
             f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
             f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
             f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s"
-            f"{defect} [{self.describe()}]"
+            f"{defect}; symmetry: {self.gauge} [{self.describe()}]"
         )
 
     def __str__(self) -> str:
@@ -163,7 +182,9 @@ class OCPSolution:
         return Guess.from_samples(self.ocp, self.t, self.x, self.u)
 
     def control(self, t: float) -> np.ndarray:
-        """The piecewise-constant optimal control at time ``t``."""
+        """The optimal control at time ``t`` (piecewise constant, or linear)."""
+        if self.first_order_hold:
+            return np.array([np.interp(t, self.t, uj) for uj in self.u.T])
         k = int(np.clip(np.floor(t / self.T * len(self.u)), 0, len(self.u) - 1))
         return self.u[k]
 
@@ -191,13 +212,16 @@ class OCPSolution:
 
         stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
         t0 = time.perf_counter()
-        h = self.T / len(self.u)
+        h = self.T / (len(self.x) - 1)
         xs, ts = [self.x[0]], [0.0]
         x = self.x[0]
         node_err = 0.0
-        for k, uk in enumerate(self.u):
+        for k, (uk, uk1) in enumerate(self.interval_inputs()):
             for j in range(substeps):
-                x = stepper.step(x, uk, h / substeps)
+                a, b = j / substeps, (j + 1) / substeps
+                u0 = uk if uk1 is None else (1 - a) * uk + a * uk1
+                u1 = None if uk1 is None else (1 - b) * uk + b * uk1
+                x = stepper.step(x, u0, h / substeps, u_end=u1)
                 xs.append(x)
                 ts.append(k * h + (j + 1) * h / substeps)
             node_err = max(node_err, float(np.max(np.abs(x - self.x[k + 1]))))
@@ -227,6 +251,7 @@ class OCPSolution:
             "objective": self.objective,
             "T": self.T,
             "transcription": self.describe(),
+            "gauge": self.gauge,
             "cost": dict(self.cost),
             "error": dict(self.error),
         }
@@ -301,7 +326,7 @@ def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = Manifol
         The transcription and whether it was built by this call.
     """
     check_method(method)
-    key = (method, handling, graph)
+    key = (method, handling, graph, bool(ocp.gauge and ocp.symmetry is not None))
     if key in ocp._cache:
         return ocp._cache[key], False
     tr = Transcription(ocp, method, handling, graph, ipopt or _ipopt_options(1e-8, 1000, 0, None))
@@ -323,6 +348,7 @@ def solve(
     ipopt_options: dict[str, Any] | None = None,
     raise_on_failure: bool = True,
     defect_tol: float | None = DEFECT_TOL,
+    compiled: Compiled | None = None,
 ) -> OCPSolution:
     """Transcribe and solve an OCP with Ipopt (exact Hessian).
 
@@ -358,6 +384,10 @@ def solve(
         solution that is no trajectory of the model) and, with ``raise_on_failure``, a
         SolverError quotes the measured defect. On by default (:data:`DEFECT_TOL`);
         ``None`` explicitly asks for a report only.
+    compiled : Compiled, optional
+        Compile the NLP's functions with the system compiler, cached by hash (see
+        :mod:`workbench.control.ocp.compiled`): faster iterations for a one-off build.
+        ``cost["compile"]`` reports generation, compilation and loading seconds.
 
     Returns
     -------
@@ -373,31 +403,70 @@ def solve(
     if defect_tol is not None:
         defect_tol = validate.tolerance("defect_tol", defect_tol)
     tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
+    args, opts = _start(tr, ocp, guess, opts, warm_options=ipopt_options is None)
+    out = _run(tr, built, args, opts, compiled)
+    if tr.i_gauge is not None and out.status.ok:
+        out = _check_gauge(out, tr, args, opts, ipopt_options is None, compiled)
+    if out.status.ok:
+        out.error["local_defect"] = _local_defect(out)
+        limit = (None if defect_tol is None else
+                 validate.scaled_tolerance(defect_tol, float(np.max(np.abs(out.x)))))
+        if limit is not None and not out.error["local_defect"] <= limit:
+            out.status = OCPStatus.INACCURATE
+            out.error["defect_limit"] = limit
+    if raise_on_failure and not out.status.ok:
+        err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=out.ipopt_status)
+        err.solution = out  # type: ignore[attr-defined]
+        raise err
+    return out
+
+
+GAUGE_BINDING = 1e-6
+"""Largest ``|multiplier|`` of the phase condition read as "only picks one optimum"."""
+
+
+def _start(tr: Transcription, ocp: OCP, guess: Guess | OCPSolution | None,
+           opts: dict[str, Any], *, warm_options: bool) -> tuple[dict[str, Any], dict]:
+    """Solver arguments: bounds, parameters (with the gauge), start point."""
     lbw, ubw = tr.bounds(ocp)
-    args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg, "ubg": tr.ubg,
-                            "p": ocp.model.p}
-    if isinstance(guess, OCPSolution) and guess.method == method and \
-            guess.handling is handling and guess.graph is graph:
-        # primal-dual warm start: start close to the central path, not at mu = 0.1
-        opts = {**WARM_START, **opts} if ipopt_options is None else opts
-        args.update(x0=guess.w, lam_x0=guess.lam_x, lam_g0=guess.lam_g)
+    args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg.copy(),
+                            "ubg": tr.ubg.copy()}
+    if isinstance(guess, OCPSolution) and guess.method == tr.method and \
+            guess.handling is tr.handling and guess.graph is tr.graph:
+        args["x0"] = guess.w
+        if len(guess.lam_g) == tr.ng:
+            # primal-dual warm start: start close to the central path, not at mu = 0.1
+            opts = {**WARM_START, **opts} if warm_options else opts
+            args.update(lam_x0=guess.lam_x, lam_g0=guess.lam_g)
     else:
         if isinstance(guess, OCPSolution):
             guess = guess.guess()
         g = guess if guess is not None else Guess.geodesic(ocp)
-        args["x0"] = tr.pack(g.state, g.controls(tr.N), g.T)
+        u = g.node_controls(tr.N) if tr.foh else g.controls(tr.N)
+        args["x0"] = tr.pack(g.state, u, g.T)
     args["x0"] = np.clip(args["x0"], lbw, ubw)
-    solver = tr.solver(opts)
+    args["p"] = ocp.model.p
+    if tr.i_gauge is not None:
+        c = tr.gauge_direction(args["x0"])
+        args["p"] = np.r_[ocp.model.p, c]
+        args["lbg"][tr.i_gauge] = args["ubg"][tr.i_gauge] = float(c @ args["x0"])
+    return args, opts
+
+
+def _run(tr: Transcription, built: bool, args: dict[str, Any], opts: dict[str, Any],
+         compiled: Compiled | None = None) -> OCPSolution:
+    """One Ipopt solve, timed (wall and CPU), read into a solution."""
+    ocp = tr.ocp
+    solver = tr.solver(opts, compiled)
     t0, c0 = time.perf_counter(), time.process_time()
     sol = solver(**args)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     stats = solver.stats()
     ipopt_status = str(stats.get("return_status", "unknown"))
-    status = OCPStatus.from_ipopt(ipopt_status)
     w = np.asarray(sol["x"], float).ravel()
     X, U, T = tr.unpack(w)
     gval = np.asarray(sol["g"], float).ravel()
-    viol = np.maximum(np.maximum(tr.lbg - gval, gval - tr.ubg), 0.0)
+    viol = np.maximum(np.maximum(args["lbg"] - gval, gval - args["ubg"]), 0.0)
     man = ocp.model.manifold
     cost = {
         "build_seconds": tr.build_seconds if built else 0.0,
@@ -410,30 +479,60 @@ def solve(
         "iterations": int(stats.get("iter_count", -1)),
         "nlp_variables": tr.nw,
         "nlp_constraints": tr.ng,
+        "compile": tr.compile_info.get(compiled) if compiled is not None else None,
     }
     error = {
         "constraint_violation": float(viol.max(initial=0.0)),
         "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in X)),
         "target_residual": ocp.target.distance(X[-1]),
     }
-    out = OCPSolution(
-        status=status, ipopt_status=ipopt_status, objective=float(sol["f"]), T=T,
-        t=tr.times(T), x=X, u=U, method=method, handling=handling, graph=graph, cost=cost,
-        error=error, ocp=ocp, w=w, lam_x=np.asarray(sol["lam_x"], float).ravel(),
-        lam_g=np.asarray(sol["lam_g"], float).ravel(),
+    sym = ocp.symmetry
+    gauge = "none found" if sym is None else (
+        f"{sym.describe()}, not gauged (gauge=False)" if tr.i_gauge is None else
+        f"{sym.describe()}, gauged by the phase condition through the guess")
+    return OCPSolution(
+        status=OCPStatus.from_ipopt(ipopt_status), ipopt_status=ipopt_status,
+        objective=float(sol["f"]), T=T, t=tr.times(T), x=X, u=U, method=tr.method,
+        handling=tr.handling, graph=tr.graph, cost=cost, error=error, ocp=ocp, w=w,
+        lam_x=np.asarray(sol["lam_x"], float).ravel(),
+        lam_g=np.asarray(sol["lam_g"], float).ravel(), gauge=gauge,
     )
-    if status.ok:
-        out.error["local_defect"] = _local_defect(out)
-        limit = (None if defect_tol is None else
-                 validate.scaled_tolerance(defect_tol, float(np.max(np.abs(out.x)))))
-        if limit is not None and not out.error["local_defect"] <= limit:
-            out.status = status = OCPStatus.INACCURATE
-            out.error["defect_limit"] = limit
-    if raise_on_failure and not status.ok:
-        err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=ipopt_status)
-        err.solution = out  # type: ignore[attr-defined]
-        raise err
-    return out
+
+
+def _check_gauge(out: OCPSolution, tr: Transcription, args: dict[str, Any],
+                 opts: dict[str, Any], warm_options: bool,
+                 compiled: Compiled | None) -> OCPSolution:
+    """Read the phase condition's multiplier; if it binds, re-solve without the gauge.
+
+    The gauge only selects one optimum of a circle when the problem is symmetric along the
+    solution (multiplier zero). Control bounds are not rotation invariant: where they are
+    active the gauge can bind, and the gauged optimum is not one of the problem as posed.
+    """
+    lam = float(out.lam_g[tr.i_gauge])
+    out.error["gauge_multiplier"] = lam
+    if not np.any(args["p"][out.ocp.model.n_params:]):
+        out.gauge = (f"{tr.symmetry.describe()}; not gauged: the guess is invariant (no "
+                     f"phase condition through it)")
+        return out
+    if abs(lam) <= GAUGE_BINDING * max(1.0, abs(out.objective)):
+        out.gauge += f" (multiplier {lam:.1e}: not binding)"
+        return out
+    free = out.ocp.with_bounds(gauge=False)
+    tr2, built = transcribe(free, tr.method, handling=tr.handling, graph=tr.graph)
+    lbw, ubw = tr2.bounds(free)
+    keep = np.arange(tr.ng) != tr.i_gauge
+    args = {"lbx": lbw, "ubx": ubw, "lbg": tr2.lbg, "ubg": tr2.ubg, "p": free.model.p,
+            "x0": out.w, "lam_x0": out.lam_x, "lam_g0": out.lam_g[keep]}
+    again = _run(tr2, built, args, {**WARM_START, **opts} if warm_options else opts, compiled)
+    again.cost["iterations_gauged"] = out.cost["iterations"]
+    again.cost["iterations"] += out.cost["iterations"]
+    again.cost["solve_seconds"] += out.cost["solve_seconds"]
+    again.cost["solve_cpu_seconds"] += out.cost["solve_cpu_seconds"]
+    again.error["gauge_multiplier"] = lam
+    again.gauge = (f"{tr.symmetry.describe()}; the gauge bound (multiplier {lam:.2e}: the "
+                   f"control bounds break the symmetry here), so the gauged solution "
+                   f"(cost {out.objective:.6g}) was re-solved without it")
+    return again
 
 
 def _local_defect(sol: OCPSolution) -> float:
@@ -444,9 +543,9 @@ def _local_defect(sol: OCPSolution) -> float:
     if key not in sol.ocp._cache:
         sol.ocp._cache[key] = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
     stepper = sol.ocp._cache[key]
-    h = sol.T / len(sol.u)
+    h = sol.T / (len(sol.x) - 1)
     try:
-        return max(float(np.max(np.abs(stepper.step(x, u, h) - xn)))
-                   for x, u, xn in zip(sol.x[:-1], sol.u, sol.x[1:]))
+        return max(float(np.max(np.abs(stepper.step(x, u, h, u_end=u1) - xn)))
+                   for x, (u, u1), xn in zip(sol.x[:-1], sol.interval_inputs(), sol.x[1:]))
     except SolverError:  # the nodes are not even integrable: no trajectory at all
         return float("inf")

@@ -1,7 +1,8 @@
 """One-step integration of a model with a constant input (re-simulation, sampled feedback).
 
-:func:`workbench.simulation._simulate.simulate` integrates ``x' = f(x, k(x))`` for a feedback ``k`` of
-the state; an open-loop or sampled-data control is constant on each interval instead. A
+:func:`workbench.simulation.simulate` integrates ``x' = f(x, k(x))`` for a feedback ``k``
+of the state; an open-loop or sampled-data control is constant (or, with a first-order
+hold, linear) on each interval instead. A
 :class:`Stepper` builds one CVODES integrator with the input and the step length as
 parameters (time scaled to ``[0, 1]``), so a trajectory of ``N`` intervals costs one build
 and ``N`` calls. It uses the same CVODES tolerances as ``simulate``; the tests check the two
@@ -53,9 +54,39 @@ class Stepper:
         )
         self.build_seconds = time.perf_counter() - t0
         self._p = model.p
+        self._opts = {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps)}
+        self._F_linear: ca.Function | None = None
 
-    def step(self, x: ArrayLike, u: ArrayLike, h: float) -> Vector:
+    def _linear(self) -> ca.Function:
+        """The integrator with the input linear in time (first-order hold), built once."""
+        if self._F_linear is None:
+            model = self.model
+            S = model.sym
+            x, s = S.sym("x", model.manifold.ambient_dim), S.sym("s")
+            u0, u1 = S.sym("u0", model.n_inputs), S.sym("u1", model.n_inputs)
+            h, p = S.sym("h"), S.sym("p", model.n_params)
+            ode = h * model.function("f")(x, u0 + s * (u1 - u0), p)
+            self._F_linear = ca.integrator(
+                f"step_foh_{model.name}", "cvodes",
+                {"x": x, "t": s, "p": ca.vertcat(u0, u1, h, p), "ode": ode}, 0.0, 1.0,
+                self._opts)
+        return self._F_linear
+
+    def step(self, x: ArrayLike, u: ArrayLike, h: float, *,
+             u_end: ArrayLike | None = None) -> Vector:
         """Integrate from ``x`` over ``h`` seconds with the constant input ``u``.
+
+        Parameters
+        ----------
+        x : array-like, shape=(ambient_dim,)
+            Start.
+        u : array-like, shape=(n_inputs,)
+            Input (at the start, with ``u_end``).
+        h : float
+            Step length [s].
+        u_end : array-like, shape=(n_inputs,), optional
+            Input at the end: the input is then linear in time from ``u`` to ``u_end``
+            (first-order hold).
 
         Raises
         ------
@@ -63,12 +94,16 @@ class Stepper:
             If CVODES fails.
         """
         try:
-            res = self._F(x0=np.asarray(x, float), p=np.r_[np.ravel(u), h, self._p])
+            if u_end is None:
+                F, pv = self._F, np.r_[np.ravel(u), h, self._p]
+            else:
+                F, pv = self._linear(), np.r_[np.ravel(u), np.ravel(u_end), h, self._p]
+            res = F(x0=np.asarray(x, float), p=pv)
         except RuntimeError as exc:
             raise SolverError(
                 f"cvodes failed on a step of {h:g} s of {self.model.name}: "
                 f"{str(exc).splitlines()[-1] if str(exc) else exc!r}",
-                status=str(self._F.stats().get("return_status", "integrator error")),
+                status=str(F.stats().get("return_status", "integrator error")),
             ) from exc
         out = np.asarray(res["xf"], float).ravel()
         if not np.all(np.isfinite(out)):

@@ -17,8 +17,8 @@ import numpy as np
 
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
-from workbench.control.ocp.solve import OCPSolution, solve
-from workbench.control.ocp.transcription import Collocation, Method
+from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
+from workbench.control.ocp.transcription import Collocation, Graph, ManifoldHandling, Method
 from workbench.core.errors import ParameterError, SolverError
 
 __all__ = ["multistart", "coarse_to_fine", "refine", "continuation"]
@@ -34,6 +34,7 @@ def multistart(
     refine_with: Sequence[Method] = (),
     describe: Callable[[OCPSolution], dict[str, Any]] | None = None,
     ipopt_variants: Sequence[dict[str, Any]] = ({},),
+    workers: int = 1,
     **solve_options: Any,
 ) -> tuple[OCPSolution, list[dict[str, Any]]]:
     """Solve from seeded geodesic guesses (random great circles, control noise); keep the best.
@@ -42,7 +43,7 @@ def multistart(
     ----------
     ocp : OCP
         The problem.
-    method : Collocation or MultipleShooting, optional
+    method : Collocation, MultipleShooting or HermiteSimpson, optional
         The transcription of the starts (built once for all; a coarse one is cheap).
     seeds : sequence of int
         One start per seed.
@@ -50,7 +51,7 @@ def multistart(
         Control noise of the guesses (relative to the bounds' half-range).
     T_guesses : sequence of float, optional
         Final-time guesses, cycled over the seeds (default: the middle of the range).
-    refine_with : sequence of Collocation or MultipleShooting
+    refine_with : sequence of transcriptions
         Each converged start is refined through these transcriptions in turn (each
         warm-started by the previous one, see :func:`coarse_to_fine`); the best is chosen
         after refinement.
@@ -61,6 +62,12 @@ def multistart(
         Ipopt options cycled over the starts (e.g. ``{"mu_oracle": "probing"}``): on a
         rugged landscape the barrier strategy decides which minimum a start falls into as
         much as the guess does. The refinements use the default options.
+    workers : int
+        Processes solving the starts in parallel (1: in this process). The transcriptions
+        are built here first and inherited by forked workers (no rebuild, nothing
+        pickled but numbers); each worker returns its records and the primal-dual vector
+        of its end point, and the best is re-solved here from that vector (a warm start
+        of the same transcription: a few iterations) to give a complete solution.
     **solve_options
         Passed to :func:`solve` (``raise_on_failure`` is forced off for the starts).
 
@@ -75,41 +82,108 @@ def multistart(
     SolverError
         If no start converged.
     """
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
     solve_options = dict(solve_options)
     solve_options.pop("raise_on_failure", None)
     solve_options.pop("guess", None)
-    best, records = None, []
-    for i, seed in enumerate(seeds):
-        rng = np.random.default_rng(seed)
-        T = None if not T_guesses else T_guesses[i % len(T_guesses)]
-        g = Guess.geodesic(ocp, T=T, rng=rng, noise=noise)
-        variant = dict(ipopt_variants[i % len(ipopt_variants)]) if ipopt_variants else {}
-        first_options = dict(solve_options)
-        if variant:
-            first_options["ipopt_options"] = {**(solve_options.get("ipopt_options") or {}),
-                                              **variant}
-        first = solve(ocp, method or Collocation(), guess=g, raise_on_failure=False,
-                      **first_options)
-        s, path = first, [first]
-        if first.status.ok and refine_with:
-            s, rest = coarse_to_fine(ocp, list(refine_with), guess=first,
-                                     raise_on_failure=False, **solve_options)
-            path += rest
-        records.append({
-            "seed": int(seed), "status": s.status.name, "objective": s.objective, "T": s.T,
-            "iterations": [p.cost["iterations"] for p in path],
-            "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
-            "coarse_objective": path[0].objective,
-            "ipopt_variant": variant,
-        })
-        if describe is not None and s.status.ok:
-            records[-1].update(describe(s))
-        if s.status.ok and (best is None or s.objective < best.objective):
-            best = s
-    if best is None:
-        raise SolverError(f"OCP {ocp.name!r}: none of {len(seeds)} starts converged",
+    job = {"ocp": ocp, "method": method or Collocation(), "noise": noise, "seeds": list(seeds),
+           "T_guesses": T_guesses, "refine_with": list(refine_with), "describe": describe,
+           "variants": list(ipopt_variants), "options": solve_options}
+    if workers == 1 or len(job["seeds"]) < 2:
+        done = [_one_start(job, i) for i in range(len(job["seeds"]))]
+    else:
+        done = _parallel_starts(job, int(workers))
+    records = [d[0] for d in done]
+    ok = [(r["objective"], i) for i, r in enumerate(records)
+          if r["status"] in ("SUCCESS", "ACCEPTABLE")]
+    if not ok:
+        raise SolverError(f"OCP {ocp.name!r}: none of {len(records)} starts converged",
                           status=records[-1]["status"] if records else "")
+    i_best = min(ok)[1]
+    best = done[i_best][1]
+    if not isinstance(best, OCPSolution):  # a vector from a worker: complete it here
+        m, w, lam_x, lam_g = best
+        best = solve(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
+                     raise_on_failure=False, **solve_options)
+    best_cost = records[i_best]["objective"]
+    for r in records:
+        r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE") and
+                                 abs(r["objective"] - best_cost) <= 1e-6 * max(1, best_cost))
     return best, records
+
+
+_JOB: dict[str, Any] = {}
+"""The multistart job of the parent, inherited by forked workers (never pickled)."""
+
+
+def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution | None]:
+    """Start ``i`` of a multistart job: guess, solve, refine; its record and end point."""
+    ocp, seed = job["ocp"], job["seeds"][i]
+    rng = np.random.default_rng(seed)
+    T = None if not job["T_guesses"] else job["T_guesses"][i % len(job["T_guesses"])]
+    g = Guess.geodesic(ocp, T=T, rng=rng, noise=job["noise"])
+    variant = dict(job["variants"][i % len(job["variants"])]) if job["variants"] else {}
+    options = job["options"]
+    first_options = dict(options)
+    if job["refine_with"]:  # a coarse start is a means: judged after its refinement
+        first_options.setdefault("defect_tol", None)
+    if variant:
+        first_options["ipopt_options"] = {**(options.get("ipopt_options") or {}), **variant}
+    first = solve(ocp, job["method"], guess=g, raise_on_failure=False, **first_options)
+    s, path = first, [first]
+    if first.status.ok and job["refine_with"]:
+        s, rest = coarse_to_fine(ocp, job["refine_with"], guess=first, raise_on_failure=False,
+                                 **options)
+        path += rest
+    record = {
+        "seed": int(seed), "status": s.status.name, "objective": s.objective, "T": s.T,
+        "iterations": [p.cost["iterations"] for p in path],
+        "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
+        "coarse_objective": path[0].objective,
+        "ipopt_variant": variant,
+    }
+    if job["describe"] is not None and s.status.ok:
+        record.update(job["describe"](s))
+    return record, s
+
+
+def _worker_start(i: int) -> tuple[dict[str, Any], tuple]:
+    """Run start ``i`` of the inherited job; return numbers only."""
+    record, s = _one_start(_JOB, i)
+    return record, (s.method, s.w, s.lam_x, s.lam_g)
+
+
+def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
+    """Solve the starts in forked processes (transcriptions built here first)."""
+    from workbench.simulation import OnError, StartMethod, sweep
+
+    handling = job["options"].get("handling", ManifoldHandling.AMBIENT)
+    graph = job["options"].get("graph", Graph.SX)
+    for m in [job["method"], *job["refine_with"]]:
+        transcribe(job["ocp"], m, handling=handling, graph=graph)
+    _JOB.clear()
+    _JOB.update(job)
+    try:
+        out = sweep(_worker_start, [{"i": i} for i in range(len(job["seeds"]))],
+                    workers=min(workers, len(job["seeds"])), start_method=StartMethod.FORK,
+                    on_error=OnError.RAISE, progress=False, desc="multistart")
+    finally:
+        _JOB.clear()
+    return [tuple(v) for v in out.values()]
+
+
+def _warm(ocp: OCP, method: Method, w: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray,
+          options: dict[str, Any]) -> OCPSolution:
+    """A primal-dual point of a transcription as a solution object (to warm-start from)."""
+    handling = options.get("handling", ManifoldHandling.AMBIENT)
+    graph = options.get("graph", Graph.SX)
+    tr, _ = transcribe(ocp, method, handling=handling, graph=graph)
+    X, U, T = tr.unpack(w)
+    return OCPSolution(status=OCPStatus.SUCCESS, ipopt_status="(from a worker)", objective=0.0,
+                       T=T, t=tr.times(T), x=X, u=U, method=method, handling=handling,
+                       graph=graph, cost={}, error={}, ocp=ocp, w=w, lam_x=lam_x,
+                       lam_g=lam_g)
 
 
 def coarse_to_fine(
@@ -122,7 +196,9 @@ def coarse_to_fine(
     """Solve with each transcription in turn, each warm-started by the previous solution.
 
     A coarse transcription is cheap per iteration and absorbs most of the iterations from a
-    poor guess; the fine one then converges in a few. Stops at the first failure.
+    poor guess; the fine one then converges in a few. Stops at the first failure. The local
+    defect is judged on the last transcription only (``defect_tol=None`` on the coarse
+    ones unless given): a coarse level is a guess for the next, not a result.
 
     Parameters
     ----------
@@ -145,8 +221,11 @@ def coarse_to_fine(
     path: list[OCPSolution] = []
     current = guess
     raise_on_failure = solve_options.pop("raise_on_failure", True)
-    for m in methods:
-        s = solve(ocp, m, guess=current, raise_on_failure=raise_on_failure, **solve_options)
+    for k, m in enumerate(methods):
+        options = dict(solve_options)
+        if k < len(methods) - 1:  # coarse levels are a means: the last one is judged
+            options.setdefault("defect_tol", None)
+        s = solve(ocp, m, guess=current, raise_on_failure=raise_on_failure, **options)
         path.append(s)
         if not s.status.ok:
             break

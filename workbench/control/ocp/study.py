@@ -9,17 +9,71 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from workbench.control._tvlqr import TVLQR, closed_loop, perturbed_starts
 from workbench.control.ocp.guess import Guess
-from workbench.control.ocp.problem import OCP
+from workbench.control.ocp.problem import OCP, TargetPoint, TargetSet
 from workbench.control.ocp.solve import OCPSolution, solve
 from workbench.control.ocp.stepper import Stepper
 from workbench.control.ocp.transcription import Collocation, ManifoldHandling, Method, Transcription
+from workbench.core.errors import ParameterError
+from workbench.core.manifolds import ProductManifold
 
 __all__ = ["swings", "speed_accuracy", "monte_carlo", "solution_row", "plot_swingup",
-           "transcription_builds", "dense"]
+           "transcription_builds", "dense", "effort_time_ocp", "solve_row"]
+
+
+def effort_time_ocp(model: Any, x0: np.ndarray, xf: np.ndarray, *, u_max: float,
+                    T: Any, free: Sequence[str] = (), name: str, gauge: bool = True,
+                    description: str = "") -> OCP:
+    """The swing-ups' problem: minimise ``integral u^T u dt + T`` under ``|u_i| <= u_max``.
+
+    Parameters
+    ----------
+    model : Model
+        The dynamics.
+    x0, xf : ndarray, shape=(ambient_dim,)
+        Start and end state.
+    u_max : float
+        Bound of each input.
+    T : float or (float, float)
+        Horizon or its range.
+    free : sequence of str
+        Factors left free at the end (e.g. ``("x",)``: the cart anywhere): the target is
+        then the set where the other factors equal those of ``xf`` (a
+        :class:`~workbench.control.ocp.problem.TargetSet`).
+    name : str
+        Name of the OCP.
+    gauge : bool
+        Gauge a detected symmetry (see :class:`~workbench.control.ocp.problem.OCP`).
+    description : str
+        Words for the target.
+    """
+    man = model.manifold
+    if free:
+        unknown = sorted(set(free) - {n for n, _ in man.factors})
+        if unknown:
+            raise ParameterError(f"free must name factors of {man.describe()}; got {unknown}")
+        kept = [(n, f) for n, f in man.factors if n not in free]
+        target: Any = TargetSet(
+            map=lambda x: ca.vertcat(*[x[man.slices[n]] for n, _ in kept]),
+            manifold=ProductManifold(kept), value=np.concatenate(
+                [np.asarray(xf)[man.slices[n]] for n, _ in kept]),
+            witness=xf, description=description or f"{', '.join(free)} free, rest as x_f")
+    else:
+        target = TargetPoint(man, xf, description or "terminal point")
+    return OCP(model, x0=x0, target=target, u_lower=-u_max, u_upper=u_max, T=T,
+               running_cost=lambda x, u: ca.dot(u, u), terminal_cost=lambda x, T: T,
+               name=name, gauge=gauge)
+
+
+def solve_row(ocp: OCP, method: Method, guess: Guess | OCPSolution, **options: Any
+              ) -> tuple[OCPSolution, dict[str, Any]]:
+    """Solve (never raising) and tabulate: the solution and its :func:`solution_row`."""
+    sol = solve(ocp, method, guess=guess, raise_on_failure=False, **options)
+    return sol, solution_row(sol, resimulate=sol.status.ok) | {"gauge": sol.gauge}
 
 
 def transcription_builds(ocp: OCP) -> list[dict[str, Any]]:
@@ -167,13 +221,15 @@ def dense(sol: OCPSolution, *, substeps: int = 8) -> np.ndarray:
     trajectory on unstable swing-ups (it restarts at every node).
     """
     stepper = Stepper(sol.ocp.model, rtol=1e-10, atol=1e-10)
-    h = sol.T / len(sol.u) / substeps
+    h = sol.T / (len(sol.x) - 1) / substeps
     out = []
-    for k, uk in enumerate(sol.u):
+    for k, (uk, uk1) in enumerate(sol.interval_inputs()):
         x = sol.x[k]
         out.append(x)
-        for _ in range(substeps - 1):
-            x = stepper.step(x, uk, h)
+        for j in range(substeps - 1):
+            a, b = j / substeps, (j + 1) / substeps
+            u0 = uk if uk1 is None else (1 - a) * uk + a * uk1
+            x = stepper.step(x, u0, h, u_end=None if uk1 is None else (1 - b) * uk + b * uk1)
             out.append(x)
     out.append(sol.x[-1])
     return np.array(out)
@@ -220,9 +276,10 @@ def plot_swingup(sol: OCPSolution, sphere_parts: Sequence[tuple[str, Callable]],
         ax.set_title(f"{label} (up = -e3)", fontsize=9)
         ax.set_box_aspect((1, 1, 1))
     ax = fig.add_subplot(1, k + 1, k + 1)
-    t = np.repeat(sol.t, 2)[1:-1]
+    t = sol.t if sol.first_order_hold else np.repeat(sol.t, 2)[1:-1]
     for j in range(sol.u.shape[1]):
-        ax.plot(t, np.repeat(sol.u[:, j], 2), label=f"u_{j + 1}")
+        uj = sol.u[:, j] if sol.first_order_hold else np.repeat(sol.u[:, j], 2)
+        ax.plot(t, uj, label=f"u_{j + 1}")
     ax.axhline(sol.ocp.u_upper[0], color="0.6", ls=":", lw=0.8)
     ax.axhline(sol.ocp.u_lower[0], color="0.6", ls=":", lw=0.8)
     ax.set_xlabel("t [s]")

@@ -26,6 +26,7 @@ parameters are data, so continuation in a bound or the horizon reuses one build.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 from enum import Enum
@@ -34,7 +35,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.control.ocp.compiled import Compiled, compiled_solver
 from workbench.control.ocp.expand import sx_function
+from workbench.control.ocp.hermite_simpson import HermiteSimpson, hermite_simpson_interval
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
 from workbench.core import validate
@@ -154,7 +157,8 @@ class MultipleShooting:
         return f"shooting {self.integrator.value} {extra} N={self.N}"
 
 
-Method = Collocation | MultipleShooting
+Method = Collocation | MultipleShooting | HermiteSimpson
+METHODS = (Collocation, MultipleShooting, HermiteSimpson)
 
 
 def collocation_coefficients(degree: int, scheme: Scheme) -> tuple[np.ndarray, ...]:
@@ -188,7 +192,7 @@ class Transcription:
     ----------
     ocp : OCP
         The problem.
-    method : Collocation or MultipleShooting
+    method : Collocation, MultipleShooting or HermiteSimpson
         The transcription.
     handling : ManifoldHandling
         Ambient coordinates or local exponential coordinates.
@@ -196,13 +200,21 @@ class Transcription:
         SX or MX NLP.
     ipopt : dict
         Ipopt options (prefix-free, e.g. ``{"tol": 1e-8}``).
+
+    Notes
+    -----
+    With ``ocp.symmetry`` (a verified rotation symmetry, gauged unless ``gauge=False``) the
+    NLP has one more constraint, the phase condition ``<c, w> = c0`` whose coefficients
+    ``c`` (the generator applied to the guess, see :mod:`workbench.control.ocp.symmetry`) are NLP
+    parameters after the model's: data of each solve, not of the graph.
     """
 
     def __init__(self, ocp: OCP, method: Method, handling: ManifoldHandling, graph: Graph,
                  ipopt: dict[str, Any]) -> None:
-        if not isinstance(method, (Collocation, MultipleShooting)):
+        if not isinstance(method, METHODS):
             raise ParameterError(
-                f"method must be Collocation(...) or MultipleShooting(...); got {method!r}"
+                f"method must be Collocation(...), MultipleShooting(...) or "
+                f"HermiteSimpson(...); got {method!r}"
             )
         if not isinstance(handling, ManifoldHandling):
             raise ParameterError(f"handling must be a ManifoldHandling; got {handling!r}")
@@ -211,36 +223,50 @@ class Transcription:
         self.ocp, self.method, self.handling, self.graph = ocp, method, handling, graph
         model = ocp.model
         self.nx, self.nu, self.N = model.manifold.ambient_dim, model.n_inputs, method.N
+        self.foh = isinstance(method, HermiteSimpson)
+        self.symmetry = ocp.symmetry if ocp.gauge else None
         self.local = ProductLocal(model.manifold)
         t0 = time.perf_counter()
         f = model.function("f")
         if graph is Graph.SX:
             f = sx_function(f)
-            self.S = ca.SX
-        else:
-            self.S = ca.MX
+        self.S = ca.SX if graph is Graph.SX else ca.MX
         self.f = f
         self._layout()
         self.nlp = self._build_nlp()
         self._solvers: dict[tuple, ca.Function] = {}
+        self.compile_info: dict[Compiled, dict[str, Any]] = {}
         self._derivatives: dict[str, ca.Function] = {}
         self.solver(ipopt)
         self.build_seconds = time.perf_counter() - t0
 
-    def solver(self, ipopt: dict[str, Any]) -> ca.Function:
+    def solver(self, ipopt: dict[str, Any], compiled: Compiled | None = None) -> ca.Function:
         """The Ipopt solver for these options (derivatives generated once, then shared).
 
         Parameters
         ----------
         ipopt : dict
             Ipopt options.
+        compiled : Compiled, optional
+            Run the NLP's functions from a compiled library (see
+            :mod:`workbench.control.ocp.compiled`); its costs go to :attr:`compile_info`.
         """
-        key = tuple(sorted((k, str(v)) for k, v in ipopt.items()))
+        key = (tuple(sorted((k, str(v)) for k, v in ipopt.items())), compiled)
         if key not in self._solvers:
             opts: dict[str, Any] = {"ipopt": dict(ipopt), "print_time": False,
                                     "show_eval_warnings": int(ipopt.get("print_level", 0)) > 0}
+            name = re.sub(r"\W", "_", f"ocp_{self.ocp.name}")
+            if compiled is not None:
+                if not isinstance(compiled, Compiled):
+                    raise ParameterError(f"compiled must be a Compiled(...) or None; got "
+                                         f"{compiled!r}")
+                solver, info = compiled_solver(name, self.nlp, opts, compiled,
+                                               graph_ok=self.graph is Graph.SX)
+                self.compile_info[compiled] = info
+                self._solvers[key] = solver
+                return solver
             opts.update(self._derivatives)
-            solver = ca.nlpsol(f"ocp_{self.ocp.name}", "ipopt", self.nlp, opts)
+            solver = ca.nlpsol(name, "ipopt", self.nlp, opts)
             if not self._derivatives:
                 self._derivatives = {
                     "hess_lag": solver.get_function("nlp_hess_l"),
@@ -255,11 +281,13 @@ class Transcription:
     def _layout(self) -> None:
         """Offsets of the decision variables, interval by interval."""
         m = self.method
+        lie = self.handling is ManifoldHandling.LIE_GROUP
         if isinstance(m, Collocation):
             self.d = m.degree
             self.tau, self.C, self.D, self.B = collocation_coefficients(m.degree, m.scheme)
-            ncol = self.local.ydim if self.handling is ManifoldHandling.LIE_GROUP else self.nx
-            self.ncol = ncol
+            self.ncol = self.local.ydim if lie else self.nx
+        elif self.foh and lie:  # one end point y_1 of the local coordinates per interval
+            self.d, self.ncol, self.tau = 1, self.local.ydim, np.array([0.0, 1.0])
         else:
             self.d, self.ncol = 0, 0
         per = self.nx + self.d * self.ncol + self.nu
@@ -267,7 +295,9 @@ class Transcription:
         self.ix = [k * per for k in range(self.N)] + [self.N * per]
         self.ic = [k * per + self.nx for k in range(self.N)]
         self.iu = [k * per + self.nx + self.d * self.ncol for k in range(self.N)]
-        self.iT = self.N * per + self.nx
+        if self.foh:  # the control of the last knot follows the last state
+            self.iu.append(self.N * per + self.nx)
+        self.iT = self.N * per + self.nx + (self.nu if self.foh else 0)
         self.nw = self.iT + 1
 
     # graph --------------------------------------------------------------------------------
@@ -287,6 +317,9 @@ class Transcription:
                               {"cse": True})
         running = ocp.running_cost
         L = None if running is None else ca.Function("L", [xs, us], [running(xs, us)])
+        if self.foh:
+            return hermite_simpson_interval(S, nx, nu, ocp.model.n_params, self.f, L,
+                                            (act, ydot_of) if lie else None, self._fopts)
 
         def ydot(y: Any) -> Any:
             x = act(Xk, y)
@@ -343,6 +376,7 @@ class Transcription:
         S = self.S
         w = S.sym("w", self.nw)
         p = S.sym("p", ocp.model.n_params)
+        c_gauge = S.sym("c_gauge", self.nw if self.symmetry is not None else 0)
         T = w[self.iT]
         h = T / N
         F = self._interval()
@@ -365,15 +399,25 @@ class Transcription:
         Xs, Us = W[0:nx, :], W[nx + d * nc: per, :]
         Zs = ca.reshape(W[nx: nx + d * nc, :], nc, d * N) if d else S.zeros(0, N)
         X_next = ca.horzcat(W[0:nx, 1:N], w[self.ix[N]: self.ix[N] + nx])
+        if self.foh:
+            Us = ca.horzcat(Us, w[self.iu[N]: self.iu[N] + self.nu])
+            F_args = lambda k: (Xs[:, k], X_next[:, k],  # noqa: E731
+                                Zs[:, k * d: (k + 1) * d] if d else S.zeros(0, 1),
+                                Us[:, k], Us[:, k + 1], h, p)
+            all_args = (Xs, X_next, Zs, Us[:, 0:N], Us[:, 1: N + 1], h, p)
+        else:
+            F_args = lambda k: (Xs[:, k],  # noqa: E731
+                                Zs[:, k * d: (k + 1) * d] if d else S.zeros(0, 1),
+                                Us[:, k], h, p)
+            all_args = (Xs, Zs, Us, h, p)
         if S is ca.MX:  # one mapped call: a compact MX graph
-            defects, x_end, cost = F.map(N, "serial")(Xs, Zs, Us, h, p)
+            defects, x_end, cost = F.map(N, "serial")(*all_args)
             block = ca.vertcat(defects, X_next - x_end)
             J = J + ca.sum2(cost)
         else:  # SX: inline interval by interval
             cols = []
             for k in range(N):
-                Z = Zs[:, k * d: (k + 1) * d] if d else S.zeros(0, 1)
-                defects, x_end, cost = F(Xs[:, k], Z, Us[:, k], h, p)
+                defects, x_end, cost = F(*F_args(k))
                 cols.append(ca.vertcat(defects, X_next[:, k] - x_end))
                 J = J + cost
             block = ca.horzcat(*cols)
@@ -388,7 +432,7 @@ class Transcription:
                 if c.applies(k, N):
                     add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name)
         XN = w[self.ix[N]: self.ix[N] + self.nx]
-        UN = w[self.iu[N - 1]: self.iu[N - 1] + self.nu]
+        UN = w[self.iu[-1]: self.iu[-1] + self.nu]
         for c in ocp.path_constraints:
             if c.applies(N, N):
                 add(c.function(XN, UN), c.lower, c.upper, c.name)
@@ -397,12 +441,35 @@ class Transcription:
             add(e, 0.0, np.inf, "terminal chart domain")
         if ocp.terminal_cost is not None:
             J = J + ocp.terminal_cost(XN, T)
+        self.i_gauge = None
+        if self.symmetry is not None:
+            self.i_gauge = len(kinds)
+            add(ca.dot(c_gauge, w), 0.0, 0.0, "gauge")
         self.lbg, self.ubg = np.concatenate(lbg), np.concatenate(ubg)
         self.g_kinds = np.array(kinds)
         self.ng = len(self.lbg)
         G = ca.vertcat(*g)
-        self.n_nodes = int(ca.Function("nlp", [w, p], [J, G]).n_nodes())
-        return {"x": w, "p": p, "f": J, "g": G}
+        P = ca.vertcat(p, c_gauge)
+        self.n_nodes = int(ca.Function("nlp", [w, P], [J, G]).n_nodes())
+        return {"x": w, "p": P, "f": J, "g": G}
+
+    def gauge_direction(self, w0: np.ndarray) -> np.ndarray:
+        """Unit coefficients ``c`` of the phase condition through ``w0`` (zeros: none).
+
+        ``c`` is the symmetry's generator applied to the node states and controls of
+        ``w0`` (the collocation variables and ``T`` get 0), normalised; the orbit of
+        ``w0`` crosses the slice ``<c, w> = <c, w0>`` transversally when ``c != 0``.
+        """
+        c = np.zeros(self.nw)
+        sym = self.symmetry
+        if sym is None:
+            return c
+        for i in self.ix:
+            c[i: i + self.nx] = sym.Ax @ w0[i: i + self.nx]
+        for i in self.iu:
+            c[i: i + self.nu] = sym.Au @ w0[i: i + self.nu]
+        n = float(np.linalg.norm(c))
+        return c / n if n > 1e-9 else np.zeros(self.nw)
 
     # data ---------------------------------------------------------------------------------
 
@@ -411,9 +478,9 @@ class Transcription:
         ocp = ocp or self.ocp
         lbw, ubw = np.full(self.nw, -np.inf), np.full(self.nw, np.inf)
         lbw[0: self.nx] = ubw[0: self.nx] = ocp.x0
-        for k in range(self.N):
-            lbw[self.iu[k]: self.iu[k] + self.nu] = ocp.u_lower
-            ubw[self.iu[k]: self.iu[k] + self.nu] = ocp.u_upper
+        for i in self.iu:
+            lbw[i: i + self.nu] = ocp.u_lower
+            ubw[i: i + self.nu] = ocp.u_upper
         lbw[self.iT], ubw[self.iT] = ocp.T_range
         return lbw, ubw
 
@@ -428,11 +495,15 @@ class Transcription:
         ----------
         x_of_s : callable
             ``x(s)`` for normalised time ``s`` in ``[0, 1]``, a state on (or near) the manifold.
-        u : ndarray, shape=(N, n_inputs)
-            Control on each interval.
+        u : ndarray, shape=(N, n_inputs) or (N + 1, n_inputs)
+            Control on each interval (or at each knot, first-order hold).
         T : float
             Final time.
         """
+        if u.shape[0] != len(self.iu):
+            raise ParameterError(
+                f"u must have {len(self.iu)} rows for {self.method.describe()}; got "
+                f"{u.shape[0]}")
         w = np.zeros(self.nw)
         lie = self.handling is ManifoldHandling.LIE_GROUP
         for k in range(self.N + 1):
@@ -445,11 +516,16 @@ class Transcription:
                 val = self.local.log(xk, xj) if lie else xj
                 w[self.ic[k] + j * self.ncol: self.ic[k] + (j + 1) * self.ncol] = val
             w[self.iu[k]: self.iu[k] + self.nu] = u[k]
+        if self.foh:
+            w[self.iu[-1]: self.iu[-1] + self.nu] = u[-1]
         w[self.iT] = T
         return w
 
     def unpack(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        """Node states ``(N+1, nx)``, controls ``(N, nu)`` and ``T`` of an NLP vector."""
+        """Node states ``(N+1, nx)``, controls and ``T`` of an NLP vector.
+
+        The controls are ``(N, nu)``, or ``(N+1, nu)`` with a first-order hold.
+        """
         w = np.asarray(w, float).ravel()
         X = np.array([w[i: i + self.nx] for i in self.ix])
         U = np.array([w[i: i + self.nu] for i in self.iu])
@@ -462,9 +538,9 @@ class Transcription:
 
 def check_method(method: Any) -> Method:
     """Validate a transcription object."""
-    if not isinstance(method, (Collocation, MultipleShooting)):
+    if not isinstance(method, METHODS):
         raise ModelError(
-            f"method must be Collocation(N=..., degree=...) or MultipleShooting(N=...); "
-            f"got {method!r}"
+            f"method must be Collocation(N=..., degree=...), MultipleShooting(N=...) or "
+            f"HermiteSimpson(N=...); got {method!r}"
         )
     return method

@@ -1,0 +1,123 @@
+"""Drake's swing-up, posed exactly as Drake poses it, solved by the workbench and by Drake.
+
+The problem (issue 17): a spherical pendulum on a cart, tip mass 0.1 kg on a massless
+link of 0.1 m, cart 0.5 kg in the horizontal plane under a horizontal force u in R^2,
+g = 9.81 (:func:`models.chain_cart.chain_cart` with n = 1). 41 knots with equal
+intervals, cost integral u'u dt (trapezoid over the knots) + T, |u_i| <= 10 N, T in
+[0.5, 3] s; from hanging at rest, cart at the origin, to upright at rest with the cart at
+the origin (``origin``) or anywhere (``free``). Guess: u = 0 and the straight swing (a
+great circle in the y-z plane, Drake's first universal-joint angle) over T = 1.5 s.
+
+Transcription: Hermite-Simpson with first-order-hold controls and the trapezoidal cost,
+Drake's DirectCollocation. The timed solve uses ambient coordinates (exact Hessian, SX);
+the Lie-group handling integrates the link's rotation in local coordinates, which for a
+planar swing is Drake's discretisation in angles: started from Drake's own solution (when
+Drake is installed) it must converge to Drake's optimal cost, a check that the two NLPs
+are the same. The rotation about the vertical is a symmetry of both cases; the OCP finds
+and gauges it (the solutions say so). Drake's figures are measured in the same run when
+``pydrake`` imports (``pip install '.[peers]'``), else the figures recorded in issue 17
+are reported, labelled as recorded.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from models.chain_cart import chain_cart, link_state
+from problems import _drake_peer as peer
+from workbench.control.ocp import OCP, Guess, HermiteSimpson, ManifoldHandling
+from workbench.control.ocp.study import effort_time_ocp, plot_swingup, solve_row
+from workbench.study import Result
+
+TITLE = "Drake's spherical cart swing-up, posed exactly (Hermite-Simpson, 41 knots) vs Drake"
+
+E1, E3 = np.eye(3)[0], np.eye(3)[2]
+PARAMS = {"m": peer.M_CART, "masses": peer.M_TIP, "lengths": peer.L, "g": peer.G}
+METHOD = HermiteSimpson(N=peer.KNOTS - 1)
+SOLVE_OPTIONS: dict[str, Any] = {}
+"""The workbench's solve: defaults (ambient handling, SX graph, exact Hessian, tol 1e-8)."""
+
+
+def problem(*, cart_free: bool = False) -> OCP:
+    """Drake's swing-up on the workbench's model (cart at the origin at the end, or free)."""
+    x0 = np.r_[0.0, 0.0, 0.0, 0.0, link_state(E3)]
+    xf = np.r_[0.0, 0.0, 0.0, 0.0, link_state(-E3)]
+    return effort_time_ocp(chain_cart(1, **PARAMS), x0, xf, u_max=peer.U_MAX, T=peer.T_RANGE,
+                           free=("x",) if cart_free else (),
+                           name="drake_cart_free" if cart_free else "drake_cart")
+
+
+def drake_guess(ocp: OCP) -> Guess:
+    """Drake's guess: u = 0, the straight swing (about e1) from hanging to upright, 1.5 s."""
+    return Guess.geodesic(ocp, T=peer.T_GUESS, axes={"link1": E1})
+
+
+def solve(*, quick: bool = False) -> Result:
+    """Solve both cases, compare with Drake (measured or recorded).
+
+    Parameters
+    ----------
+    quick : bool
+        Accepted for the command line; the study is the same (it is fast).
+
+    Returns
+    -------
+    Result
+    """
+    res = Result("swingup_drake_reference", TITLE, quick=quick)
+    plant = peer.drake_plant() if peer.drake_available() else None
+    for case in ("origin", "free"):
+        ocp = problem(cart_free=case == "free")
+        res.use(ocp.model)
+        with res.timed(f"cart {case}: workbench, ambient then Lie group, from Drake's guess"):
+            ours, row = solve_row(ocp, METHOD, drake_guess(ocp), **SOLVE_OPTIONS)
+            _, lie_row = solve_row(ocp, METHOD, drake_guess(ocp),
+                                   handling=ManifoldHandling.LIE_GROUP)
+        values: dict[str, Any] = {"workbench": row, "workbench_lie_group": lie_row}
+        res.compare(f"cart {case}: converged (Ipopt {ours.ipopt_status})", 1.0,
+                    float(ours.status.ok), tolerance=0.0, source="Ipopt status")
+        res.compare(f"cart {case}: local defect against CVODES", 0.0,
+                    ours.error.get("local_defect", np.inf), tolerance=1e-2,
+                    source="Hermite-Simpson, h = T/40 (order 4)")
+        if plant is not None:
+            with res.timed(f"cart {case}: Drake DirectCollocation + IPOPT"):
+                d = peer.drake_solve(plant, cart_free=case == "free")
+                g = Guess.from_samples(ocp, *peer.to_workbench(d["t"], d["x"], d["u"]))
+                same, same_row = solve_row(ocp, METHOD, g, handling=ManifoldHandling.LIE_GROUP)
+            values["drake"] = {k: d[k] for k in ("cpu", "wall", "iterations", "cost",
+                                                 "status")} | {"source": "measured"}
+            values["lie_group_from_drakes_solution"] = same_row
+            res.compare(f"cart {case}: Lie-group HS from Drake's optimum = Drake's cost",
+                        d["cost"], same.objective, tolerance=1e-6, relative=True,
+                        source="same NLP (planar swing: local coordinates = Drake's angles)")
+        else:
+            values["drake"] = peer.RECORDED[case] | {"source": "RECORDED in issue 17, "
+                                                      "drake not installed"}
+        drake = values["drake"]
+        drake_cpu = drake.get("cpu", drake.get("cpu_seconds"))
+        values["cpu_ratio_drake_over_workbench"] = drake_cpu / row["solve_cpu_seconds"]
+        if case == "origin":
+            res.compare("cart origin: cost <= Drake's recorded 5.2289 (excess)", 0.0,
+                        max(0.0, ours.objective - peer.RECORDED["origin"]["cost"]),
+                        tolerance=0.0, source="issue 17 (Drake 1.51, same problem and guess)")
+            res.figure("swingup", plot_swingup(
+                ours, [("link direction q1", lambda X: X[:, 4:7])],
+                title=f"Drake's problem, cart at the origin: cost {ours.objective:.4f}, "
+                      f"T = {ours.T:.3f} s, {row['iterations']} iterations"),
+                caption="The workbench's optimal swing-up of Drake's problem (cart back at "
+                        "the origin): the link direction on the unit sphere (up = -e3) and "
+                        "the first-order-hold force, Hermite-Simpson on 41 knots.")
+        res.values[f"cart_{case}"] = values
+    res.notes.append(
+        "Both sides start from the same guess; Ipopt with the exact Hessian (workbench) and "
+        "with Drake's limited-memory Hessian may reach different local minima of the same "
+        "NLP. CPU seconds are Ipopt's solve only (building excluded) on both sides.")
+    return res.finish()
+
+
+if __name__ == "__main__":
+    from workbench.study import run_script
+
+    run_script(solve)
