@@ -200,10 +200,7 @@ class TargetSet(Target):
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", validate.array("value", self.value).ravel())
         object.__setattr__(self, "witness", validate.array("witness", self.witness).ravel())
-        n = self.manifold.ambient_dim
-        if self.witness.size != n:
-            raise ParameterError(f"witness must be a point of {self.manifold.describe()} "
-                                 f"({n} entries); got {self.witness.size}")
+        n = self.witness.size  # a state of the model: the map's input has its size
         try:
             m = int(ca.vec(self.map(ca.SX.sym("x", n))).numel())
         except RuntimeError as exc:
