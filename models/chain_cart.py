@@ -153,5 +153,5 @@ def chain_cart(
 
 def link_state(q: ArrayLike, omega: ArrayLike | None = None) -> np.ndarray:
     """Stack one link's ``(q, omega)`` (omega defaults to zero); no normalisation."""
-    w = np.zeros(3) if omega is None else np.asarray(omega, dtype=float).reshape(3)
-    return np.concatenate([np.asarray(q, dtype=float).reshape(3), w])
+    w = np.zeros(3) if omega is None else _array("omega", omega, size=3).reshape(3)
+    return np.concatenate([_array("q", q, size=3).reshape(3), w])
