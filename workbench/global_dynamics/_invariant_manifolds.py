@@ -63,6 +63,7 @@ from workbench.global_dynamics._seeds import (
     seed_report,
     sphere_directions,
 )
+from workbench.global_dynamics._sizes import check_size
 from workbench.linear._eigen import Eigenstructure, Subspace, eigenstructure
 from workbench.linear._linearize import linearize
 from workbench.simulation._simulate import Method, closed_loop_function
@@ -335,30 +336,6 @@ def _check_equilibrium(model: Model, x_e: ArrayLike, controller: ca.Function | N
     return lin.x_e, es, W
 
 
-MAX_STORED = 10**9
-"""Largest number of stored numbers (points x output times x state size) of one manifold."""
-
-MAX_STEPS = 10**10
-"""Largest number of point-steps (points x steps) of one manifold."""
-
-
-def _check_size(n_points: int, horizon: float, step: float, dt_out: float, nx: int) -> None:
-    """Refuse requests past the stated limits, naming the knobs (nothing is truncated)."""
-    stored = n_points * (horizon / dt_out + 1) * nx
-    if stored > MAX_STORED:
-        raise ParameterError(
-            f"n_points = {n_points}, horizon / output_step = {horizon / dt_out:.3g} and "
-            f"{nx} state entries would store {stored:.3g} numbers ({stored * 8 / 1e9:.3g} GB) "
-            f"> MAX_STORED = {MAX_STORED:.0e}; use fewer n_points, a shorter horizon or a "
-            f"larger output_step")
-    steps = n_points * horizon / step
-    if steps > MAX_STEPS:
-        raise ParameterError(
-            f"n_points = {n_points}, horizon = {horizon:.3g} and step = {step:.3g} need "
-            f"{steps:.3g} point-steps > MAX_STEPS = {MAX_STEPS:.0e}; use a larger step, "
-            f"fewer n_points or a shorter horizon")
-
-
 @validate.arguments(
     model=validate.instance(Model, "a workbench Model"), delta=validate.positive,
     horizon=validate.positive, step=validate.positive, output_step=validate.positive,
@@ -465,7 +442,7 @@ def invariant_manifold(
                              f"output_step {dt_out:.6g}")
     if step > dt_out:
         raise ParameterError(f"step must not exceed output_step = {dt_out:.6g}; got {step:.6g}")
-    _check_size(n_points, horizon, step, dt_out, model.manifold.ambient_dim)
+    check_size(n_points, horizon, step, dt_out, model.manifold.ambient_dim)
     xe, es, W = _check_equilibrium(model, x_e, controller, which)
     if dmax <= delta:
         raise ParameterError(f"max_distance must exceed delta = {delta:.3g}; got {dmax:.3g}")
