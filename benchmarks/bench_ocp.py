@@ -38,7 +38,6 @@ from problems import swingup_double_spherical_cart as dbl  # noqa: E402
 from problems import swingup_spherical_cart as cart  # noqa: E402
 from workbench.control.ocp import (  # noqa: E402
     Collocation,
-    Graph,
     Guess,
     ManifoldHandling,
     coarse_to_fine,
@@ -46,6 +45,7 @@ from workbench.control.ocp import (  # noqa: E402
     solve,
     transcribe,
 )
+from workbench.core import Symbolic  # noqa: E402
 
 A, L = ManifoldHandling.AMBIENT, ManifoldHandling.LIE_GROUP
 
@@ -113,29 +113,30 @@ def main() -> None:
     # 1. spherical cart, reference case, N = 40, deterministic geodesic guess
     ocp = cart.problem()
     ladder = [Collocation(N=n) for n in (10, 20, 40)]
-    variants = [(Graph.MX, A), (Graph.SX, A), (Graph.SX, L)] + ([] if quick else [(Graph.MX, L)])
-    rows += scene("cart n=1, N=40", ocp, ladder, Guess.geodesic(ocp), variants, (Graph.MX, A),
+    variants = [(Symbolic.MX, A), (Symbolic.SX, A), (Symbolic.SX, L)]
+    variants += [] if quick else [(Symbolic.MX, L)]
+    rows += scene("cart n=1, N=40", ocp, ladder, Guess.geodesic(ocp), variants, (Symbolic.MX, A),
                   repeat, 0.5)
 
     # 2. 3D pendulum, reduced, minimum effort, N = 60, seeded geodesic guess
     red, full = p3d.problems("effort")
     g = Guess.geodesic(red, rng=np.random.default_rng(3), noise=0.3)
-    variants = [(Graph.MX, A), (Graph.SX, A), (Graph.SX, L)]
+    variants = [(Symbolic.MX, A), (Symbolic.SX, A), (Symbolic.SX, L)]
     rows += scene("3D pendulum reduced, N=60", red, [Collocation(N=30), Collocation(N=60)], g,
-                  variants, (Graph.MX, A), repeat, 2.0)
+                  variants, (Symbolic.MX, A), repeat, 2.0)
     if not quick:
         s = solve(red, Collocation(N=60), guess=g)
         rows += scene("3D pendulum full (lifted), N=60", full, [Collocation(N=60)],
-                      p3d.lift(s, full), [(Graph.MX, A), (Graph.SX, A), (Graph.SX, L)],
-                      (Graph.MX, A), repeat, 2.0)
+                      p3d.lift(s, full), [(Symbolic.MX, A), (Symbolic.SX, A), (Symbolic.SX, L)],
+                      (Symbolic.MX, A), repeat, 2.0)
 
     # 3. double cart, N = 40, guess lifted from the surrogate single link (setup not timed)
     ocp2, sur = dbl.problem(), dbl.surrogate()
     single, _ = multistart(sur, Collocation(N=10), seeds=[2], T_guesses=dbl.T_GUESSES[2:3],
                            refine_with=[Collocation(N=20), Collocation(N=40)], max_iter=150)
-    variants = [(Graph.MX, L)] + ([] if quick else [(Graph.MX, A), (Graph.SX, L)])
+    variants = [(Symbolic.MX, L)] + ([] if quick else [(Symbolic.MX, A), (Symbolic.SX, L)])
     rows += scene("double cart n=2, N=40", ocp2, [Collocation(N=40)],
-                  dbl.lift(single, ocp2), variants, (Graph.MX, L), repeat, 5.0, max_iter=300)
+                  dbl.lift(single, ocp2), variants, (Symbolic.MX, L), repeat, 5.0, max_iter=300)
 
     print(table(rows, cols))
     print(f"(medians of {repeat} runs; wall seconds of Ipopt's solve, building excluded; "

@@ -30,7 +30,6 @@ from workbench.control import tvlqr_along
 from workbench.control.ocp import (
     OCP,
     Collocation,
-    Graph,
     Guess,
     ManifoldHandling,
     OCPSolution,
@@ -46,6 +45,7 @@ from workbench.control.ocp.study import (
     swings,
     transcription_builds,
 )
+from workbench.core import Symbolic
 from workbench.study import Result
 
 TITLE = "Optimal swing-up of the double spherical pendulum on a cart (paper 003, n = 2) + TVLQR"
@@ -127,16 +127,16 @@ def solve(*, quick: bool = False) -> Result:
             sur, Collocation(N=10), seeds=range(4 if quick else 8), T_guesses=T_GUESSES,
             refine_with=[Collocation(N=20), Collocation(N=40)], max_iter=150)
     with res.timed("double: lifted guess, N = 40 then N = 80 (Lie group, MX)"):
-        s40 = solve_ocp(ocp, Collocation(N=40), handling=lie, graph=Graph.MX,
+        s40 = solve_ocp(ocp, Collocation(N=40), handling=lie, graph=Symbolic.MX,
                         guess=lift(single, ocp), max_iter=300)
-        best = solve_ocp(ocp, Collocation(N=80), handling=lie, graph=Graph.MX, guess=s40,
+        best = solve_ocp(ocp, Collocation(N=80), handling=lie, graph=Symbolic.MX, guess=s40,
                          max_iter=300)
     with res.timed("cold starts from geodesic guesses (for the record)"):
         cold = []
         for seed in range(0 if quick else 3):
             g = Guess.geodesic(ocp, T=T_GUESSES[seed], rng=np.random.default_rng(seed),
                                noise=0.1)
-            s = solve_ocp(ocp, Collocation(N=40), handling=lie, graph=Graph.MX, guess=g,
+            s = solve_ocp(ocp, Collocation(N=40), handling=lie, graph=Symbolic.MX, guess=g,
                           raise_on_failure=False, max_iter=100)
             cold.append(solution_row(s, resimulate=False) | {"seed": seed})
     res.values["reference"] = {
@@ -164,10 +164,10 @@ def solve(*, quick: bool = False) -> Result:
         rows = []
         for method, handling in cases:
             rows += speed_accuracy(ocp, [method], [handling], guess=best, height=height,
-                                   graph=Graph.MX, max_iter=200)
+                                   graph=Symbolic.MX, max_iter=200)
         if not quick:
             rows += speed_accuracy(ocp, [Collocation(N=40)], [ManifoldHandling.AMBIENT],
-                                   guess=best, height=height, graph=Graph.SX, max_iter=300)
+                                   guess=best, height=height, graph=Symbolic.SX, max_iter=300)
         rows.append(solution_row(best, resimulate=False, height=height)
                     | {"N": 80, "handling": lie.value, "degree": 3})
     res.values["speed_accuracy"] = rows

@@ -34,7 +34,7 @@ from workbench.control.ocp import (
     Scheme,
     TargetPoint,
     coarse_to_fine,
-    continuation,
+    homotopy,
     multistart,
 )
 from workbench.control.ocp.study import (
@@ -156,7 +156,7 @@ def solve(*, quick: bool = False) -> Result:
                 s, _ = coarse_to_fine(hard_ocp, ladder, guess=g, raise_on_failure=False,
                                       max_iter=300)
                 cold_hard.append(solution_row(s, resimulate=s.status.ok, height=height))
-        hard, path = continuation(
+        hard, path = homotopy(
             ocp, coll, steps=[{"u_lower": -b, "u_upper": b} for b in HARD_PATH], guess=best)
         hard.resimulate()
     res.values["harder_case"] = {

@@ -17,7 +17,6 @@ from models.chain_cart import chain_cart, link_state
 from workbench.control.ocp import (
     OCP,
     Collocation,
-    Graph,
     Guess,
     ManifoldHandling,
     MultipleShooting,
@@ -25,7 +24,7 @@ from workbench.control.ocp import (
     Scheme,
     TargetPoint,
     TargetSet,
-    continuation,
+    homotopy,
     local_for,
     multistart,
     solve,
@@ -33,6 +32,7 @@ from workbench.control.ocp import (
 )
 from workbench.control.ocp.local import dexpinv
 from workbench.control.ocp.transcription import collocation_coefficients
+from workbench.core._model import Symbolic
 from workbench.core.errors import ManifoldError, ParameterError, SolverError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
 
@@ -176,7 +176,7 @@ def test_shooting_agrees_with_collocation(ocp, base):
 
 
 def test_mx_graph_gives_the_same_solution(ocp, base):
-    s = solve(ocp, Collocation(N=10), graph=Graph.MX, guess=base)
+    s = solve(ocp, Collocation(N=10), graph=Symbolic.MX, guess=base)
     assert s.objective == pytest.approx(base.objective, rel=1e-7)
     assert np.allclose(s.x, base.x, atol=1e-5)
 
@@ -197,8 +197,8 @@ def test_warm_start_of_the_same_transcription_is_immediate_and_cached(ocp, base)
     assert again.objective == pytest.approx(base.objective, rel=1e-9)
 
 
-def test_continuation_in_the_bound_reuses_the_build(ocp, base):
-    last, path = continuation(ocp, Collocation(N=10),
+def test_homotopy_in_the_bound_reuses_the_build(ocp, base):
+    last, path = homotopy(ocp, Collocation(N=10),
                               steps=[{"u_lower": -b, "u_upper": b} for b in (8.0, 6.0)],
                               guess=base)
     assert all(p.cost["transcription_cached"] for p in path)

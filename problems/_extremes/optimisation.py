@@ -19,7 +19,7 @@ def optimisation(cases: Cases, res: Result, *, quick: bool) -> None:
     Failures carry Ipopt's status.
     """
     from problems.swingup_spherical_cart import problem
-    from workbench.control.ocp import Collocation, continuation, solve
+    from workbench.control.ocp import Collocation, homotopy, solve
 
     group = "optimisation"
     tol = 1e-2
@@ -38,7 +38,7 @@ def optimisation(cases: Cases, res: Result, *, quick: bool) -> None:
 
     def continued() -> Check:
         ref = solve(problem(), Collocation(N=40), defect_tol=tol)
-        sol, path = continuation(problem(u_max=2.0), Collocation(N=40), guess=ref,
+        sol, path = homotopy(problem(u_max=2.0), Collocation(N=40), guess=ref,
                                  steps=[{"u_lower": -b, "u_upper": b} for b in (6, 4, 3, 2)],
                                  defect_tol=tol)
         return check(sol, f"continuation 10 -> 6 -> 4 -> 3 -> 2 N ({len(path)} solves)")

@@ -16,11 +16,10 @@ from workbench.control.ocp.local import ProductLocal, local_for
 from workbench.control.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
 from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
 from workbench.control.ocp.stepper import Stepper
-from workbench.control.ocp.strategies import coarse_to_fine, continuation, multistart, refine
+from workbench.control.ocp.strategies import coarse_to_fine, homotopy, multistart, refine
 from workbench.control.ocp.symmetry import Symmetry, detect_symmetry
 from workbench.control.ocp.transcription import (
     Collocation,
-    Graph,
     Integrator,
     ManifoldHandling,
     MultipleShooting,
@@ -32,7 +31,6 @@ __all__ = [
     "OCP",
     "Collocation",
     "Compiled",
-    "Graph",
     "Guess",
     "HermiteSimpson",
     "Integrator",
@@ -49,7 +47,7 @@ __all__ = [
     "TargetSet",
     "Transcription",
     "coarse_to_fine",
-    "continuation",
+    "homotopy",
     "detect_symmetry",
     "local_for",
     "multistart",

@@ -94,7 +94,7 @@ def compiled_solver(name: str, nlp: dict[str, Any], ipopt_opts: dict[str, Any],
     compiled : Compiled
         Compiler and flags.
     graph_ok : bool
-        Whether the NLP's graph can be generated as C (``Graph.SX``).
+        Whether the NLP's graph can be generated as C (``Symbolic.SX``).
 
     Returns
     -------
@@ -112,7 +112,7 @@ def compiled_solver(name: str, nlp: dict[str, Any], ipopt_opts: dict[str, Any],
     from workbench.codegen.build import build_cached
 
     if not graph_ok:
-        raise ParameterError("compiled NLPs need graph=Graph.SX (an MX graph's numeric "
+        raise ParameterError("compiled NLPs need graph=Symbolic.SX (an MX graph's numeric "
                              "linear solves are not generated as C here)")
     t0 = time.perf_counter()
     plain = ca.nlpsol(f"{name}_gen", "ipopt", nlp, {"ipopt": {"print_level": 0},

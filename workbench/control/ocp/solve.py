@@ -9,7 +9,7 @@ unless ``raise_on_failure=False``. The accuracy is measured, not assumed:
 :meth:`OCPSolution.resimulate` integrates the optimal piecewise-constant control open loop
 with CVODES and reports the end-state error and the target residual.
 
-Strategies for nonconvex problems (seeded starts, coarse-to-fine, continuation) are in
+Strategies for nonconvex problems (seeded starts, coarse-to-fine, homotopy) are in
 :mod:`workbench.control.ocp.strategies`.
 """
 
@@ -18,7 +18,6 @@ from __future__ import annotations
 import json
 import time
 from dataclasses import dataclass, field
-from enum import Enum
 from functools import lru_cache
 from typing import Any
 
@@ -30,19 +29,20 @@ from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.transcription import (
     Collocation,
-    Graph,
     ManifoldHandling,
-    Method,
     Transcription,
+    TranscriptionMethod,
     check_method,
 )
 from workbench.core import validate
+from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError, SolverError
+from workbench.core.status import StatusEnum, StatusResult
 
 __all__ = ["OCPStatus", "OCPSolution", "solve", "transcribe"]
 
 
-class OCPStatus(Enum):
+class OCPStatus(StatusEnum):
     """Outcome of a solve; the value is the readable part of the message."""
 
     SUCCESS = "solved to the requested tolerance"
@@ -66,14 +66,14 @@ class OCPStatus(Enum):
             "Maximum_WallTime_Exceeded": cls.MAX_ITERATIONS,
         }.get(status, cls.FAILED)
 
-    @property
-    def ok(self) -> bool:
-        """Whether the solution is usable (converged)."""
-        return self in (OCPStatus.SUCCESS, OCPStatus.ACCEPTABLE)
+    @classmethod
+    def successes(cls) -> frozenset[str]:
+        """The usable outcomes (converged): SUCCESS and ACCEPTABLE."""
+        return frozenset({"SUCCESS", "ACCEPTABLE"})
 
 
 @dataclass
-class OCPSolution:
+class OCPSolution(StatusResult):
     """A solved (or failed) OCP.
 
     Attributes
@@ -97,7 +97,7 @@ class OCPSolution:
         The transcription.
     handling : ManifoldHandling
         Manifold handling.
-    graph : Graph
+    graph : Symbolic
         SX or MX.
     cost : dict
         ``build_seconds`` (0 when the transcription was cached), ``transcription_cached``
@@ -129,9 +129,9 @@ class OCPSolution:
     t: np.ndarray
     x: np.ndarray
     u: np.ndarray
-    method: Method
+    method: TranscriptionMethod
     handling: ManifoldHandling
-    graph: Graph
+    graph: Symbolic
     cost: dict[str, Any]
     error: dict[str, Any]
     ocp: OCP
@@ -301,8 +301,9 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
     return opts
 
 
-def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = ManifoldHandling.AMBIENT,
-               graph: Graph = Graph.SX, ipopt: dict[str, Any] | None = None,
+def transcribe(ocp: OCP, method: TranscriptionMethod, *,
+               handling: ManifoldHandling = ManifoldHandling.AMBIENT,
+               graph: Symbolic = Symbolic.SX, ipopt: dict[str, Any] | None = None,
                ) -> tuple[Transcription, bool]:
     """The transcription of ``ocp`` (built on first use, cached on the OCP).
 
@@ -314,7 +315,7 @@ def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = Manifol
         The transcription.
     handling : ManifoldHandling
         Manifold handling.
-    graph : Graph
+    graph : Symbolic
         SX or MX.
     ipopt : dict, optional
         Ipopt options of the first solver (others are created on demand, sharing the
@@ -337,10 +338,10 @@ def transcribe(ocp: OCP, method: Method, *, handling: ManifoldHandling = Manifol
 @validate.arguments(ocp=validate.instance(OCP, "an OCP"))
 def solve(
     ocp: OCP,
-    method: Method | None = None,
+    method: TranscriptionMethod | None = None,
     *,
     handling: ManifoldHandling = ManifoldHandling.AMBIENT,
-    graph: Graph = Graph.SX,
+    graph: Symbolic = Symbolic.SX,
     guess: Guess | OCPSolution | None = None,
     tol: float = 1e-8,
     max_iter: int = 1000,
@@ -360,7 +361,7 @@ def solve(
         The transcription (default ``Collocation(N=40, degree=3)``).
     handling : ManifoldHandling
         ``AMBIENT`` or ``LIE_GROUP`` (see :mod:`workbench.control.ocp.transcription`).
-    graph : Graph
+    graph : Symbolic
         ``SX`` (scalar graph, fastest) or ``MX``.
     guess : Guess or OCPSolution, optional
         Initial guess; a solution of the *same* transcription also warm-starts the

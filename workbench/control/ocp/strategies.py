@@ -1,11 +1,13 @@
-"""Strategies for nonconvex OCPs: seeded starts, coarse-to-fine refinement, continuation.
+"""Strategies for nonconvex OCPs: seeded starts, coarse-to-fine refinement, homotopy.
 
 The swing-ups have many local minima (they differ in the number of swings) and a poor
 guess can leave Ipopt far from any. :func:`multistart` solves from seeded geodesic guesses
 and keeps the cheapest; :func:`coarse_to_fine` lets a cheap coarse transcription absorb
 the iterations from a poor guess before a fine one converges in a few; :func:`refine`
-warm-starts another transcription from a solution; :func:`continuation` walks a sequence of
-bounds or horizons, each solve warm-starting the next on one build.
+warm-starts another transcription from a solution; :func:`homotopy` walks a sequence of
+bounds or horizons, each solve warm-starting the next on one build (a parameter
+continuation; the name keeps "continuation" for the branches of
+:mod:`workbench.equilibria`).
 """
 
 from __future__ import annotations
@@ -18,20 +20,25 @@ import numpy as np
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
-from workbench.control.ocp.transcription import Collocation, Graph, ManifoldHandling, Method
+from workbench.control.ocp.transcription import (
+    Collocation,
+    ManifoldHandling,
+    TranscriptionMethod,
+)
+from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError, SolverError
 
-__all__ = ["multistart", "coarse_to_fine", "refine", "continuation"]
+__all__ = ["multistart", "coarse_to_fine", "refine", "homotopy"]
 
 
 def multistart(
     ocp: OCP,
-    method: Method | None = None,
+    method: TranscriptionMethod | None = None,
     *,
     seeds: Sequence[int] = tuple(range(8)),
     noise: float = 0.1,
     T_guesses: Sequence[float] | None = None,
-    refine_with: Sequence[Method] = (),
+    refine_with: Sequence[TranscriptionMethod] = (),
     describe: Callable[[OCPSolution], dict[str, Any]] | None = None,
     ipopt_variants: Sequence[dict[str, Any]] = ({},),
     workers: int = 1,
@@ -159,7 +166,7 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
     from workbench.simulation import OnError, StartMethod, sweep
 
     handling = job["options"].get("handling", ManifoldHandling.AMBIENT)
-    graph = job["options"].get("graph", Graph.SX)
+    graph = job["options"].get("graph", Symbolic.SX)
     for m in [job["method"], *job["refine_with"]]:
         transcribe(job["ocp"], m, handling=handling, graph=graph)
     _JOB.clear()
@@ -173,11 +180,11 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
     return [tuple(v) for v in out.values()]
 
 
-def _warm(ocp: OCP, method: Method, w: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray,
-          options: dict[str, Any]) -> OCPSolution:
+def _warm(ocp: OCP, method: TranscriptionMethod, w: np.ndarray, lam_x: np.ndarray,
+          lam_g: np.ndarray, options: dict[str, Any]) -> OCPSolution:
     """A primal-dual point of a transcription as a solution object (to warm-start from)."""
     handling = options.get("handling", ManifoldHandling.AMBIENT)
-    graph = options.get("graph", Graph.SX)
+    graph = options.get("graph", Symbolic.SX)
     tr, _ = transcribe(ocp, method, handling=handling, graph=graph)
     X, U, T = tr.unpack(w)
     return OCPSolution(status=OCPStatus.SUCCESS, ipopt_status="(from a worker)", objective=0.0,
@@ -188,7 +195,7 @@ def _warm(ocp: OCP, method: Method, w: np.ndarray, lam_x: np.ndarray, lam_g: np.
 
 def coarse_to_fine(
     ocp: OCP,
-    methods: Sequence[Method],
+    methods: Sequence[TranscriptionMethod],
     *,
     guess: Guess | OCPSolution | None = None,
     **solve_options: Any,
@@ -233,7 +240,7 @@ def coarse_to_fine(
     return path[-1], path
 
 
-def refine(solution: OCPSolution, method: Method, **solve_options: Any) -> OCPSolution:
+def refine(solution: OCPSolution, method: TranscriptionMethod, **solve_options: Any) -> OCPSolution:
     """Solve ``solution.ocp`` with another (finer) transcription, warm-started by ``solution``.
 
     Parameters
@@ -250,9 +257,9 @@ def refine(solution: OCPSolution, method: Method, **solve_options: Any) -> OCPSo
     return solve(solution.ocp, method, guess=solution.guess(), **solve_options)
 
 
-def continuation(
+def homotopy(
     ocp: OCP,
-    method: Method | None = None,
+    method: TranscriptionMethod | None = None,
     *,
     steps: Sequence[dict[str, Any]],
     guess: Guess | OCPSolution | None = None,

@@ -17,7 +17,12 @@ from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP, TargetPoint, TargetSet
 from workbench.control.ocp.solve import OCPSolution, solve
 from workbench.control.ocp.stepper import Stepper
-from workbench.control.ocp.transcription import Collocation, ManifoldHandling, Method, Transcription
+from workbench.control.ocp.transcription import (
+    Collocation,
+    ManifoldHandling,
+    Transcription,
+    TranscriptionMethod,
+)
 from workbench.core.errors import ParameterError
 from workbench.core.manifolds import ProductManifold
 
@@ -69,7 +74,7 @@ def effort_time_ocp(model: Any, x0: np.ndarray, xf: np.ndarray, *, u_max: float,
                name=name, gauge=gauge)
 
 
-def solve_row(ocp: OCP, method: Method, guess: Guess | OCPSolution, **options: Any
+def solve_row(ocp: OCP, method: TranscriptionMethod, guess: Guess | OCPSolution, **options: Any
               ) -> tuple[OCPSolution, dict[str, Any]]:
     """Solve (never raising) and tabulate: the solution and its :func:`solution_row`."""
     sol = solve(ocp, method, guess=guess, raise_on_failure=False, **options)
@@ -151,7 +156,7 @@ def solution_row(sol: OCPSolution, *, resimulate: bool = True, rtol: float = 1e-
 
 def speed_accuracy(
     ocp: OCP,
-    methods: Sequence[Method],
+    methods: Sequence[TranscriptionMethod],
     handlings: Sequence[ManifoldHandling],
     *,
     guess: Guess | OCPSolution,

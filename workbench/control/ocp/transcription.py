@@ -41,16 +41,17 @@ from workbench.control.ocp.hermite_simpson import HermiteSimpson, hermite_simpso
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
 from workbench.core import validate
+from workbench.core._model import Symbolic
 from workbench.core.errors import ModelError, ParameterError
 
 __all__ = [
     "Scheme",
     "ManifoldHandling",
-    "Graph",
     "Integrator",
     "Collocation",
     "MultipleShooting",
     "Transcription",
+    "TranscriptionMethod",
 ]
 
 
@@ -66,18 +67,6 @@ class ManifoldHandling(Enum):
 
     AMBIENT = "ambient"
     LIE_GROUP = "lie_group"
-
-
-class Graph(Enum):
-    """Symbol class of the NLP.
-
-    ``SX``: scalar graph (the model's MX linear solves replayed as symbolic solves by
-    :func:`~workbench.control.ocp.expand.sx_function`); ``MX``: the model's own graph, linear
-    solves kept as numeric nodes.
-    """
-
-    SX = "sx"
-    MX = "mx"
 
 
 class Integrator(Enum):
@@ -157,7 +146,8 @@ class MultipleShooting:
         return f"shooting {self.integrator.value} {extra} N={self.N}"
 
 
-Method = Collocation | MultipleShooting | HermiteSimpson
+TranscriptionMethod = Collocation | MultipleShooting | HermiteSimpson
+"""A transcription method (named apart from the simulation's integration ``Method``)."""
 METHODS = (Collocation, MultipleShooting, HermiteSimpson)
 
 
@@ -196,7 +186,7 @@ class Transcription:
         The transcription.
     handling : ManifoldHandling
         Ambient coordinates or local exponential coordinates.
-    graph : Graph
+    graph : Symbolic
         SX or MX NLP.
     ipopt : dict
         Ipopt options (prefix-free, e.g. ``{"tol": 1e-8}``).
@@ -209,8 +199,8 @@ class Transcription:
     parameters after the model's: data of each solve, not of the graph.
     """
 
-    def __init__(self, ocp: OCP, method: Method, handling: ManifoldHandling, graph: Graph,
-                 ipopt: dict[str, Any]) -> None:
+    def __init__(self, ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandling,
+                 graph: Symbolic, ipopt: dict[str, Any]) -> None:
         if not isinstance(method, METHODS):
             raise ParameterError(
                 f"method must be Collocation(...), MultipleShooting(...) or "
@@ -218,8 +208,8 @@ class Transcription:
             )
         if not isinstance(handling, ManifoldHandling):
             raise ParameterError(f"handling must be a ManifoldHandling; got {handling!r}")
-        if not isinstance(graph, Graph):
-            raise ParameterError(f"graph must be a Graph; got {graph!r}")
+        if not isinstance(graph, Symbolic):
+            raise ParameterError(f"graph must be a Symbolic (SX or MX); got {graph!r}")
         self.ocp, self.method, self.handling, self.graph = ocp, method, handling, graph
         model = ocp.model
         self.nx, self.nu, self.N = model.manifold.ambient_dim, model.n_inputs, method.N
@@ -228,9 +218,9 @@ class Transcription:
         self.local = ProductLocal(model.manifold)
         t0 = time.perf_counter()
         f = model.function("f")
-        if graph is Graph.SX:
+        if graph is Symbolic.SX:
             f = sx_function(f)
-        self.S = ca.SX if graph is Graph.SX else ca.MX
+        self.S = ca.SX if graph is Symbolic.SX else ca.MX
         self.f = f
         self._layout()
         self.nlp = self._build_nlp()
@@ -261,7 +251,7 @@ class Transcription:
                     raise ParameterError(f"compiled must be a Compiled(...) or None; got "
                                          f"{compiled!r}")
                 solver, info = compiled_solver(name, self.nlp, opts, compiled,
-                                               graph_ok=self.graph is Graph.SX)
+                                               graph_ok=self.graph is Symbolic.SX)
                 self.compile_info[compiled] = info
                 self._solvers[key] = solver
                 return solver
@@ -380,7 +370,7 @@ class Transcription:
         T = w[self.iT]
         h = T / N
         F = self._interval()
-        if self.graph is Graph.SX and F.is_a("MXFunction"):
+        if self.graph is Symbolic.SX and F.is_a("MXFunction"):
             F = F.expand()
         g, lbg, ubg, kinds = [], [], [], []
         J = 0
@@ -536,7 +526,7 @@ class Transcription:
         return f"{self.method.describe()}, {self.handling.value}, {self.graph.value.upper()}"
 
 
-def check_method(method: Any) -> Method:
+def check_method(method: Any) -> TranscriptionMethod:
     """Validate a transcription object."""
     if not isinstance(method, METHODS):
         raise ModelError(
