@@ -12,10 +12,9 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +23,7 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import OutputError, ParameterError
 from workbench.core.files import write_atomic
+from workbench.core.status import StatusEnum, StatusResult
 from workbench.core.validate import output_path
 
 __all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
@@ -31,7 +31,7 @@ __all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result
 
 def to_jsonable(obj: Any) -> Any:
     """Convert numpy scalars/arrays (also complex) and nested containers to plain JSON data."""
-    if isinstance(obj, dict):
+    if isinstance(obj, Mapping):  # dicts and typed records (workbench.core.status.Record)
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [to_jsonable(v) for v in obj]
@@ -105,16 +105,20 @@ class Comparison:
         )
 
 
-class ResultStatus(Enum):
+class ResultStatus(StatusEnum):
     """Outcome of a problem's comparisons; the value is a readable message."""
 
     OK = "every comparison within its tolerance"
     OUT_OF_TOLERANCE = "some comparisons out of tolerance"
     NO_COMPARISONS = "no reference values to compare with"
 
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"OK", "NO_COMPARISONS"})
+
 
 @dataclass
-class Result:
+class Result(StatusResult):
     """What a problem's ``solve`` returns.
 
     Attributes
