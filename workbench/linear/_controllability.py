@@ -182,8 +182,8 @@ def _matrices(system: Any, B: ArrayLike | None) -> tuple[Matrix, Matrix, tuple[s
         return system.A, system.B, tuple(system.labels)
     if system is None or isinstance(system, (str, bytes)) or not validate.is_real_array_like(
             system):
-        raise ModelError(f"system must be a LinearModel (from linearize) or the real matrix A; "
-                         f"got {type(system).__name__} {system!r:.60}")
+        raise ModelError(f"system must be a LinearModel (from linearize) or a real numeric "
+                         f"matrix A; got {type(system).__name__} {system!r:.60}")
     if B is None:
         raise ModelError("B is required when A is given as a matrix")
     try:
