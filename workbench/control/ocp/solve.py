@@ -405,7 +405,7 @@ def solve(
         defect_tol = validate.tolerance("defect_tol", defect_tol)
     tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
     args, opts = _start(tr, ocp, guess, opts, warm_options=ipopt_options is None)
-    out = _run(tr, built, args, opts, compiled)
+    out = _run(tr, ocp, built, args, opts, compiled)
     if tr.i_gauge is not None and out.status.ok:
         out = _check_gauge(out, tr, args, opts, ipopt_options is None, compiled)
     if out.status.ok:
@@ -454,10 +454,9 @@ def _start(tr: Transcription, ocp: OCP, guess: Guess | OCPSolution | None,
     return args, opts
 
 
-def _run(tr: Transcription, built: bool, args: dict[str, Any], opts: dict[str, Any],
-         compiled: Compiled | None = None) -> OCPSolution:
-    """One Ipopt solve, timed (wall and CPU), read into a solution."""
-    ocp = tr.ocp
+def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
+         opts: dict[str, Any], compiled: Compiled | None = None) -> OCPSolution:
+    """One Ipopt solve of ``ocp`` (``tr``'s problem or one sharing its graph), timed."""
     solver = tr.solver(opts, compiled)
     t0, c0 = time.perf_counter(), time.process_time()
     sol = solver(**args)
@@ -524,7 +523,8 @@ def _check_gauge(out: OCPSolution, tr: Transcription, args: dict[str, Any],
     keep = np.arange(tr.ng) != tr.i_gauge
     args = {"lbx": lbw, "ubx": ubw, "lbg": tr2.lbg, "ubg": tr2.ubg, "p": free.model.p,
             "x0": out.w, "lam_x0": out.lam_x, "lam_g0": out.lam_g[keep]}
-    again = _run(tr2, built, args, {**WARM_START, **opts} if warm_options else opts, compiled)
+    again = _run(tr2, free, built, args, {**WARM_START, **opts} if warm_options else opts,
+                 compiled)
     again.cost["iterations_gauged"] = out.cost["iterations"]
     again.cost["iterations"] += out.cost["iterations"]
     again.cost["solve_seconds"] += out.cost["solve_seconds"]
