@@ -12,6 +12,7 @@ import pytest
 
 from problems import swingup_3d_pendulum as p3d
 from problems import swingup_double_spherical_cart as dbl
+from problems import swingup_drake_reference as drake_ref
 from problems import swingup_spherical_cart as cart
 from workbench.control.ocp import Collocation, Guess, ManifoldHandling, solve
 from workbench.control.ocp.stepper import Stepper
@@ -106,8 +107,43 @@ def test_lifted_double_guess_is_on_the_manifold_and_gauged():
     assert abs(lifted.u[0, 1]) < 1e-12
 
 
+def test_drake_reference_poses_drakes_problem():
+    for free in (False, True):
+        ocp = drake_ref.problem(cart_free=free)
+        assert drake_ref.METHOD.N + 1 == 41 and ocp.T_range == (0.5, 3.0)
+        assert np.all(ocp.u_upper == 10.0) and np.all(ocp.u_lower == -10.0)
+        assert ocp.symmetry is not None and ocp.symmetry.axis == "e3"
+        g = drake_ref.drake_guess(ocp)
+        assert g.T == 1.5 and not np.any(g.u)
+        for s in np.linspace(0, 1, 7):  # the straight swing: a great circle in the y-z plane
+            x = g.state(s)
+            assert abs(x[4]) < 1e-15 and abs(np.linalg.norm(x[4:7]) - 1) < 1e-12
+    free = drake_ref.problem(cart_free=True)
+    moved = np.r_[0.3, -0.2, 0.0, 0.0, free.target.witness[4:]]
+    assert free.target.distance(moved) == 0.0  # the cart may end anywhere
+    assert drake_ref.problem().target.distance(moved) > 0.1
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("module", [cart, p3d, dbl], ids=lambda m: m.__name__)
+def test_drake_peer_maps_to_the_workbench_state():
+    peer = pytest.importorskip("problems._drake_peer")
+    if not peer.drake_available():
+        pytest.skip("drake not installed")
+    d = peer.drake_solve(peer.drake_plant(), cart_free=False)
+    t, X, U = peer.to_workbench(d["t"], d["x"], d["u"])
+    ocp = drake_ref.problem()
+    for x in X:
+        ocp.model.manifold.check(x, tol=1e-12)
+    assert ocp.target.distance(X[-1]) < 1e-8 and np.allclose(X[0], ocp.x0)
+    # Drake's optimum is (to its tolerance) a KKT point of the Lie-group Hermite-Simpson NLP
+    s = solve(ocp, drake_ref.METHOD, handling=ManifoldHandling.LIE_GROUP,
+              guess=Guess.from_samples(ocp, t, X, U))
+    assert s.objective == pytest.approx(d["cost"], rel=1e-7)
+    assert np.allclose(s.x, X, atol=1e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("module", [cart, p3d, dbl, drake_ref], ids=lambda m: m.__name__)
 def test_problem_runs_in_quick_mode(module):
     res = module.solve(quick=True)
     assert res.ok, [c.as_dict() for c in res.comparisons if not c.ok]
