@@ -7,8 +7,8 @@ which derives the equations. The problem checks them against Kane's method (symp
 spherical angles), finds hover as an equilibrium whose 16-dimensional linearisation swings
 the load at the frequency of a pendulum hanging from a free-floating quadrotor,
 w^2 = g (mQ + mL) / (mQ L), confirms controllability (PBH), stabilises hover with LQR from a
-swinging load, moves the vehicle 2 m in 3 s with Ipopt so that the load arrives at rest, and
-exports the hover controller as C.
+swinging load, moves the vehicle 2 m in 3 s with Ipopt (Hermite-Simpson collocation) so
+that the load arrives at rest, and exports the hover controller as C.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import workbench as wb
 from models import kane_references
 from models.quadrotor_slung_load import hover_input, quadrotor_slung_load
 from workbench import codegen
+from workbench.control.ocp import HermiteSimpson
 from workbench.study import Panel, Result, compare_spectrum, line_figure
 
 TITLE = "Quadrotor with a slung load from its Lagrangian: hover, 16-dim linearisation, PBH, " \
@@ -78,7 +79,7 @@ def solve(*, quick: bool = False) -> Result:
                  T=DURATION, running_cost=lambda x, u: ca.sumsqr(u - ca.DM(u_h)),
                  name="quadrotor_transport")
     with res.timed("transport OCP"):
-        sol = wb.solve_ocp(ocp, wb.Collocation(N=30), raise_on_failure=False)
+        sol = wb.solve_ocp(ocp, HermiteSimpson(N=30), raise_on_failure=False)
     res.compare("transport: Ipopt solved (1 = yes)", 1, float(sol.status.name == "SUCCESS"),
                 tolerance=0, source=f"Ipopt: {sol.status.value}")
     res.compare("transport: |x_N - x_f| (load at rest below)", 0.0,
