@@ -201,7 +201,7 @@ def solve(*, quick: bool = False) -> Result:
         "minimum_time": {k: v for k, v in mintime.items() if not k.startswith("_")}
         | {"T_range": T_TIME},
         "speed_accuracy_reduced_effort": rows,
-        "tvlqr": {k: v for k, v in mc.items() if k != "runs"} | ctrl.info
+        "tvlqr": {k: v for k, v in mc.items() if k != "runs"} | dict(ctrl.info)
         | {"design": ctrl.cost, "sample_period": ctrl.dt},
     }
     gam = [("reduced attitude Gamma", lambda X: X[:, 0:3])]

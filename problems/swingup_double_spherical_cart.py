@@ -182,7 +182,7 @@ def solve(*, quick: bool = False) -> Result:
         mc = monte_carlo(ctrl, ocp.x0, n=20, scale=PERTURBATION, seed=0,
                          hold=1.5 if quick else 3.0, tol=CLOSED_LOOP_TOL,
                          u_bounds=(ocp.u_lower, ocp.u_upper))
-    res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"} | ctrl.info | {
+    res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"} | dict(ctrl.info) | {
         "design": ctrl.cost, "sample_period": ctrl.dt, "Q": Q_LQR.tolist(), "R": R_LQR}
     res.compare("TVLQR success rate from 20 perturbed starts", 1.0, mc["success_rate"],
                 tolerance=0.1, source="closed loop reaches the inverted equilibrium")

@@ -178,7 +178,7 @@ def solve(*, quick: bool = False) -> Result:
                          hold=1.5 if quick else 3.0, tol=CLOSED_LOOP_TOL,
                          u_bounds=(ocp.u_lower, ocp.u_upper))
     res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"}
-    res.values["tvlqr"].update(ctrl.info, design=ctrl.cost, sample_period=ctrl.dt,
+    res.values["tvlqr"].update(dict(ctrl.info), design=ctrl.cost, sample_period=ctrl.dt,
                                Q=Q_LQR.tolist(), R=R_LQR)
     res.compare("TVLQR success rate from 20 perturbed starts", 1.0, mc["success_rate"],
                 tolerance=0.1, source="closed loop reaches the inverted equilibrium")
