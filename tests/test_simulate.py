@@ -72,7 +72,7 @@ def test_closed_loop_input_is_recorded_and_acts():
         ({"method": "rk"}, "step must be a positive number"),
         ({"method": "rk", "step": -0.1}, "step must be a positive number"),
         ({"method": "rk", "step": 5.0}, "must not exceed the horizon"),
-        ({"rtol": 0.0}, "rtol must be positive"),
+        ({"rtol": 0.0}, "rtol must be a positive finite tolerance; got 0.0"),
         ({"multistep": "gear"}, "multistep must be one of"),
         ({"controller": "pd"}, "controller must be a casadi.Function"),
     ],
