@@ -384,8 +384,8 @@ ENTRIES: list[Entry] = [
     Entry("TargetPoint", lambda a: wb.OCP(**{**_ocp_args(), "target": wb.TargetPoint(
         cart().manifold, a["point"])}), lambda: {"point": CART_UP}, {"point": E.ARRAY},
           words={"point": ("x_f", "point")}),
-    Entry("TargetSet", lambda a: wb.TargetSet(lambda x: x[6:9], cart().manifold, a["value"],
-                                              a["witness"]),
+    Entry("TargetSet", lambda a: wb.OCP(**{**_ocp_args(), "target": wb.TargetSet(
+        lambda x: x[4:7], wb.ProductManifold([("q", wb.S2())]), a["value"], a["witness"])}),
           lambda: {"value": np.r_[0, 0, -1.0], "witness": CART_UP},
           {"value": E.ARRAY, "witness": E.ARRAY}),
     Entry("Collocation", lambda a: wb.Collocation(**a), lambda: {"N": 4, "degree": 3},

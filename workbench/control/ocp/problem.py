@@ -204,8 +204,9 @@ class TargetSet(Target):
         try:
             m = int(ca.vec(self.map(ca.SX.sym("x", n))).numel())
         except RuntimeError as exc:
-            raise ParameterError(f"map must take a symbolic state of {n} entries; casadi: "
-                                 f"{str(exc).strip().splitlines()[-1]}") from exc
+            raise ParameterError(f"map must take a state of the model like the witness ({n} "
+                                 f"entries); casadi: {str(exc).strip().splitlines()[-1]}"
+                                 ) from exc
         if self.value.size != m:
             raise ParameterError(f"value must have {m} entries (the size of map(x)); got "
                                  f"{self.value.size}")
