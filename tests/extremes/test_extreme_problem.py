@@ -68,11 +68,13 @@ def test_the_cases_that_must_fail_do_so_clearly(quick):
         ("ill_conditioned", "cond J = 1e+08: LQR"): "uncontrollable mode",
         ("ill_conditioned", "cond J = 1e+08: lgvi h = 2.5e-6"): "rounding level",
         ("fast_and_slow", "separatrix: theta0 = pi - 1e-06"): "separatrix",
-        # since the automatic rotation gauge, Ipopt runs out of iterations here instead of
-        # detecting infeasibility: still a clear failure naming Ipopt's status
+        # since the automatic rotation gauge and the derived chain, Ipopt runs out of
+        # iterations or fails its restoration phase instead of detecting infeasibility:
+        # still clear failures naming Ipopt's status
         ("optimisation", "|u| <= 1 N"): ("Infeasible_Problem_Detected",
                                          "Maximum_Iterations_Exceeded"),
-        ("optimisation", "T = 0.05 s fixed (too short)"): "Infeasible_Problem_Detected",
+        ("optimisation", "T = 0.05 s fixed (too short)"): ("Infeasible_Problem_Detected",
+                                                           "Restoration_Failed"),
         ("optimisation", "T = 100 s fixed on N = 20 (too coarse)"): "INACCURATE",
     }
     for key, word in must_fail.items():
