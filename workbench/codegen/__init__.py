@@ -1,15 +1,13 @@
 """Controllers of the workbench exported as self-contained C99 code, verified and timed.
 
-Typical use (the papers' controllers are built by name in :mod:`workbench.app.catalogue`; the
-engine only receives :class:`ExportableController` entries)::
+Typical use: your own feedback in one call (the papers' controllers are exported by name
+from the application layer, ``workbench export-c NAME --out DIR``; the engine only receives
+:class:`ExportableController` entries)::
 
-    from workbench.app import catalogue as exports
-    from workbench import codegen
-    exports.names()                                   # what can be exported
-    res = codegen.export_c(exports.build("saturated_velocity_feedback"), "out/",
-                           binding=codegen.Binding.FROZEN)
-    lib = codegen.compile_controller(exports.build("chain_lqr_n5"),
-                                     binding=codegen.Binding.PARAMETERS)
+    from workbench import codegen, linearize, lqr
+    k = lqr(linearize(model, x_eq), Q=Q, R=R).feedback(name="my_lqr")
+    res = codegen.export_feedback(model, k, "out/", name="my_lqr", title="...",
+                                  example_state=x_eq)
     k = lib.function()                                # casadi.external, usable in simulate
     codegen.bench_c(lib).median_ns                    # nanoseconds per call, measured in C
 
