@@ -8,8 +8,7 @@ from the application layer, ``workbench export-c NAME --out DIR``; the engine on
     k = lqr(linearize(model, x_eq), Q=Q, R=R).feedback(name="my_lqr")
     res = codegen.export_feedback(model, k, "out/", name="my_lqr", title="...",
                                   example_state=x_eq)
-    k = lib.function()                                # casadi.external, usable in simulate
-    codegen.bench_c(lib).median_ns                    # nanoseconds per call, measured in C
+    res.compiled.function()                           # casadi.external, usable in simulate
 
 Any casadi Function (a model's right-hand side, a closed loop, a batch of states) compiles
 the same way, as an explicit speed-for-build-time knob (issue 17)::
