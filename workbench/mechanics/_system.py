@@ -30,9 +30,11 @@ from workbench.mechanics import _forces as F
 from workbench.mechanics._bodies import PointMass, RigidBody
 from workbench.mechanics._checks import as_expr, as_number_array, check_inertia_value
 from workbench.mechanics._engine import ModelError, Parameter, ParameterError, finite
+from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
-from workbench.mechanics._model import build_model
+from workbench.mechanics._model import _ingredients, build_model
 from workbench.mechanics._symbols import CONFIG, INPUT, PARAMETER, VELOCITY, SymbolTable
+from workbench.mechanics._symmetry import check_options, detect
 
 __all__ = ["System", "E3"]
 
@@ -451,6 +453,43 @@ class System:
         if not gens:
             raise ModelError(f"momentum {name!r} needs translate=, rotate= or generators=")
         self.momenta[name] = gens
+
+    def detect_momenta(self, *, rtol: float = 1e-9, n_states: int = 3,
+                       seed: int = 0) -> dict[str, str]:
+        """Find the system's rotation and translation symmetries and declare their momenta.
+
+        Tries world rotations about ``e1``, ``e2``, ``e3`` (S^2 and SO(3) factors turn; each
+        R^3 factor, and an R^2 factor about ``e3``, turns or stays) and translations of R^k
+        factors along their axes; a candidate is declared only when its Noether momentum is
+        verified conserved (``|dJ/dt| <= rtol |grad J| |f|`` at ``n_states`` seeded random
+        states, zero input) and independent of the momenta declared so far. See
+        :mod:`workbench.mechanics._symmetry`.
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance of the conservation test, in (0, 1).
+        n_states : int
+            Random states every candidate must pass, >= 1.
+        seed : int
+            Seed of those states.
+
+        Returns
+        -------
+        dict of str to str
+            The momenta declared by this call: name -> what the symmetry does.
+        """
+        check_options(rtol, n_states)
+        if not self.factors:
+            raise ModelError(f"system {self.name!r} has no factors; add rn(...), s2(...) or "
+                             "so3(...)")
+        der = Derivation(_ingredients(self), self.name)
+        p = (np.concatenate([np.asarray(self.values[q.name], dtype=float).reshape(-1)
+                             for q in self.parameters]) if self.parameters else np.zeros(0))
+        found = detect(self, der, p, rtol=float(rtol), n_states=n_states, seed=seed)
+        for c in found:
+            self.momenta[c.name] = c.generators
+        return {c.name: c.description for c in found}
 
     # the model -----------------------------------------------------------------------------
     def model(self, name: str | None = None, *, symbolic: str = "auto",

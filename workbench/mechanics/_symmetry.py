@@ -1,0 +1,205 @@
+"""Symmetries of a declared system found numerically, and their Noether momenta.
+
+A candidate symmetry is a one-parameter group acting on the factors: a world rotation about
+``e1``, ``e2`` or ``e3`` (every S^2 and SO(3) factor turns; each R^3 factor either turns as
+a vector in space or stays; an R^2 factor, the horizontal plane, turns about ``e3`` or
+stays), or a translation of one R^k factor, or of every R^k factor of one dimension
+together, along a coordinate axis. Its generator ``eta`` (the velocity of each factor
+under the group at unit speed) gives the Noether momentum ``J = sum_f Pi_f . eta_f``.
+
+A candidate is accepted only when it is *verified*: ``dJ/dt = grad J . f(x, 0)`` vanishes,
+to ``rtol * |grad J| |f|``, at several seeded random states of the manifold (random
+configurations and velocities, the system's parameter values, zero input). That is exactly
+the statement the user relies on (``J`` is an invariant of the unforced motion); loads that
+do not vanish at ``u = 0`` (springs written as forces, dissipation) are part of the test.
+Accepted generators are kept only while they are linearly independent of those declared
+or accepted before (translations of single factors first, then joint translations, then
+rotations), so a cart's two translations and the rotation about the vertical give three
+momenta, never a fourth combination of them.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.mechanics._engine import ModelError, ProductManifold
+from workbench.mechanics._equations import Derivation
+from workbench.mechanics._factors import RnFactor, S2Factor, SO3Factor
+
+__all__ = ["Candidate", "detect", "MAX_ROTATING_CHOICES"]
+
+MAX_ROTATING_CHOICES = 6
+"""Up to this many R^2/R^3 factors, every turn-or-stay combination is tried; above, only
+"all turn" and "all stay"."""
+
+AXES = (("e1", (1.0, 0.0, 0.0)), ("e2", (0.0, 1.0, 0.0)), ("e3", (0.0, 0.0, 1.0)))
+
+
+@dataclass
+class Candidate:
+    """A candidate symmetry: its invariant's name, a description and its generators.
+
+    Attributes
+    ----------
+    name : str
+        Name of the momentum if accepted.
+    description : str
+        What the group does, in words.
+    generators : dict of int to casadi.SX
+        The velocity of each moved factor (keyed by ``id(factor)``).
+    """
+
+    name: str
+    description: str
+    generators: dict
+
+
+def _rotation_generator(f: Any, axis: np.ndarray) -> ca.SX | None:
+    """The velocity of ``f`` under the rotation about ``axis``, or None if it cannot turn."""
+    a = ca.SX(ca.DM(axis))
+    if isinstance(f, (S2Factor, SO3Factor)):
+        return f.rotation_generator(a)
+    if isinstance(f, RnFactor) and f.dim == 3:
+        return ca.cross(a, f.x)
+    if isinstance(f, RnFactor) and f.dim == 2 and axis[2] == 1.0:
+        return ca.vertcat(-f.x[1], f.x[0])
+    return None
+
+
+def _rotations(factors: list) -> list[Candidate]:
+    out = []
+    for label, axis in AXES:
+        ax = np.array(axis)
+        base = {id(f): g for f in factors if isinstance(f, (S2Factor, SO3Factor))
+                for g in [_rotation_generator(f, ax)]}
+        movable = [f for f in factors if isinstance(f, RnFactor)
+                   and _rotation_generator(f, ax) is not None]
+        if len(movable) <= MAX_ROTATING_CHOICES:
+            choices = itertools.product((True, False), repeat=len(movable))
+        else:
+            choices = iter([(True,) * len(movable), (False,) * len(movable)])
+        for choice in choices:
+            gens = dict(base)
+            turned = [f for f, c in zip(movable, choice) if c]
+            gens.update({id(f): _rotation_generator(f, ax) for f in turned})
+            if not gens:
+                continue
+            names = [f.name for f in factors if id(f) in gens]
+            out.append(Candidate(f"angular_momentum_{label}",
+                                 f"rotation about {label} turning {', '.join(names)}", gens))
+    return out
+
+
+def _translations(factors: list) -> list[Candidate]:
+    rn = [f for f in factors if isinstance(f, RnFactor)]
+    single, joint = [], []
+    for f in rn:
+        for i in range(f.dim):
+            d = np.zeros(f.dim)
+            d[i] = 1.0
+            single.append(Candidate(f"linear_momentum_{f.name}_{i + 1}",
+                                    f"translation of {f.name} along its axis {i + 1}",
+                                    {id(f): ca.SX(ca.DM(d))}))
+    for k in sorted({f.dim for f in rn}):
+        group = [f for f in rn if f.dim == k]
+        if len(group) < 2:
+            continue
+        for i in range(k):
+            d = ca.SX(ca.DM(np.eye(k)[:, i]))
+            joint.append(Candidate(
+                f"linear_momentum_{i + 1}",
+                f"translation of {', '.join(f.name for f in group)} together along axis "
+                f"{i + 1}", {id(f): d for f in group}))
+    return single + joint
+
+
+def _generator_matrix(der: Derivation, cands: list, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Rows: each candidate's generator stacked over all velocities, at the state ``x``."""
+    rows = []
+    for c in cands:
+        parts = []
+        for f, sl in zip(der.ing.factors, der.slices):
+            n = sl.stop - sl.start
+            parts.append(c.generators.get(id(f), ca.SX.zeros(n, 1)))
+        rows.append(ca.vertcat(*parts).T)
+    if not rows:
+        return np.zeros((0, der.n_nu))
+    fn = ca.Function("eta", [der.x, der.ing.p], [ca.vertcat(*rows)])
+    return np.asarray(fn(x, p), dtype=float)
+
+
+def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states: int,
+           seed: int) -> list[Candidate]:
+    """The verified, independent symmetries of ``system`` not already declared.
+
+    Parameters
+    ----------
+    system : System
+        The declared system (its factors and declared momenta).
+    der : Derivation
+        Its derived equations.
+    p : ndarray
+        Parameter values in storage order.
+    rtol : float
+        Relative tolerance of ``|dJ/dt| <= rtol |grad J| |f|``.
+    n_states : int
+        How many seeded random states each candidate must pass.
+    seed : int
+        Seed of the random states.
+
+    Returns
+    -------
+    list of Candidate
+        Accepted candidates, in order of preference; names not yet used.
+    """
+    factors = list(system.factors)
+    cands = _translations(factors) + _rotations(factors)
+    if not cands:
+        return []
+    manifold = ProductManifold([s for f in factors for s in f.storage()])
+    rng = np.random.default_rng(seed)
+    states = [np.asarray(manifold.random_point(rng), dtype=float) for _ in range(n_states)]
+    asm, rates = der.assembly(), der.rates()
+    u0 = np.zeros(der.ing.u.shape[0])
+    xdots = []
+    for x in states:
+        A, b = (np.asarray(m, dtype=float) for m in asm(x, u0, p))
+        xdots.append(np.asarray(rates(x, np.linalg.solve(A, b)), dtype=float).ravel())
+    grads = ca.Function("grads", [der.x, der.ing.p], [ca.vertcat(*[
+        ca.gradient(der.momentum(c.generators)(der.x, der.ing.p), der.x).T for c in cands])])
+    verified = np.ones(len(cands), dtype=bool)
+    for x, xdot in zip(states, xdots):
+        G = np.asarray(grads(x, p), dtype=float)
+        rate = np.abs(G @ xdot)
+        scale = np.linalg.norm(G, axis=1) * np.linalg.norm(xdot)
+        verified &= (rate <= rtol * scale) & (np.linalg.norm(G, axis=1) > 0)
+    declared = [Candidate(n, "declared", g) for n, g in system.momenta.items()]
+    basis = _generator_matrix(der, declared, states[0], p)
+    rank = np.linalg.matrix_rank(basis) if basis.size else 0
+    accepted, used = [], set(system.momenta)
+    for c, ok in zip(cands, verified):
+        if not ok:
+            continue
+        trial = np.vstack([basis, _generator_matrix(der, [c], states[0], p)])
+        r = np.linalg.matrix_rank(trial)
+        if r > rank:
+            basis, rank = trial, r
+            name, k = c.name, 2
+            while name in used:
+                name, k = f"{c.name}_{k}", k + 1
+            used.add(name)
+            accepted.append(Candidate(name, c.description, c.generators))
+    return accepted
+
+
+def check_options(rtol: Any, n_states: Any) -> None:
+    """Refuse a non-positive tolerance or state count (both are inputs, never adjusted)."""
+    if isinstance(rtol, bool) or not isinstance(rtol, (int, float)) or not 0 < rtol < 1:
+        raise ModelError(f"rtol must be a number in (0, 1); got {rtol!r}")
+    if isinstance(n_states, bool) or not isinstance(n_states, int) or n_states < 1:
+        raise ModelError(f"n_states must be an integer >= 1; got {n_states!r}")
