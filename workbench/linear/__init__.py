@@ -41,6 +41,7 @@ from workbench.linear._lqr import (
     lqr,
     riccati_residual,
 )
+from workbench.linear._symmetry import SymmetryDirections, symmetry_directions
 from workbench.linear.symbolic import (
     SymbolicLinearization,
     casadi_to_sympy,
@@ -50,6 +51,8 @@ from workbench.linear.symbolic import (
 )
 
 __all__ = [
+    "SymmetryDirections",
+    "symmetry_directions",
     "AmbientLinearization",
     "EQUILIBRIUM_TOL",
     "Eigenstructure",

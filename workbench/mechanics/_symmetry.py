@@ -31,7 +31,7 @@ from workbench.mechanics._engine import ModelError, ProductManifold
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import RnFactor, S2Factor, SO3Factor
 
-__all__ = ["Candidate", "detect", "MAX_ROTATING_CHOICES"]
+__all__ = ["Candidate", "detect", "configuration_action", "MAX_ROTATING_CHOICES"]
 
 MAX_ROTATING_CHOICES = 6
 """Up to this many R^2/R^3 factors, every turn-or-stay combination is tried; above, only
@@ -203,3 +203,37 @@ def check_options(rtol: Any, n_states: Any) -> None:
         raise ModelError(f"rtol must be a number in (0, 1); got {rtol!r}")
     if isinstance(n_states, bool) or not isinstance(n_states, int) or n_states < 1:
         raise ModelError(f"n_states must be an integer >= 1; got {n_states!r}")
+
+
+def configuration_action(der: Derivation, name: str, generators: dict) -> ca.Function:
+    """``(x, p) -> delta x``: a symmetry's infinitesimal action on the stored configuration.
+
+    Each moved factor's configuration changes at the rate ``K(c) eta`` (its kinematics for
+    the generator's velocity ``eta``); velocities are left unchanged, which is exact at a
+    state at rest (where the linearised orbit direction is meant to be read).
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations (for the state layout).
+    name : str
+        The momentum's name (names the function).
+    generators : dict of int to casadi.SX
+        The generator's velocity of each moved factor, keyed by ``id(factor)``.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    parts = []
+    for f in der.ing.factors:
+        syms = f.state_symbols()
+        eta = generators.get(id(f))
+        dc = (ca.SX.zeros(f.config_sym.shape[0], 1) if eta is None
+              else ca.vec(f.kinematics(eta)))
+        if len(syms) == 2:  # configuration and velocity stored apart
+            parts += [dc, ca.SX.zeros(syms[1].shape[0], 1)]
+        else:  # one TS2 block (q, omega)
+            parts.append(ca.vertcat(dc, ca.SX.zeros(f.velocity_sym.shape[0], 1)))
+    return ca.Function(f"action_{name}", [der.x, der.ing.p], [ca.vertcat(*parts)],
+                       ["x", "p"], ["dx"])

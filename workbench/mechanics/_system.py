@@ -34,7 +34,7 @@ from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
 from workbench.mechanics._model import _ingredients, build_model
 from workbench.mechanics._symbols import CONFIG, INPUT, PARAMETER, VELOCITY, SymbolTable
-from workbench.mechanics._symmetry import check_options, detect
+from workbench.mechanics._symmetry import check_options, configuration_action, detect
 
 __all__ = ["System", "E3"]
 
@@ -516,10 +516,17 @@ class System:
         Returns
         -------
         workbench.Model
+            With ``model.symmetry_actions``: for each momentum, a casadi.Function
+            ``(x, p) -> delta x``, the infinitesimal action of its symmetry on the
+            configuration (velocities zero: exact at states at rest), used by
+            :func:`workbench.linear.symmetry_directions`.
         """
-        return build_model(self, name or self.name, symbolic=symbolic,
-                           linear_solver=linear_solver, check=check, description=description,
-                           equations=equations, input_description=input_description)
+        model = build_model(self, name or self.name, symbolic=symbolic,
+                            linear_solver=linear_solver, check=check, description=description,
+                            equations=equations, input_description=input_description)
+        model.symmetry_actions = {k: configuration_action(model.mechanics, k, g)
+                                  for k, g in self.momenta.items()}
+        return model
 
     # pieces for the model builder -------------------------------------------------------------
     def stacked_parameters(self) -> ca.SX:

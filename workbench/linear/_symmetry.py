@@ -1,0 +1,187 @@
+"""Which centre directions of a linearisation come from a symmetry.
+
+At an equilibrium ``x_e`` of a model with a conserved quantity ``J`` (``dJ/dt = 0`` for
+every state), differentiating ``grad J . f = 0`` at ``x_e`` gives ``c^T A = 0`` with
+``c = N^T grad J(x_e)`` in tangent coordinates: every conserved quantity whose
+differential does not vanish there is a *left* null vector of ``A``, and forces a zero
+eigenvalue. A symmetry whose group moves ``x_e`` (``delta x = xi(x_e) != 0``) maps
+equilibria to equilibria, so its orbit direction ``v = N^+ xi(x_e)`` is a *right* null
+vector, ``A v = 0``. Both are *verified* here, to a relative tolerance, before they are
+reported: a momentum that a closed loop or an input does not conserve is said so, not
+assumed.
+
+The orbit directions need the symmetry's action on the state, which models made by
+:mod:`workbench.mechanics` carry (``model.symmetry_actions``); for other models only the
+conserved quantities (``model.invariant_names``) are read. The action is taken at rest
+(velocities unchanged), so orbit directions are computed only at states at rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.core import ModelError, validate
+
+__all__ = ["SymmetryDirections", "symmetry_directions"]
+
+
+@dataclass(frozen=True)
+class SymmetryDirections:
+    """The zero eigenvalues of a linearisation that symmetries and invariants account for.
+
+    Attributes
+    ----------
+    n_zero : int
+        Eigenvalues with ``|lambda| <= zero_tol``.
+    zero_tol : float
+        That threshold (``rtol * max(1, |A|_2)``).
+    orbits : dict of str to ndarray, shape=(dim,)
+        Verified orbit directions (tangent coordinates, ``A v ~ 0``), by symmetry name.
+    conserved : dict of str to ndarray, shape=(dim,)
+        Verified left null vectors ``c = N^T grad J`` (``c^T A ~ 0``), by invariant name.
+    not_conserved : dict of str to float
+        Invariants whose differential is not a left null vector here (closed loop, input
+        at the point), with ``|c^T A| / (|c| |A|)``.
+    vanishing : list of str
+        Invariants whose differential vanishes at the point (no information).
+    fixed : list of str
+        Symmetries that leave the point fixed (orbit direction zero).
+    notes : list of str
+        What was not computed, and why.
+    """
+
+    n_zero: int
+    zero_tol: float
+    orbits: dict = field(default_factory=dict)
+    conserved: dict = field(default_factory=dict)
+    not_conserved: dict = field(default_factory=dict)
+    vanishing: list = field(default_factory=list)
+    fixed: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+
+    @property
+    def orbit_rank(self) -> int:
+        """Dimension spanned by the verified orbit directions."""
+        return _rank(list(self.orbits.values()))
+
+    @property
+    def conserved_rank(self) -> int:
+        """Dimension spanned by the verified left null vectors."""
+        return _rank(list(self.conserved.values()))
+
+    @property
+    def unexplained(self) -> int:
+        """Zero eigenvalues beyond one per orbit direction and one per conserved momentum.
+
+        At a state at rest an orbit direction ``v`` and the momentum of the same symmetry
+        ``c`` satisfy ``c . v = 0`` (the momentum is linear in the velocities), so they form
+        a Jordan pair: one zero eigenvalue each. What is left over is a neutral direction
+        of this equilibrium that no declared or detected symmetry explains.
+        """
+        return max(0, self.n_zero - self.orbit_rank - self.conserved_rank)
+
+    def describe(self) -> str:
+        """One line for a table, e.g. ``"4 zero eigenvalues: orbits of px, py; ..."``."""
+        parts = [f"{self.n_zero} zero eigenvalue{'s' if self.n_zero != 1 else ''}"]
+        if self.orbits:
+            parts.append(f"{self.orbit_rank} orbit direction(s) of {', '.join(self.orbits)}")
+        if self.conserved:
+            parts.append(f"{self.conserved_rank} conserved: {', '.join(self.conserved)}")
+        if self.fixed:
+            parts.append(f"fixed by {', '.join(self.fixed)}")
+        if self.unexplained:
+            parts.append(f"{self.unexplained} not from a symmetry")
+        return "; ".join(parts)
+
+
+def _rank(vectors: list) -> int:
+    if not vectors:
+        return 0
+    M = np.column_stack(vectors)
+    return int(np.linalg.matrix_rank(M, tol=1e-8 * max(1.0, float(np.abs(M).max()))))
+
+
+def _gradient(model: Any, name: str) -> ca.Function:
+    fn = model.function(name)
+    x = ca.SX.sym("x", fn.size1_in(0))
+    p = ca.SX.sym("p", fn.size1_in(1))
+    return ca.Function(f"grad_{name}", [x, p], [ca.gradient(fn(x, p), x)])
+
+
+def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
+    """Account for the zero eigenvalues of a linearisation by symmetries and invariants.
+
+    Parameters
+    ----------
+    lin : LinearModel
+        A linearisation (:func:`workbench.linearize`), open or closed loop.
+    rtol : float
+        Relative tolerance of every check: ``|A v| <= rtol |A| |v|``,
+        ``|c^T A| <= rtol |A| |c|``, zero eigenvalues ``|lambda| <= rtol max(1, |A|)``,
+        vanishing differentials ``|grad J| <= rtol``.
+
+    Returns
+    -------
+    SymmetryDirections
+
+    Raises
+    ------
+    ModelError
+        If ``lin`` is not a linearisation.
+    """
+    rtol = validate.tolerance("rtol", rtol)
+    if not all(hasattr(lin, k) for k in ("A", "basis", "x_e", "model")):
+        raise ModelError(f"lin must be a LinearModel (from linearize); got "
+                         f"{type(lin).__name__}")
+    A, N = np.asarray(lin.A, float), np.asarray(lin.basis, float)
+    x, model = np.asarray(lin.x_e, float), lin.model
+    a_norm = max(1.0, float(np.linalg.norm(A, 2)))
+    zero_tol = rtol * a_norm
+    n_zero = int(np.sum(np.abs(np.linalg.eigvals(A)) <= zero_tol)) if A.size else 0
+    conserved, not_conserved, vanishing = {}, {}, []
+    for name in model.invariant_names:
+        c = N.T @ np.asarray(_gradient(model, name)(x, model.p), float).ravel()
+        if np.linalg.norm(c) <= rtol:
+            vanishing.append(name)
+            continue
+        defect = float(np.linalg.norm(c @ A) / (np.linalg.norm(c) * a_norm))
+        if defect <= rtol:
+            conserved[name] = c / np.linalg.norm(c)
+        else:
+            not_conserved[name] = defect
+    orbits, fixed, notes = {}, [], []
+    actions = getattr(model, "symmetry_actions", {}) or {}
+    at_rest = _at_rest(model, x)
+    if actions and not at_rest:
+        notes.append("orbit directions not computed: the point is not at rest")
+    elif not actions:
+        notes.append("orbit directions not computed: the model carries no symmetry actions "
+                     "(models made by workbench.mechanics do)")
+    for name, act in (actions.items() if at_rest else ()):
+        dx = np.asarray(act(x, model.p), float).ravel()
+        v, *_ = np.linalg.lstsq(N, dx, rcond=None)
+        if np.linalg.norm(v) <= rtol * max(1.0, np.linalg.norm(dx)):
+            fixed.append(name)
+            continue
+        defect = float(np.linalg.norm(A @ v) / (a_norm * np.linalg.norm(v)))
+        if defect <= rtol:
+            orbits[name] = v / np.linalg.norm(v)
+        else:
+            notes.append(f"the orbit of {name} is not in the kernel of A here "
+                         f"(|A v|/(|A||v|) = {defect:.1e})")
+    return SymmetryDirections(n_zero=n_zero, zero_tol=zero_tol, orbits=orbits,
+                              conserved=conserved, not_conserved=not_conserved,
+                              vanishing=vanishing, fixed=fixed, notes=notes)
+
+
+def _at_rest(model: Any, x: np.ndarray) -> bool:
+    """True when every velocity part of the state is zero (models by workbench.mechanics)."""
+    der = getattr(model, "mechanics", None)
+    if der is None:
+        return False
+    nu = ca.Function("nu", [der.x], [der.nu])(x)
+    return bool(np.all(np.asarray(nu) == 0))
