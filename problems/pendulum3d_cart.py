@@ -73,6 +73,10 @@ def solve(*, quick: bool = False) -> Result:
         nonzero = es.eigenvalues[np.abs(es.eigenvalues) > 1e-8]
         compare_spectrum(res, f"{name}: nonzero eigenvalues", nonzero, ref, tolerance=1e-10,
                          source="closed form, planar cart-pendulum")
+        sym = wb.linear.symmetry_directions(lin)
+        res.values[f"{name}_class"] = f"{es.describe()}; {sym.describe()}"
+        res.compare(f"{name}: zero eigenvalues not from a symmetry (cart, yaw)", 0,
+                    sym.unexplained, tolerance=0, source="Noether: p_x, p_y, L_z")
         test = wb.pbh(lin)
         res.values[f"{name}_uncontrollable_by_cart_force"] = [
             test.describe_mode(mode) for mode in test.uncontrollable]
