@@ -19,6 +19,7 @@ from models.chain_cart import chain_cart, link_state
 from models.chain_cart_reference import equilibrium
 from models.relative_equilibria import stability_label
 from workbench.equilibria import RootStatus, enumerate_equilibria, find_equilibrium
+from workbench.linear import linearize, symmetry_directions
 from workbench.study import Panel, Result, compare_rows, line_figure
 
 TITLE = "Chain pendulum on a cart: the 2^n equilibria by Newton on the manifold, n = 1..6 " \
@@ -90,6 +91,7 @@ def solve(*, quick: bool = False) -> Result:
                           max(np.max(np.abs(eq.x[2:4])) for eq in eqs))) if eqs else np.nan
         with res.timed(f"n = {n}: stability"):
             labels = [stability_label(model, eq.x) for eq in eqs]
+            syms = [symmetry_directions(linearize(model, eq.x)) for eq in eqs]
         match = sum(1 for sg, lab in zip(signs, labels) if lab == (2 * sg.count(-1), 0))
         compare_rows(res, [
             (f"n = {n}: distinct equilibria found", 2**n, len(eqs), 0,
@@ -104,7 +106,9 @@ def solve(*, quick: bool = False) -> Result:
              sum(1 for eq in eqs if eq.local_dimension == 2), 0,
              "f does not depend on x (translation symmetry)"),
             (f"n = {n}: unstable dimension = 2 #(s_i = -1) at every equilibrium", 2**n, match,
-             0, "(16): inertia of G_qq = diag(s_i ...) x I2, M > 0")])
+             0, "(16): inertia of G_qq = diag(s_i ...) x I2, M > 0"),
+            (f"n = {n}: zero eigenvalues not from a symmetry, all equilibria", 0,
+             sum(s.unexplained for s in syms), 0, "cart translations: orbit + momentum each")])
         iters = [eq.iterations for eq in eqs]
         per_n[str(n)] = {
             "equilibria": len(eqs),

@@ -13,7 +13,8 @@ assumed.
 The orbit directions need the symmetry's action on the state, which models made by
 :mod:`workbench.mechanics` carry (``model.symmetry_actions``); for other models only the
 conserved quantities (``model.invariant_names``) are read. The action is taken at rest
-(velocities unchanged), so orbit directions are computed only at states at rest.
+(velocities unchanged), so orbit directions are computed only at states at rest (every
+velocity at most ``rtol``).
 """
 
 from __future__ import annotations
@@ -155,7 +156,7 @@ def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
             not_conserved[name] = defect
     orbits, fixed, notes = {}, [], []
     actions = getattr(model, "symmetry_actions", {}) or {}
-    at_rest = _at_rest(model, x)
+    at_rest = _at_rest(model, x, rtol)
     if actions and not at_rest:
         notes.append("orbit directions not computed: the point is not at rest")
     elif not actions:
@@ -178,10 +179,14 @@ def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
                               vanishing=vanishing, fixed=fixed, notes=notes)
 
 
-def _at_rest(model: Any, x: np.ndarray) -> bool:
-    """True when every velocity part of the state is zero (models by workbench.mechanics)."""
+def _at_rest(model: Any, x: np.ndarray, tol: float) -> bool:
+    """True when every velocity of the state is at most ``tol`` (mechanics models).
+
+    The action is taken with velocities unchanged, an error of the order of the
+    velocities: an equilibrium from a Newton solve carries velocities of rounding size.
+    """
     der = getattr(model, "mechanics", None)
     if der is None:
         return False
-    nu = ca.Function("nu", [der.x], [der.nu])(x)
-    return bool(np.all(np.asarray(nu) == 0))
+    nu = np.asarray(ca.Function("nu", [der.x], [der.nu])(x), dtype=float)
+    return bool(np.all(np.abs(nu) <= tol))
