@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from workbench.app.report import Format, Status, build_report
+from workbench.app.report import Format, ReportInputError, Status, build_report
 from workbench.app.report import cache as report_cache
 
 HEADER = '''
@@ -169,8 +169,36 @@ def test_timeout_and_crash_are_reported_and_the_others_go_on(env):
     text = (env / "out" / "report-quick.html").read_text()
     assert "timed out" in text and "exit code 3" in text
     assert sorted(rep.failed) == ["dies", "sleeps"]
-    # neither a timeout nor a dead process is cached: only 'small' is
-    assert [p.name.split("-")[0] for p in (env / "cache").glob("*.pkl")] == ["small"]
+    # every outcome is cached, the failures too: a second report runs nothing
+    assert sorted(p.name.split("-")[0] for p in (env / "cache").glob("*.pkl")) == [
+        "dies", "sleeps", "small"]
+    rep2, err2 = report(env, ["dies", "sleeps", "small"], cache_dir=env / "cache", jobs=2,
+                        timeout=3)
+    assert rep2.stats.ran == 0 and all(r.cached for r in rep2.runs)
+    assert {r.name: r.status for r in rep2.runs} == status  # still shown as failed
+    assert "--rerun sleeps" in err2 and "--rerun dies" in err2
+    text = (env / "out" / "report-quick.html").read_text()
+    assert "re-used from the cache" in text and "exit code 3" in text
+    # a larger time limit runs the time-out again (it may finish now); the rest is re-used
+    rep3, _ = report(env, ["dies", "sleeps", "small"], cache_dir=env / "cache", jobs=2,
+                     timeout=4)
+    assert [r.name for r in rep3.runs if not r.cached] == ["sleeps"]
+    # --rerun: named problems, 'failed', 'all'
+    rep4, _ = report(env, ["dies", "small"], cache_dir=env / "cache", timeout=4,
+                     rerun=["small"])
+    assert [r.cached for r in rep4.runs] == [True, False]
+    rep5, _ = report(env, ["dies", "small"], cache_dir=env / "cache", timeout=4,
+                     rerun="failed")
+    assert [r.cached for r in rep5.runs] == [False, True]
+    rep6, _ = report(env, ["dies", "small"], cache_dir=env / "cache", timeout=4,
+                     rerun="all")
+    assert [r.cached for r in rep6.runs] == [False, False]
+
+
+def test_rerun_of_an_unknown_problem_is_refused_before_anything_runs(env):
+    with pytest.raises(ReportInputError, match=r"--rerun: 'nope'.*'failed' or 'all'"):
+        report(env, ["small"], cache_dir=env / "cache", rerun=["nope"])
+    assert not list((env / "cache").glob("*.pkl"))
 
 
 def test_peak_memory_of_each_problem_is_measured(env):

@@ -136,7 +136,8 @@ def _report(args: argparse.Namespace) -> int:
                        out_dir=DEFAULT_OUT if args.out is None else output_path(
                            "--out", args.out, error=CLIError),
                        progress=not args.no_progress,
-                       jobs=args.jobs, timeout=args.timeout, cache_dir=cache)
+                       jobs=args.jobs, timeout=args.timeout, cache_dir=cache,
+                       rerun=args.rerun)
     for fmt_, path in rep.paths.items():
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
     print(rep.summary_line())
@@ -231,7 +232,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run the problems (all, or NAMES) and write one report: a self-contained "
         "HTML file and/or a PDF, in DIR. Problems run in parallel processes, each with a time "
         "limit, and are re-used from the cache when nothing they depend on changed. A problem "
-        "that fails or times out appears in the report with its error. Ends with the total "
+        "that fails or times out appears in the report with its error, and is cached like the "
+        "others (--rerun runs it again; a time-out also runs again under a larger --timeout). "
+        "Ends with the total "
         "time and peak memory. Exit status 1 if a problem failed or a comparison is out of "
         "tolerance.",
     )
@@ -253,6 +256,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "a problem is re-used when nothing it depends on changed")
     p_rep.add_argument("--no-cache", action="store_true",
                        help="run every problem and cache nothing")
+    p_rep.add_argument("--rerun", action="append", metavar="NAME", default=None,
+                       help="run NAME again even if its result is cached (repeatable); "
+                       "'failed': every cached failure and time-out; 'all': every problem "
+                       "(results are cached again)")
     p_rep.set_defaults(func=_report)
     p_bench = sub.add_parser(
         "bench", help="run the benchmark scripts and print their output",

@@ -92,7 +92,8 @@ class Report:
         total = self.seconds.get("total", 0.0)
         stages = ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items() if k != "total")
         return (f"report: {len(self.runs)} problems in {total:.1f} s ({stages}); peak memory "
-                f"{peak:.0f} MB (the report's processes together, sampled)"
+                f"{peak:.0f} MB (the report's processes together, sampled), of which the "
+                f"report's own process {own:.0f} MB (its peak, rendering included)"
                 + (f"; {self.stats.line()}" if self.stats else ""))
 
     def __str__(self) -> str:
@@ -176,6 +177,7 @@ def build_report(
     jobs: int | None = None,
     timeout: float | None = None,
     cache_dir: str | Path | None = DEFAULT_CACHE,
+    rerun: Sequence[str] | str | None = None,
 ) -> Report:
     """Run (or re-use) problems and write their report.
 
@@ -203,6 +205,10 @@ def build_report(
         Wall-time limit of one problem [s] (default 600 quick, 1200 full).
     cache_dir : path or None
         Cache of the problems' outcomes; None runs every problem and caches nothing.
+        Failures and time-outs are cached too (and shown as such when re-used).
+    rerun : str or sequence of str, optional
+        Problems to run even if their outcome is cached: names, ``"failed"`` (every
+        cached failure or time-out) or ``"all"``.
 
     Returns
     -------
@@ -245,7 +251,7 @@ def build_report(
     t0 = time.perf_counter()
     outcomes, stats = run_all(names, quick=quick, catalogue=catalogue, jobs=jobs,
                               timeout=timeout, cache_dir=cache, stream=stream,
-                              progress=progress)
+                              progress=progress, rerun=rerun)
     seconds["problems"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     modules = {n: catalogue.load(n) for n in names}

@@ -11,6 +11,7 @@ the problems' plain-language summaries and the figures' captions
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
@@ -100,6 +101,11 @@ def _section(out: Any, quick: bool, module: ModuleType | None) -> ProblemSection
     sec = out.section or ProblemSection(out.name, out.title, out.status, out.seconds, quick)
     sec.status, sec.seconds = out.status, out.seconds
     sec.error, sec.traceback = out.error, out.traceback
+    if out.cached and out.status in (Status.FAILED, Status.TIMED_OUT):
+        when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(out.ran_at)) if out.ran_at else "?"
+        sec.error += (f" [re-used from the cache: this failure is that of the run of {when}, "
+                      f"and nothing it depends on changed since; 'workbench report --rerun "
+                      f"{out.name}' runs it again]")
     sec.cached, sec.peak_mb = out.cached, out.peak_mb
     sec.summary = summary_of(out.name, module)
     for fig in sec.figures:  # the problem's own caption first, then the report's words

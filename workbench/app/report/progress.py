@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-__all__ = ["Progress", "RunStats", "rss_mb", "clock"]
+__all__ = ["Progress", "RunStats", "rss_mb", "pss_mb", "cpu_seconds_of", "clock"]
+
+_TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
 
 def rss_mb(pid: int) -> float:
@@ -20,6 +23,33 @@ def rss_mb(pid: int) -> float:
     except (OSError, ValueError, IndexError):
         pass
     return 0.0
+
+
+def pss_mb(pid: int) -> float:
+    """Proportional set size of a process [MB] from ``/proc`` (its share of shared pages).
+
+    Unlike the resident size, the proportional sizes of processes that share pages (a
+    parent and its forked children) add up to the memory they use together. Falls back to
+    :func:`rss_mb` where ``smaps_rollup`` cannot be read.
+    """
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as fh:
+            for line in fh:
+                if line.startswith("Pss:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return rss_mb(pid)
+
+
+def cpu_seconds_of(pid: int) -> float:
+    """CPU time (user + system) a live process has used so far [s] (nan if unreadable)."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / _TICK
+    except (OSError, ValueError, IndexError):
+        return float("nan")
 
 
 def clock(seconds: float) -> str:
@@ -43,9 +73,10 @@ class RunStats:
     reused, ran : int
         Problems taken from the cache, and run.
     peak_total_mb : float
-        Largest sum of the resident memory of the report's processes (the parent and its
-        running children), sampled every 0.2 s [MB]. Pages shared after the fork count once
-        per process, so this is an upper bound.
+        Largest sum of the proportional set sizes of the report's processes (the parent
+        and its running children; pages shared after the fork are split between the
+        processes sharing them, so the sum is the memory they use together), sampled
+        every 2 s [MB] (:data:`~workbench.app.report.runner.MEMORY_POLL`).
     peak_problem : tuple of (float, str)
         Largest peak resident memory of one problem's process [MB] (``getrusage`` of the
         child), and the problem.
@@ -85,6 +116,7 @@ class Progress:
         self.running: dict[str, tuple[float, float | None]] = {}
         self.durations: list[float] = []
         self.last_beat: dict[str, float] = {}
+        self.steps: dict[str, dict[str, Any]] = {}
 
     def _print(self, text: str) -> None:
         if self.enabled:
@@ -108,14 +140,45 @@ class Progress:
         self.running[name] = (now, self.pending.pop(name, None))
         self.last_beat[name] = now
 
+    def _inside(self, name: str, now: float) -> tuple[str, float | None]:
+        """The problem's last progress message, and its own estimate of the time it has left."""
+        step = self.steps.get(name)
+        if step is None:
+            return "", None
+        t0, _ = self.running[name]
+        done, total = step.get("done"), step.get("total")
+        text = f": {step.get('message', '')}"
+        left = None
+        if isinstance(done, (int, float)) and isinstance(total, (int, float)) and total > 0:
+            text += f" ({done:g}/{total:g})"
+            if done > 0:
+                left = (step["at"] - t0) * (total - done) / done - (now - step["at"])
+                left = max(left, 0.0)
+        return text, left
+
+    def step(self, name: str, step: dict[str, Any], *, every: float = 5.0) -> None:
+        """A running problem reported progress (printed at most every ``every`` seconds)."""
+        if name not in self.running:
+            return
+        now = time.monotonic()
+        first = name not in self.steps
+        self.steps[name] = {**step, "at": now}
+        if first or now - self.last_beat.get(name, -math.inf) >= every:
+            self._beat(name, now)
+
+    def _beat(self, name: str, now: float) -> None:
+        self.last_beat[name] = now
+        t0, exp = self.running[name]
+        text, left = self._inside(name, now)
+        of = f", took {clock(exp)} last time" if exp else ""
+        eta = f", about {clock(left)} left in it" if left is not None else ""
+        self._print(f"        ... {name} after {clock(now - t0)}{text}{eta}{of}")
+
     def alive(self, name: str, every: float) -> None:
         """A problem is still running: say so every ``every`` seconds."""
         now = time.monotonic()
         if name in self.running and now - self.last_beat.get(name, now) >= every:
-            self.last_beat[name] = now
-            t0, exp = self.running[name]
-            of = f" (took {clock(exp)} last time)" if exp else ""
-            self._print(f"        ... {name} still running after {clock(now - t0)}{of}")
+            self._beat(name, now)
 
     def remaining(self) -> float | None:
         """Estimated seconds of wall time left, or None before anything can be estimated."""
@@ -125,11 +188,15 @@ class Progress:
             if est is None and typical is None:
                 return None
             work += est if est is not None else typical  # type: ignore[operator]
-        for t0, est in self.running.values():
+        for name, (t0, est) in self.running.items():
+            _, own = self._inside(name, now)
             ref = est if est is not None else typical
-            if ref is None:
+            if own is not None:  # the problem's own estimate first
+                work += own
+            elif ref is None:
                 return None
-            work += max(ref - (now - t0), 0.0)
+            else:
+                work += max(ref - (now - t0), 0.0)
         return work / self.jobs
 
     def finished(self, out: Any, elapsed: float) -> None:
@@ -137,13 +204,19 @@ class Progress:
         self.count += 1
         self.running.pop(out.name, None)
         self.last_beat.pop(out.name, None)
+        self.steps.pop(out.name, None)
         if not out.cached:
             self.durations.append(out.seconds)
         how = "re-used" if out.cached else f"{out.seconds:6.1f} s"
+        cpu = getattr(out, "cpu_seconds", math.nan)
+        if not out.cached and not math.isnan(cpu):
+            how += f" ({cpu:.1f} s CPU)"
         mem = "" if out.cached or math.isnan(out.peak_mb) else f", peak {out.peak_mb:.0f} MB"
         left = self.remaining()
         eta = "" if left is None or self.count == self.total else f", about {clock(left)} left"
-        why = f" -- {out.error}" if out.error and not out.cached else ""
+        why = f" -- {out.error}" if out.error else ""
+        if out.cached and out.error:
+            why += f" (re-used; 'workbench report --rerun {out.name}' runs it again)"
         count = f"[{self.count}/{self.total}]"
         self._print(f"{count:>7} {out.name:<36} {out.status.value:<16} "
                     f"{how}{mem} | elapsed {clock(elapsed)}{eta}{why}")

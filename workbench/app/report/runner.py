@@ -26,7 +26,7 @@ import sys
 import tempfile
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -35,8 +35,16 @@ from typing import Any, TextIO
 from workbench.app.report import cache
 from workbench.app.report.collect import Status, run_problem
 from workbench.app.report.document import ProblemSection, problem_section
+from workbench.app.report.errors import ReportInputError
 from workbench.app.report.figures import report_style
-from workbench.app.report.progress import Progress, RunStats, rss_mb
+from workbench.app.report.progress import (
+    Progress,
+    RunStats,
+    cpu_seconds_of,
+    pss_mb,
+    rss_mb,
+)
+from workbench.study._result import PROGRESS_ENV
 
 __all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT"]
 
@@ -45,6 +53,10 @@ DEFAULT_TIMEOUT = {True: 600.0, False: 1200.0}
 
 POLL = 0.2
 """Seconds between checks of the running children."""
+
+MEMORY_POLL = 2.0
+"""Seconds between samples of the memory of all the report's processes together (reading a
+process's proportional set size walks its page tables: about 15 ms for a 400 MB process)."""
 
 
 @dataclass
@@ -71,6 +83,15 @@ class Outcome:
         Whether this outcome was re-used from the cache in this report.
     ran_at : float
         When it ran (seconds since the epoch).
+    cpu_seconds : float
+        CPU time (user + system) of the process that ran it and of its own children [s]
+        (sampled from ``/proc`` for a process that was killed or died; nan if unknown).
+    solve_seconds : float
+        Wall time of the problem's ``solve`` alone [s]; the rest of ``seconds`` is turning
+        its result into the report's section (figures as SVG, tables, animations).
+    limit : float
+        The time limit in force when it ran [s] (a cached time-out is run again when the
+        limit is raised above it).
     """
 
     name: str
@@ -84,6 +105,9 @@ class Outcome:
     traceback: str = ""
     cached: bool = False
     ran_at: float = 0.0
+    cpu_seconds: float = float("nan")
+    solve_seconds: float = float("nan")
+    limit: float = float("nan")
 
 
 def _summary(run: Any) -> dict[str, Any]:
@@ -110,14 +134,24 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _own_cpu() -> float:
+    """CPU time of this process and of its waited-for children [s]."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def outcome_of(name: str, *, quick: bool, catalogue: ModuleType) -> Outcome:
     """Run one problem in this process and reduce it to an :class:`Outcome`."""
     from workbench.app.report.animate import animations_of
 
+    t0 = time.perf_counter()
+    cpu0 = _own_cpu()
     with report_style():
         run = run_problem(name, quick=quick, catalogue=catalogue)
     out = Outcome(run.name, run.title, run.status, run.seconds, ran_at=time.time(),
-                  error=run.error, traceback=run.traceback, summary=_summary(run))
+                  error=run.error, traceback=run.traceback, summary=_summary(run),
+                  solve_seconds=run.seconds)
     if run.result is not None:
         try:
             out.section = problem_section(run, quick=quick)
@@ -126,17 +160,25 @@ def outcome_of(name: str, *, quick: bool, catalogue: ModuleType) -> Outcome:
             out.status, out.error = Status.FAILED, f"report section: {type(exc).__name__}: {exc}"
             out.traceback = traceback.format_exc()
     out.peak_mb = _peak_mb()
+    out.seconds = time.perf_counter() - t0
+    out.cpu_seconds = _own_cpu() - cpu0
     return out
 
 
 def _child(name: str, quick: bool, catalogue: ModuleType, path: str) -> None:
-    """Body of a forked child: own process group, run, write the outcome, exit."""
+    """Body of a forked child: own process group, run, write the outcome, exit.
+
+    The problem's progress lines (:func:`workbench.study.progress`) go to ``path``
+    with the suffix ``.progress``, which the parent reads while it runs.
+    """
     os.setpgrp()
+    os.environ[PROGRESS_ENV] = f"{path}.progress"
     try:
         out = outcome_of(name, quick=quick, catalogue=catalogue)
     except BaseException as exc:  # noqa: BLE001 - anything is reported to the parent
         out = Outcome(name, name, Status.FAILED, 0.0, error=f"{type(exc).__name__}: {exc}",
-                      traceback=traceback.format_exc(), peak_mb=_peak_mb(), ran_at=time.time())
+                      traceback=traceback.format_exc(), peak_mb=_peak_mb(), ran_at=time.time(),
+                      cpu_seconds=_own_cpu())
     tmp = f"{path}.partial"
     with open(tmp, "wb") as fh:
         pickle.dump(out, fh, protocol=pickle.HIGHEST_PROTOCOL)
@@ -151,6 +193,9 @@ class _Job:
     process: Any = None
     started: float = 0.0
     peak_sampled: float = 0.0
+    cpu_sampled: float = float("nan")
+    path: Path | None = None
+    read_at: int = 0
 
 
 def _kill_group(process: Any) -> None:
@@ -187,16 +232,84 @@ def _finished(job: _Job, path: Path, *, timed_out: bool, timeout: float) -> Outc
     if path.is_file():
         with path.open("rb") as fh:
             out: Outcome = pickle.load(fh)
+        out.limit = timeout
         return out
     seconds = time.monotonic() - job.started
     if timed_out:
         return Outcome(job.name, job.title, Status.TIMED_OUT, seconds, peak_mb=job.peak_sampled,
                        error=f"timed out: stopped after {timeout:.0f} s, the time limit of one "
-                             f"problem (workbench report --timeout SECONDS)", ran_at=time.time())
+                             f"problem (workbench report --timeout SECONDS)", ran_at=time.time(),
+                       cpu_seconds=job.cpu_sampled, limit=timeout)
     return Outcome(job.name, job.title, Status.FAILED, seconds, peak_mb=job.peak_sampled,
                    error=f"the process running the problem died (exit code "
                          f"{job.process.exitcode}; a negative code is the signal)",
-                   ran_at=time.time())
+                   ran_at=time.time(), cpu_seconds=job.cpu_sampled, limit=timeout)
+
+
+FAILURES = (Status.FAILED, Status.TIMED_OUT)
+
+
+def _reusable(hit: Outcome | None, name: str, rerun: frozenset[str],
+              timeout: float) -> bool:
+    """Whether a cached outcome is re-used (not asked to re-run, not stopped too early)."""
+    if hit is None or "all" in rerun or name in rerun:
+        return False
+    if hit.status in FAILURES and "failed" in rerun:
+        return False
+    # a problem stopped at a shorter limit than today's may finish now: run it again
+    return not (hit.status is Status.TIMED_OUT and not hit.limit >= timeout)
+
+
+def _lookup(names: Sequence[str], *, quick: bool, catalogue: ModuleType,
+            cache_dir: Path | None, rerun: frozenset[str], timeout: float,
+            ) -> tuple[dict[str, Outcome], list[_Job]]:
+    """Split ``names`` into outcomes re-used from the cache and jobs to run."""
+    done: dict[str, Outcome] = {}
+    todo: list[_Job] = []
+    for name in names:
+        module = catalogue.load(name)
+        key = cache.problem_key(cache.module_file(module), quick=quick)
+        title = str(getattr(module, "TITLE", name))
+        hit = cache.load(cache_dir, name, quick=quick, key=key) if cache_dir and key else None
+        if _reusable(hit, name, rerun, timeout):
+            hit.cached = True
+            done[name] = hit
+        else:
+            todo.append(_Job(name, key, title))
+    return done, todo
+
+
+def _read_progress(job: _Job) -> list[dict[str, Any]]:
+    """New progress lines of a running problem (see :func:`workbench.study.progress`)."""
+    if job.path is None:
+        return []
+    try:
+        with open(f"{job.path}.progress", "rb") as fh:
+            fh.seek(job.read_at)
+            data = fh.read()
+    except OSError:
+        return []
+    complete = data[: data.rfind(b"\n") + 1]
+    job.read_at += len(complete)
+    out = []
+    for line in complete.splitlines():
+        try:
+            out.append(json.loads(line))
+        except ValueError:
+            continue
+    return out
+
+
+def _check_rerun(rerun: Collection[str] | str | None, names: Sequence[str]) -> frozenset[str]:
+    if rerun is None:
+        return frozenset()
+    items = frozenset([rerun] if isinstance(rerun, str) else rerun)
+    unknown = sorted(items - set(names) - {"all", "failed"})
+    if unknown:
+        raise ReportInputError(
+            f"--rerun: {', '.join(map(repr, unknown))} is not a problem of this report; "
+            f"expected problem names, 'failed' or 'all' (problems: {', '.join(names)})")
+    return items
 
 
 def run_all(
@@ -211,8 +324,14 @@ def run_all(
     progress: bool = True,
     heartbeat: float = 30.0,
     on_done: Callable[[Outcome], None] | None = None,
+    rerun: Collection[str] | str | None = None,
 ) -> tuple[list[Outcome], RunStats]:
     """Run (or re-use) every problem; return the outcomes in the order of ``names``.
+
+    Every outcome is cached, a failure or a time-out too (shown as such, with the error,
+    when re-used), so that a second report with nothing changed runs nothing; ``rerun``
+    forces problems to run again. A time-out is run again by itself when ``timeout`` is
+    larger than the limit it was stopped at.
 
     Parameters
     ----------
@@ -236,59 +355,67 @@ def run_all(
         Seconds between "still running" lines for a long problem.
     on_done : callable, optional
         Called with every outcome as it becomes available.
+    rerun : str or collection of str, optional
+        Problems to run even if cached: names, ``"failed"`` (every cached failure and
+        time-out) or ``"all"``.
 
     Returns
     -------
     outcomes : list of Outcome
     stats : RunStats
         Wall time, counts and peak memory.
+
+    Raises
+    ------
+    ReportInputError
+        If ``rerun`` names something that is not a problem of ``names``.
     """
     jobs = max(1, int(jobs or os.cpu_count() or 1))
     timeout = float(timeout or DEFAULT_TIMEOUT[bool(quick)])
+    forced = _check_rerun(rerun, names)
     stream = stream or sys.stderr
     t0 = time.monotonic()
     cpu0 = _children_cpu()
     mode = "quick" if quick else "full"
     timings = _read_timings(cache_dir)
-    done: dict[str, Outcome] = {}
-    todo: list[_Job] = []
     show = Progress(len(names), stream=stream, enabled=progress, jobs=jobs)
-    for name in names:
-        module = catalogue.load(name)
-        key = cache.problem_key(cache.module_file(module), quick=quick)
-        title = str(getattr(module, "TITLE", name))
-        hit = cache.load(cache_dir, name, quick=quick, key=key) if cache_dir and key else None
-        if hit is not None:
-            hit.cached = True
-            done[name] = hit
-            show.finished(hit, time.monotonic() - t0)
-            if on_done:
-                on_done(hit)
-        else:
-            todo.append(_Job(name, key, title))
+    done, todo = _lookup(names, quick=quick, catalogue=catalogue, cache_dir=cache_dir,
+                         rerun=forced, timeout=timeout)
+    for hit in done.values():
+        show.finished(hit, time.monotonic() - t0)
+        if on_done:
+            on_done(hit)
     todo.sort(key=lambda j: -timings.get(f"{mode}/{j.name}", 0.0))
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
     running: list[_Job] = []
-    peak_total = rss_mb(os.getpid())
+    peak_total = pss_mb(os.getpid())
+    sampled_at = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="workbench-report-runs-") as tmp:
         try:
             while todo or running:
                 while todo and len(running) < jobs:
                     job = todo.pop(0)
+                    job.path = Path(tmp) / f"{job.name}.pkl"
                     job.process = ctx.Process(
                         target=_child, name=f"report:{job.name}",
-                        args=(job.name, quick, catalogue, str(Path(tmp) / f"{job.name}.pkl")))
+                        args=(job.name, quick, catalogue, str(job.path)))
                     job.process.start()
                     job.started = time.monotonic()
                     running.append(job)
                     show.started(job.name)
                 time.sleep(POLL)
-                total = rss_mb(os.getpid())
+                sample = time.monotonic() - sampled_at >= MEMORY_POLL
+                if sample:
+                    sampled_at = time.monotonic()
+                    peak_total = max(peak_total, sum(
+                        pss_mb(pid) for pid in [os.getpid(), *(j.process.pid for j in running)]))
                 for job in list(running):
-                    rss = rss_mb(job.process.pid)
-                    job.peak_sampled = max(job.peak_sampled, rss)
-                    total += rss
+                    job.peak_sampled = max(job.peak_sampled, rss_mb(job.process.pid))
+                    cpu = cpu_seconds_of(job.process.pid)
+                    job.cpu_sampled = cpu if cpu == cpu else job.cpu_sampled
+                    for step in _read_progress(job):
+                        show.step(job.name, step)
                     over = time.monotonic() - job.started > timeout
                     if job.process.is_alive() and not over:
                         show.alive(job.name, heartbeat)
@@ -297,19 +424,15 @@ def run_all(
                     if timed_out:
                         _kill_group(job.process)
                     job.process.join()
-                    path = Path(tmp) / f"{job.name}.pkl"
-                    completed = path.is_file()
-                    out = _finished(job, path, timed_out=timed_out, timeout=timeout)
+                    out = _finished(job, job.path, timed_out=timed_out, timeout=timeout)
                     running.remove(job)
                     done[job.name] = out
-                    if completed:
-                        timings[f"{mode}/{job.name}"] = out.seconds
-                        if cache_dir and job.key:  # a problem's own exception is cached too
-                            cache.store(cache_dir, job.name, out, quick=quick, key=job.key)
+                    timings[f"{mode}/{job.name}"] = out.seconds
+                    if cache_dir and job.key:  # failures and time-outs are cached too
+                        cache.store(cache_dir, job.name, out, quick=quick, key=job.key)
                     show.finished(out, time.monotonic() - t0)
                     if on_done:
                         on_done(out)
-                peak_total = max(peak_total, total)
         finally:
             for job in running:
                 _kill_group(job.process)
