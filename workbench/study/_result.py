@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -26,7 +27,60 @@ from workbench.core.files import write_atomic
 from workbench.core.status import StatusEnum, StatusResult
 from workbench.core.validate import output_path
 
-__all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result"]
+__all__ = ["Comparison", "Result", "ResultStatus", "to_jsonable", "format_result", "progress",
+           "PROGRESS_ENV"]
+
+PROGRESS_ENV = "WORKBENCH_PROGRESS"
+"""Environment variable naming the file that :func:`progress` appends to (set by the report)."""
+
+
+def progress(message: str, *, done: float | None = None, total: float | None = None) -> None:
+    """Say how far a long problem has got (shown by ``workbench report`` while it runs).
+
+    The report runs each problem in its own process and points :data:`PROGRESS_ENV` at a
+    file; every call appends one line to it, which the report prints with the problem's
+    elapsed time and, when ``done`` and ``total`` are given, an estimate of the time left
+    in the problem (elapsed * (total - done) / done). Outside a report (``workbench run``,
+    tests, notebooks) the variable is unset and the call does nothing.
+
+    Parameters
+    ----------
+    message : str
+        What the problem is doing now ("OCP on 40 nodes", "orbit 3 of 12").
+    done, total : float, optional
+        Work done so far and in all, in any unit (steps, orbits, solves); both or neither.
+
+    Raises
+    ------
+    ParameterError
+        If only one of ``done`` and ``total`` is given, or they are not finite numbers with
+        ``0 <= done <= total`` and ``total > 0``.
+
+    Examples
+    --------
+    >>> for i, n in enumerate(grid):                      # doctest: +SKIP
+    ...     progress(f"OCP on {n} nodes", done=i, total=len(grid))
+    """
+    if (done is None) != (total is None):
+        raise ParameterError(f"progress: give both done and total or neither; got done={done!r}"
+                             f", total={total!r}")
+    if done is not None:
+        try:
+            d, t = float(done), float(total)  # type: ignore[arg-type]
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"progress: done and total must be numbers; got done="
+                                 f"{done!r}, total={total!r}") from exc
+        if not (math.isfinite(d) and math.isfinite(t) and t > 0 and 0 <= d <= t):
+            raise ParameterError(f"progress: expected finite 0 <= done <= total with total > 0;"
+                                 f" got done={done!r}, total={total!r}")
+        done, total = d, t
+    path = os.environ.get(PROGRESS_ENV)
+    if not path:
+        return
+    line = json.dumps({"time": time.time(), "message": str(message), "done": done,
+                       "total": total})
+    with open(path, "a", encoding="utf-8") as fh:  # one short write: lines stay whole
+        fh.write(line + "\n")
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -145,6 +199,12 @@ class Result(StatusResult):
         Names of the models used.
     notes : list of str
         Remarks (departures from the paper, errata applied).
+    labels : dict of str to str
+        What the codes in the problem's figures, tables and values mean, in words
+        (``{"q1": "tilt of link 1", "omega1": "rate of link 1", "L2": "hanging, spinning
+        about e3"}``); see :meth:`label`. The report lists them beside the figures, and
+        :func:`~workbench.study.line_figure` and :func:`~workbench.study.spectrum_figure`
+        take them as ``labels=``.
     """
 
     name: str
@@ -158,6 +218,22 @@ class Result(StatusResult):
     build_log: list[dict[str, Any]] = field(default_factory=list)
     models: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    labels: dict[str, str] = field(default_factory=dict)
+
+    def label(self, **words: str) -> dict[str, str]:
+        """Say in words what codes mean (``res.label(q1="tilt of link 1")``); return all labels.
+
+        Raises
+        ------
+        ParameterError
+            If a label is empty.
+        """
+        empty = sorted(k for k, v in words.items() if not str(v).strip())
+        if empty:
+            raise ParameterError(f"label: the words for {empty} are empty; say what each "
+                                 f"code is (e.g. q1='tilt of link 1')")
+        self.labels.update({k: str(v).strip() for k, v in words.items()})
+        return self.labels
 
     def compare(
         self,
@@ -197,6 +273,11 @@ class Result(StatusResult):
         self.figures[key] = fig
         self.captions[key] = str(caption).strip()
         return fig
+
+    def progress(self, message: str, *, done: float | None = None,
+                 total: float | None = None) -> None:
+        """Say how far the problem has got; see :func:`progress` (the same, as a method)."""
+        progress(message, done=done, total=total)
 
     @contextmanager
     def timed(self, step: str) -> Iterator[None]:
@@ -279,6 +360,7 @@ class Result(StatusResult):
                 "build_log": self.build_log,
                 "models": self.models,
                 "notes": self.notes,
+                "labels": self.labels,
             }
         )
 

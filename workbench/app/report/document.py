@@ -34,6 +34,8 @@ from workbench.app.report.tables import (
     comparison_table,
     cost_accuracy_table,
     headline_table,
+    symbols_sentence,
+    symbols_table,
     value_tables,
 )
 from workbench.core._model import Model
@@ -232,7 +234,13 @@ def problem_section(run: ProblemRun, *, quick: bool) -> ProblemSection:
     sec.comparison = comparison_table(res)
     sec.values = value_tables(res)
     sec.headline = headline_table(res, sec.values)
+    symbols = symbols_table(res)
+    if symbols is not None:
+        sec.values.insert(0, symbols)
     sec.cost = cost_accuracy_table(res, wall_seconds=run.seconds)
     sec.figures = list(run.figures.values())
+    words = symbols_sentence(res)
+    for fig in sec.key_figures if words else ():
+        fig.caption = f"{fig.caption.rstrip()} {words}"
     sec.notes = list(res.notes) + sec.notes
     return sec

@@ -326,6 +326,26 @@ def split_values(values: dict[str, Any]) -> tuple[list[Table], list[tuple[str, A
     return head + tables, cost
 
 
+def symbols_table(result: Result) -> Table | None:
+    """What the problem's codes mean (:attr:`Result.labels`), or None when it gave none."""
+    labels = getattr(result, "labels", None) or {}
+    if not labels:
+        return None
+    return Table("Symbols", ["code", "meaning"], [[k, v] for k, v in labels.items()],
+                 note="The codes in this problem's figures and tables, in words.",
+                 numeric=[False, False])
+
+
+def symbols_sentence(result: Result, *, most: int = 8) -> str:
+    """``"Symbols: q1 tilt of link 1; ..."`` for figure captions ("" without labels)."""
+    labels = getattr(result, "labels", None) or {}
+    if not labels:
+        return ""
+    items = [f"{k}: {v}" for k, v in list(labels.items())[:most]]
+    more = f"; {len(labels) - most} more in the table of symbols" if len(labels) > most else ""
+    return "Symbols: " + "; ".join(items) + more + "."
+
+
 def value_tables(result: Result) -> list[Table]:
     """The result's values as tables (cost and accuracy entries are set aside)."""
     return split_values(result.values)[0]
