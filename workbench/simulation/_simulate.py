@@ -33,6 +33,7 @@ from workbench.simulation.integrators import (
     NEWTON_TOL,
     integrate,
     lgvi,
+    mechanics_variational,
     rkmk4,
     s2_variational,
 )
@@ -71,8 +72,13 @@ class Method(str, Enum):
     RKMK4
         Explicit Runge-Kutta-Munthe-Kaas Lie-group method of order 4 for any model on
         R^n, S1, S2, SO3 and TS2 factors; knobs ``step``, ``jit``.
+    MECHANICS_VARIATIONAL
+        Variational integrator (order 2, symmetric, symplectic and momentum-preserving
+        when unforced; Cayley update on SO(3)) for any model made by
+        :mod:`workbench.mechanics` with R^k and SO(3) factors, from its Lagrangian;
+        knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
 
-    The last three are :mod:`workbench.simulation.integrators`; they keep the state on the manifold
+    The last four are :mod:`workbench.simulation.integrators`; they keep the state on the manifold
     to round-off and report it in the trajectory's diagnostics.
     """
 
@@ -82,9 +88,11 @@ class Method(str, Enum):
     LGVI = "lgvi"
     S2_VARIATIONAL = "s2_variational"
     RKMK4 = "rkmk4"
+    MECHANICS_VARIATIONAL = "mechanics_variational"
 
 
-GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4)
+GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4,
+                     Method.MECHANICS_VARIATIONAL)
 """Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
 
 
@@ -286,7 +294,8 @@ def simulate(
         Feedback ``u = k(x)`` or ``k(x, p)``; ``u = 0`` when omitted.
     method : Method or str
         ``"cvodes"``, ``"rk"``, ``"collocation"``, or a geometric method ``"lgvi"``,
-        ``"s2_variational"``, ``"rkmk4"`` (see :class:`Method`).
+        ``"s2_variational"``, ``"rkmk4"``, ``"mechanics_variational"`` (see
+        :class:`Method`).
     rtol, atol : float
         Relative and absolute tolerances (CVODES only).
     step : float, optional
@@ -307,8 +316,9 @@ def simulate(
     tol : float
         Largest accepted constraint residual of ``x0``.
     newton_tol : float
-        Largest relative residual of the implicit update of ``"lgvi"`` and
-        ``"s2_variational"`` (a step that does not reach it raises SolverError).
+        Largest relative residual of the implicit update of ``"lgvi"``,
+        ``"s2_variational"`` and ``"mechanics_variational"`` (a step that does not reach
+        it raises SolverError).
     newton_max_iter : int
         Newton iterations per implicit update of those methods.
     jit : bool
@@ -494,7 +504,8 @@ def _simulate_geometric(
     if method is Method.RKMK4:
         scheme = rkmk4(model, controller, jit=jit)
     else:
-        build = lgvi if method is Method.LGVI else s2_variational
+        build = {Method.LGVI: lgvi, Method.S2_VARIATIONAL: s2_variational,
+                 Method.MECHANICS_VARIATIONAL: mechanics_variational}[method]
         scheme = build(model, controller, newton_tol=newton_tol,
                        newton_max_iter=newton_max_iter, jit=jit)
         options_used.update(newton_tol=scheme.newton_tol,

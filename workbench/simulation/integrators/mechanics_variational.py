@@ -1,0 +1,317 @@
+"""A variational integrator on R^k and SO(3) factors for every model of :mod:`workbench.mechanics`.
+
+The mechanics layer keeps its derivation on the model (``model.mechanics``: the kinetic
+energy ``T(c, nu)``, the potential ``V(c)``, the loads, the factors). From them this module
+writes a discrete Lagrangian and its discrete Lagrange-d'Alembert equations, so that any
+system declared with R^k and SO(3) factors (the 3D pendulum, the pendulum on a cart, the
+double 3D pendulum, chains of rigid bodies) gets a symplectic, momentum-preserving step.
+
+Discrete configuration update, per factor (``h`` the signed step, ``xi`` the unknown
+discrete velocity)::
+
+    R^k:    x_{k+1} = x_k + h v
+    SO(3):  R_{k+1} = R_k cay(h Omega),   cay(a) = (I - hat(a)/2)^{-1} (I + hat(a)/2)
+
+so ``R_{k+1}`` is a product of rotations (SO(3) is kept to round-off, never projected). The
+velocity is recovered from two configurations by the inverse maps ``v = (x_{k+1} - x_k)/h``
+and ``hat(h Omega / 2) = (F - I)(F + I)^{-1}``, ``F = R_k^T R_{k+1}`` (a rational function,
+smooth near ``F = I``), which gives the discrete Lagrangian as an explicit graph of the two
+configurations::
+
+    L_d(c_k, c_{k+1}) = h/2 [L(c_k, xi) + L(c_{k+1}, xi)],   L = T - V.
+
+It is symmetric (``L_d(c_{k+1}, c_k; -h) = -L_d(c_k, c_{k+1}; h)``, as
+``cay(-a) = cay(a)^{-1}``), hence of order 2. Its left-trivialised derivatives are the
+factors' ``K(c)^T`` applied to the ambient gradients (casadi's AD), ``D_i L_d = K(c_i)^T
+dL_d/dc_i``: the derivative along the perturbations ``x + eps eta`` and
+``R exp(eps hat(eta))``. With the trapezoidal discrete forces ``f^-_k = h/2 Q(x_k, u_k)``
+and ``f^+_k = h/2 Q(x_{k+1}, u_{k+1})`` (``Q`` the generalised loads and ``-dD/dnu`` of
+the Rayleigh function) the discrete Lagrange-d'Alembert principle in position-momentum
+form reads::
+
+    mu_k + f^-_k = -D_1 L_d(c_k, c_{k+1}(xi))          (implicit in xi: Newton)
+    mu_{k+1}     =  D_2 L_d(c_k, c_{k+1}) + f^+_k
+
+The momenta ``mu`` are identified with the model's state through the Legendre transform
+``Pi = dT/dnu`` (``der.Pi``; the left-trivialised momentum: body angular momentum on
+SO(3)), so the flow maps a stored state to a stored state like the other
+:class:`~workbench.simulation.integrators.common.DiscreteFlow` schemes: ``mu_k = Pi(c_k,
+nu_k)``, and ``nu_{k+1}`` solves the linear equation ``Pi(c_{k+1}, nu) = mu_{k+1}`` (``T``
+is quadratic in ``nu``; a velocity-dependent feedback or damping makes it nonlinear, solved
+by Newton as well). With ``u = 0`` and no damping the map is symplectic and conserves the
+momentum of every symmetry of ``L_d`` (discrete Noether: the rotations about the vertical
+and the translations the system declares), to the Newton tolerance.
+
+S^2 factors are not supported (their discrete velocity must stay normal to the
+direction); the spherical pendulum has :func:`~workbench.simulation.integrators.
+s2_variational.s2_variational`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+
+from workbench.core._model import Model
+from workbench.core.errors import ModelError
+from workbench.core.manifolds import hat, vee
+from workbench.simulation.integrators.common import (
+    NEWTON_MAX_ITER,
+    NEWTON_TOL,
+    DiscreteFlow,
+    check_newton_options,
+    compile_step,
+    controller_key,
+    feedback_function,
+    newton,
+)
+
+__all__ = ["mechanics_variational", "SUPPORTED_FACTORS"]
+
+SUPPORTED_FACTORS = ("R^k", "SO(3)")
+"""Kinds of mechanics factors this integrator steps."""
+
+
+def _derivation(model: Model) -> Any:
+    """The mechanics derivation of ``model``, checked for supported factors."""
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    der = getattr(model, "mechanics", None)
+    if der is None or not hasattr(der, "ing") or not hasattr(der, "Pi"):
+        raise ModelError(
+            f"the mechanics variational integrator needs a model made by workbench.mechanics "
+            f"(System(...).model(), which carries its Lagrangian as model.mechanics); model "
+            f"{model.name!r} has none. Use method 'rkmk4' (any model) or 'lgvi' (a rigid body "
+            f"with parameter 'J')."
+        )
+    for f in der.ing.factors:
+        if f.kind not in SUPPORTED_FACTORS:
+            hint = (" Use method 's2_variational' for a spherical pendulum on TS^2, or "
+                    "'rkmk4'." if f.kind == "S^2" else " Use method 'rkmk4'.")
+            raise ModelError(
+                f"the mechanics variational integrator steps factors of kinds "
+                f"{list(SUPPORTED_FACTORS)}; factor {f.name!r} of model {model.name!r} is "
+                f"{f.kind}.{hint}"
+            )
+    if ca.depends_on(der.M, der.nu):
+        raise ModelError(
+            f"the mechanics variational integrator needs a kinetic energy quadratic in the "
+            f"velocities (a constant mass matrix in nu); that of model {model.name!r} is not"
+        )
+    if der.ing.p.shape[0] != model.n_params:
+        raise ModelError(
+            f"model {model.name!r} has {model.n_params} parameters but its derivation "
+            f"{der.ing.p.shape[0]}: it was not made by workbench.mechanics as it stands"
+        )
+    return der
+
+
+def _cayley(a: ca.SX) -> ca.SX:
+    """``cay(a) = (I - hat(a)/2)^{-1}(I + hat(a)/2) = I + 4/(4+|a|^2)(hat a + hat(a)^2/2)``."""
+    A = hat(a)
+    return ca.SX.eye(3) + 4.0 / (4.0 + ca.dot(a, a)) * (A + 0.5 * A @ A)
+
+
+class _Parts:
+    """Per-factor slices of ``c``, ``nu`` and the stored state ``x`` of a derivation."""
+
+    def __init__(self, der: Any) -> None:
+        self.factors = list(der.ing.factors)
+        self.c_sl, self.nu_sl, self.x_sl = [], [], []
+        kc = kv = kx = 0
+        for f in self.factors:
+            nc, nv = f.config_sym.shape[0], f.velocity_sym.shape[0]
+            self.c_sl.append(slice(kc, kc + nc))
+            self.nu_sl.append(slice(kv, kv + nv))
+            self.x_sl.append((slice(kx, kx + nc), slice(kx + nc, kx + nc + nv)))
+            kc, kv, kx = kc + nc, kv + nv, kx + nc + nv
+
+    def split(self, x: ca.SX) -> tuple[ca.SX, ca.SX]:
+        """``(c, nu)`` from a stored state."""
+        return (ca.vertcat(*[x[a] for a, _ in self.x_sl]),
+                ca.vertcat(*[x[b] for _, b in self.x_sl]))
+
+    def join(self, c: ca.SX, nu: ca.SX) -> ca.SX:
+        """The stored state from ``(c, nu)``."""
+        return ca.vertcat(*[ca.vertcat(c[a], nu[b]) for a, b in zip(self.c_sl, self.nu_sl)])
+
+    def kt(self, c: ca.SX, cov: ca.SX) -> ca.SX:
+        """``K(c)^T cov`` per factor (``cov`` a covector on the configuration)."""
+        out = []
+        for f, sl in zip(self.factors, self.c_sl):
+            if f.kind == "SO(3)":
+                R, G = ca.reshape(c[sl], 3, 3), ca.reshape(cov[sl], 3, 3)
+                out.append(vee(R.T @ G - G.T @ R))
+            else:
+                out.append(cov[sl])
+        return ca.vertcat(*out)
+
+    def advance(self, c: ca.SX, xi: ca.SX, h: ca.SX) -> ca.SX:
+        """``c_{k+1} = c_k tau(h xi)``."""
+        out = []
+        for f, cs, vs in zip(self.factors, self.c_sl, self.nu_sl):
+            if f.kind == "SO(3)":
+                out.append(ca.vec(ca.reshape(c[cs], 3, 3) @ _cayley(h * xi[vs])))
+            else:
+                out.append(c[cs] + h * xi[vs])
+        return ca.vertcat(*out)
+
+    def velocity(self, c0: ca.SX, c1: ca.SX, h: ca.SX) -> ca.SX:
+        """The discrete velocity ``xi`` with ``c1 = c0 tau(h xi)`` (inverse maps)."""
+        out = []
+        for f, cs in zip(self.factors, self.c_sl):
+            if f.kind == "SO(3)":
+                F = ca.reshape(c0[cs], 3, 3).T @ ca.reshape(c1[cs], 3, 3)
+                A = (F - ca.SX.eye(3)) @ ca.inv(F + ca.SX.eye(3))
+                out.append(2.0 / h * vee(0.5 * (A - A.T)))
+            else:
+                out.append((c1[cs] - c0[cs]) / h)
+        return ca.vertcat(*out)
+
+
+def mechanics_variational(
+    model: Model,
+    controller: ca.Function | None = None,
+    *,
+    newton_tol: float = NEWTON_TOL,
+    newton_max_iter: int = NEWTON_MAX_ITER,
+    jit: bool = False,
+) -> DiscreteFlow:
+    """The variational integrator of a model made by :mod:`workbench.mechanics`.
+
+    Parameters
+    ----------
+    model : Model
+        A model from ``workbench.mechanics.System(...).model()`` whose factors are R^k and
+        SO(3) (e.g. :func:`models.pendulum3d.full`, :func:`models.pendulum3d_cart.
+        pendulum3d_cart`, :func:`models.double_pendulum3d.double_pendulum3d`).
+    controller : casadi.Function, optional
+        Feedback ``u = k(x)`` or ``k(x, p)``, applied in discrete Lagrange-d'Alembert form
+        (trapezoidal forces ``h/2 Q`` at both ends of a step); ``u = 0`` when omitted.
+    newton_tol : float
+        Largest relative residual accepted for each implicit update.
+    newton_max_iter : int
+        Newton iterations per implicit update (unrolled in the graph).
+    jit : bool
+        Compile the step function to C.
+
+    Returns
+    -------
+    DiscreteFlow
+        Order 2, symmetric; symplectic and momentum-preserving when unforced and undamped.
+        The step function is cached in the model's build log.
+
+    Raises
+    ------
+    ModelError
+        The model is not made by workbench.mechanics, has an S^2 factor (use
+        ``s2_variational``) or a kinetic energy not quadratic in the velocities, or the
+        controller does not fit it.
+    ParameterError
+        Bad Newton options.
+    """
+    der = _derivation(model)
+    tol, kmax = check_newton_options(newton_tol, newton_max_iter)
+    k_fn = feedback_function(model, controller)
+    if k_fn.is_a("MXFunction"):
+        k_fn = k_fn.expand()
+    key = (f"mechanics_variational_step[tol={tol:.3g},max_iter={kmax},"
+           f"controller={controller_key(controller)}{',jit' if jit else ''}]")
+
+    def make() -> ca.Function:
+        fn = _make_step(der, k_fn, tol, kmax)
+        return compile_step(fn) if jit else fn
+
+    step = model._build(key, make)
+    forced = controller is not None or bool(der.ing.loads) or not ca.SX(der.D).is_zero()
+    damped = not ca.SX(der.D).is_zero()
+    return DiscreteFlow(
+        name="mechanics_variational",
+        step=step,
+        order=2,
+        newton_tol=tol,
+        newton_max_iter=kmax,
+        evaluations_per_step=2,
+        structure={
+            "manifold": "R_{k+1} = R_k cay(h Omega_k) per SO(3) factor: kept to round-off, "
+                        "never projected",
+            "symplectic": not (controller is not None or damped),
+            "symmetric": True,
+            "implicit": True,
+            "momentum": "momenta of the symmetries of L (rotations, translations) conserved "
+                        "to the Newton tolerance when u = 0 and undamped (discrete Noether)",
+            "forcing": "discrete Lagrange-d'Alembert, trapezoidal h/2 (Q_k, Q_{k+1})"
+                       if forced else "none",
+        },
+    )
+
+
+def _forces(der: Any, parts: _Parts) -> ca.Function:
+    """``(x, u, p) -> Q``: generalised loads ``K^T (dy/dc)^T w`` and ``-dD/dnu``."""
+    from_loads = ca.SX.zeros(der.c.shape[0], 1)
+    if der.ing.loads:
+        targets = ca.vertcat(*[ld.target for ld in der.ing.loads])
+        weights = ca.vertcat(*[ld.weight for ld in der.ing.loads])
+        from_loads = ca.jtimes(targets, der.c, weights, True)
+    Q = parts.kt(der.c, from_loads) - ca.gradient(ca.SX(der.D), der.nu)
+    return ca.Function("Q", [der.x, der.ing.u, der.ing.p], [Q])
+
+
+def _make_step(der: Any, k_fn: ca.Function, tol: float, kmax: int) -> ca.Function:
+    parts = _Parts(der)
+    p = der.ing.p
+    n_c, n_nu = der.c.shape[0], der.nu.shape[0]
+    h = ca.SX.sym("h")
+    c0, c1 = ca.SX.sym("c0", n_c), ca.SX.sym("c1", n_c)
+    L = der.T - der.V
+    xi = parts.velocity(c0, c1, h)
+    Ld = h / 2 * (ca.substitute(L, ca.vertcat(der.c, der.nu), ca.vertcat(c0, xi))
+                  + ca.substitute(L, ca.vertcat(der.c, der.nu), ca.vertcat(c1, xi)))
+    D1 = ca.Function("D1", [c0, c1, p, h], [parts.kt(c0, ca.gradient(Ld, c0))])
+    D2 = ca.Function("D2", [c0, c1, p, h], [parts.kt(c1, ca.gradient(Ld, c1))])
+    Pi = ca.Function("Pi", [der.c, der.nu, p], [der.Pi])
+    M = ca.Function("M", [der.c, p], [der.M])
+    grad_c = ca.Function("grad_c", [der.c, der.nu, p],
+                         [parts.kt(der.c, ca.gradient(L, der.c))])
+    Q = _forces(der, parts)
+
+    x = ca.SX.sym("x", der.x.shape[0])
+    ck, nuk = parts.split(x)
+    mu = Pi(ck, nuk, p)
+    f_minus = h / 2 * Q(x, k_fn(x, p), p)
+    lhs = mu + f_minus
+
+    def res_xi(z: ca.SX) -> ca.SX:
+        return -D1(ck, parts.advance(ck, z, h), p, h) - lhs
+
+    scale = ca.fmax(ca.norm_inf(lhs), ca.norm_inf(h * grad_c(ck, nuk, p)))
+    xi_k, rel_xi, its_xi = newton(res_xi, nuk, scale, tol=tol, max_iter=kmax)
+    c_next = parts.advance(ck, xi_k, h)
+    mu_next = D2(ck, c_next, p, h)
+    M1, Pi0 = M(c_next, p), Pi(c_next, ca.SX.zeros(n_nu), p)
+
+    def force_end(nu: ca.SX) -> ca.SX:
+        x1 = parts.join(c_next, nu)
+        return h / 2 * Q(x1, k_fn(x1, p), p)
+
+    nu_sym = ca.SX.sym("nu", n_nu)
+    if ca.depends_on(force_end(nu_sym), nu_sym):
+        def res_nu(z: ca.SX) -> ca.SX:
+            return M1 @ z + Pi0 - mu_next - force_end(z)
+
+        guess = ca.solve(M1, mu_next - Pi0)
+        guess = ca.solve(M1, mu_next - Pi0 + force_end(guess))
+        sc = ca.fmax(ca.norm_inf(mu_next), ca.norm_inf(M1 @ guess))
+        nu_next, rel_nu, its_nu = newton(res_nu, guess, sc, tol=tol, max_iter=kmax)
+    else:
+        nu_next = ca.solve(M1, mu_next - Pi0 + force_end(ca.SX.zeros(n_nu)))
+        rel_nu, its_nu = 0, 0
+    return ca.Function(
+        "mechanics_variational_step",
+        [x, p, h],
+        [parts.join(c_next, nu_next), ca.fmax(rel_xi, rel_nu), its_xi + its_nu],
+        ["x", "p", "h"],
+        ["x_next", "residual", "iterations"],
+        {"cse": True},
+    )
