@@ -31,8 +31,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-__all__ = ["STYLE_VERSION", "PARENT_ONLY", "problem_key", "versions", "load", "store",
-           "entry_path"]
+__all__ = ["STYLE_VERSION", "PARENT_ONLY", "problem_key", "engine_digest", "versions", "load",
+           "store", "entry_path"]
 
 STYLE_VERSION = "report-style-2"
 """Changes whenever the figure style of the report changes (invalidates every entry)."""
@@ -77,7 +77,7 @@ def _sources(root: Path) -> list[Path]:
 
 
 def problem_key(module_file: str | os.PathLike | None, *, quick: bool,
-                root: Path | None = None) -> str | None:
+                root: Path | None = None, engine: bytes | None = None) -> str | None:
     """The cache key of a problem, or None when it has no source file to hash.
 
     Parameters
@@ -88,6 +88,9 @@ def problem_key(module_file: str | os.PathLike | None, *, quick: bool,
         Quick or full mode.
     root : Path, optional
         The repository whose engine and models are hashed (default :data:`ROOT`).
+    engine : bytes, optional
+        :func:`engine_digest` of ``root`` when already computed (a report computes it
+        once for all its problems).
 
     Returns
     -------
@@ -100,12 +103,36 @@ def problem_key(module_file: str | os.PathLike | None, *, quick: bool,
     root = ROOT if root is None else Path(root)
     h = hashlib.sha256()
     helpers = sorted(p for p in path.parent.glob("_*.py") if p.name != "__init__.py")
-    for f in [path, *helpers, *_sources(root)]:
+    for f in [path, *helpers]:
         h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    h.update(engine_digest(root) if engine is None else engine)
     h.update(f"quick={bool(quick)};style={STYLE_VERSION}".encode())
-    for k, v in sorted(versions().items()):
+    for k, v in sorted(_versions().items()):
         h.update(f"{k}={v};".encode())
     return h.hexdigest()
+
+
+def engine_digest(root: Path | None = None) -> bytes:
+    """SHA-256 of the engine's and the models' sources (their part of every key).
+
+    Computed once per report and passed to :func:`problem_key` as ``engine``, so the ~30
+    problems of a report do not each read the ~200 sources again.
+    """
+    root = ROOT if root is None else Path(root)
+    h = hashlib.sha256()
+    for f in _sources(root):  # the path inside the repository: a moved module changes it
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.digest()
+
+
+_VERSIONS: dict[str, str] = {}
+
+
+def _versions() -> dict[str, str]:
+    """:func:`versions`, looked up once per process (installed packages do not change)."""
+    if not _VERSIONS:
+        _VERSIONS.update(versions())
+    return _VERSIONS
 
 
 def entry_path(cache_dir: Path, name: str, *, quick: bool, key: str) -> Path:

@@ -266,9 +266,11 @@ def _lookup(names: Sequence[str], *, quick: bool, catalogue: ModuleType,
     """Split ``names`` into outcomes re-used from the cache and jobs to run."""
     done: dict[str, Outcome] = {}
     todo: list[_Job] = []
+    engine = cache.engine_digest() if cache_dir else None
     for name in names:
         module = catalogue.load(name)
-        key = cache.problem_key(cache.module_file(module), quick=quick)
+        key = (cache.problem_key(cache.module_file(module), quick=quick, engine=engine)
+               if cache_dir else None)
         title = str(getattr(module, "TITLE", name))
         hit = cache.load(cache_dir, name, quick=quick, key=key) if cache_dir and key else None
         if _reusable(hit, name, rerun, timeout):
