@@ -329,9 +329,10 @@ class System:
                              "positions are functions of the configuration only")
         rho = as_expr(com, "com", (3, 1))
         self.symbols.require(rho, "com", (PARAMETER,))
+        J_O = J if inertia_about == "origin" else None
         if inertia_about == "origin":
             J = J - m * (ca.dot(rho, rho) * ca.SX.eye(3) - rho @ rho.T)
-        body = RigidBody(self._body_name(name, "body"), m, J, R, factor, p0, rho)
+        body = RigidBody(self._body_name(name, "body"), m, J, R, factor, p0, rho, J_O)
         self.bodies.append(body)
         return body
 
