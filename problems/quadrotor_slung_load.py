@@ -61,6 +61,10 @@ def solve(*, quick: bool = False) -> Result:
     compare_spectrum(res, "hover: the load's swing", es.eigenvalues[np.abs(es.eigenvalues) > 1e-8],
                      np.r_[1j * w, 1j * w, -1j * w, -1j * w], tolerance=1e-10,
                      source="closed form, pendulum from a free-floating quadrotor")
+    sym = wb.linear.symmetry_directions(lin)
+    res.values["hover_class"] = f"{es.describe()}; {sym.describe()}"
+    res.compare("hover: orbit directions of the symmetries (translations, yaw)", 3,
+                sym.orbit_rank, tolerance=0, source="p_x, p_y, L_z map hover to hover")
     test = wb.pbh(lin)
     res.compare("hover: PBH controllable with thrust and moment (1 = yes)", 1,
                 float(test.controllable), tolerance=0, source=f"PBH, margin {test.margin:.2g}")
