@@ -11,9 +11,12 @@ it returns today): the right-hand side ``f(x, u, p)`` on 1000 seeded states per 
   ``ldl`` and ``qr`` (casadi's sparse factorisations); and ``dense_ldl`` at
   ``-O3 -march=native`` (fused multiply-adds: last-bit differences),
 
-all timed in turn, round after round, in CPU time (medians), with the build cost of each
-compiled variant (generation + compiler wall seconds; 0 compiler seconds when found in the
-cache) printed beside it and the agreement with the baseline. On a loaded machine every
+and the lane-vectorised batch (``parallelization="lanes"``: every instruction of the
+straight-line code on 2 states at ``-O2``, the x86-64 baseline's SSE2, or 4 at
+``-O3 -march=native``, AVX2; see ``workbench/codegen/lanes.py``), all timed in turn,
+round after round, in CPU time (medians), with the build cost of each compiled variant
+(generation + compiler wall seconds; 0 compiler seconds when found in the cache) printed
+beside it and the agreement with the baseline. On a loaded machine every
 CPU time grows (shared caches and cores), so each row also gives its speed-up over the
 baseline of the same run, and the estimate for the issue's quiet-machine baseline (9.7 /
 24 us, measured on the chain before the mechanics rewrite) divided by that speed-up.
@@ -22,10 +25,10 @@ Then ``simulate`` (rk, fixed step) with and without the compiled right-hand side
 Target: compiled batch < 2 us per state at n = 5 and n = 10.
 
 Usage: python benchmarks/bench_compiled.py [--quick] [--cvodes] [--before]
-(--quick: dense_ldl only, fewer rounds; --cvodes adds a CVODES run, whose compiled
-Jacobian is a long build; --before also measures the chain as written before the
-mechanics layer derived it, ``models/chain_cart.py`` of commit 94f3b89~1, read with
-``git show``).
+(--quick: dense_ldl only (serial, lanes, native lanes), fewer rounds; --cvodes adds a
+CVODES run, whose compiled Jacobian is a long build; --before also measures the chain as
+written before the mechanics layer derived it, ``models/chain_cart.py`` of commit 94f3b89~1,
+read with ``git show``).
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ from workbench.codegen.functions import (  # noqa: E402
     BatchEvaluator,
     CompileOptions,
     LinearSolver,
+    Parallelization,
 )
 from workbench.core import Evaluator  # noqa: E402
 from workbench.simulation import simulate  # noqa: E402
@@ -80,7 +84,7 @@ def states(model, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return X, rng.normal(size=(n, model.n_inputs))
 
 
-def rhs_rows(n_links: int, variants: list[tuple[LinearSolver, Optimization]],
+def rhs_rows(n_links: int, variants: list[tuple[LinearSolver, Optimization, Parallelization]],
              rounds: int, build=chain_cart, label: str = "") -> list[dict]:
     model = build(n_links)
     f = model.function("f")
@@ -89,10 +93,12 @@ def rhs_rows(n_links: int, variants: list[tuple[LinearSolver, Optimization]],
     vm = BatchEvaluator(f, N_STATES, shared=("p",))
     ref = vm(X, U, model.p)
     compiled = {}
-    for s, opt in variants:
+    for s, opt, par in variants:
         name = s.value if opt is Optimization.O2 else f"{s.value} {opt.value}"
+        name += " lanes" if par is Parallelization.LANES else ""
         compiled[name] = BatchEvaluator(f, N_STATES, shared=("p",), compilation="c",
-                                         linear_solver=s, optimization=opt)
+                                         linear_solver=s, optimization=opt,
+                                         parallelization=par)
     k = 50  # single calls per sample of the baseline
 
     def baseline():
@@ -153,9 +159,12 @@ def simulate_rows(n_links: int, cvodes: bool, rounds: int) -> list[dict]:
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     quick = "--quick" in argv
-    o2 = Optimization.O2
-    variants = [(LinearSolver.DENSE_LDL, o2)] if quick else \
-        [(s, o2) for s in LinearSolver] + [(LinearSolver.DENSE_LDL, Optimization.NATIVE)]
+    o2, native, ldl = Optimization.O2, Optimization.NATIVE, LinearSolver.DENSE_LDL
+    serial, lanes = Parallelization.SERIAL, Parallelization.LANES
+    variants = [(ldl, o2, serial), (ldl, o2, lanes), (ldl, native, lanes)]
+    if not quick:
+        variants += [(s, o2, serial) for s in LinearSolver if s is not ldl]
+        variants += [(ldl, native, serial)]
     rounds = 5 if quick else 15
     rows = [r for n in (5, 10) for r in rhs_rows(n, variants, rounds)]
     if "--before" in argv:

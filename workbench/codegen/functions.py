@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.codegen.build import Optimization, build_cached
+from workbench.codegen.lanes import lanes_source
 from workbench.core._evaluator import Evaluator
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike
@@ -78,6 +79,10 @@ class Parallelization(str, Enum):
     ----------
     SERIAL
         One loop (in C when compiled).
+    LANES
+        Compiled C only: the straight-line (SX) code of one state run on several states
+        per instruction, each work variable a vector (SIMD registers; see
+        :mod:`workbench.codegen.lanes`); same operations in the same order as casadi's.
 
     casadi's ``"openmp"`` map compiles (``-fopenmp``) and agrees, but a library loaded
     with OpenMP threads crashed the interpreter at exit (libgomp unloaded under its
@@ -86,6 +91,7 @@ class Parallelization(str, Enum):
     """
 
     SERIAL = "serial"
+    LANES = "lanes"
 
     @classmethod
     def _missing_(cls, value: object) -> Parallelization:
@@ -441,7 +447,14 @@ def compile_function(
     fn, subs, code = _generable_code(fn, linear_solver, bool(with_jacobian))
     subs = (*substitutions, *subs)
     generate_seconds = time.perf_counter() - t0 + float(extra_seconds)
-    name = fn.name()
+    return _build(fn.name(), code, opt, compiler, cache_dir, subs, bool(with_jacobian),
+                  generate_seconds)
+
+
+def _build(name: str, code: str, opt: Optimization, compiler: str,
+           cache_dir: str | os.PathLike | None, subs: tuple[str, ...], with_jacobian: bool,
+           generate_seconds: float) -> CompiledFunction:
+    """Compile C source ``code`` defining ``name`` into the cache; its build cost."""
     flags = [*opt.flags, "-fPIC", "-shared"]
     commands = [[compiler, *flags, f"{name}.c", "-o", f"lib{name}.so", "-lm"]]
     digest = hashlib.sha256(code.encode()).hexdigest()
@@ -450,10 +463,30 @@ def compile_function(
         name, {f"{name}.c": code}, commands, digest=digest, compiler=compiler,
         cache_dir=cache_dir,
         manifest={"kind": "function", "source_digest": digest,
-                  "substitutions": list(subs), "with_jacobian": bool(with_jacobian)})
+                  "substitutions": list(subs), "with_jacobian": with_jacobian})
     compile_seconds = 0.0 if cached else time.perf_counter() - t1
     return CompiledFunction(name, directory, full, cached, generate_seconds, compile_seconds,
-                            opt, tuple(subs), bool(with_jacobian))
+                            opt, tuple(subs), with_jacobian)
+
+
+def _compile_lanes(one: ca.Function, n: int, shared: tuple[str, ...], width: int | None,
+                   optimization: Optimization | str, compiler: str,
+                   cache_dir: str | os.PathLike | None, subs: tuple[str, ...],
+                   t0: float) -> CompiledFunction:
+    """The lane-vectorised batch of ``one`` compiled (see :mod:`workbench.codegen.lanes`)."""
+    opt = choice(Optimization, optimization, "optimization", error=ModelError)
+    if width is None:
+        width = 4 if opt is Optimization.NATIVE else 2
+    if one.is_a("MXFunction"):
+        try:
+            one = one.expand()
+        except RuntimeError as exc:
+            raise ModelError(f"parallelization 'lanes' needs {one.name()} as straight-line "
+                             f"SX code; casadi cannot expand it: {exc}") from None
+    name = f"{one.name()}_lanes{width}x{n}"
+    code = lanes_source(one, n, name=name, shared=shared, width=width)
+    return _build(name, code, opt, compiler, cache_dir, subs, False,
+                  time.perf_counter() - t0)
 
 
 class BatchEvaluator:
@@ -477,6 +510,10 @@ class BatchEvaluator:
         The loop over states.
     optimization, compiler, cache_dir, linear_solver
         As in :func:`compile_function` (for :attr:`Compilation.C`).
+    lane_width : int, optional
+        States per instruction of :attr:`Parallelization.LANES` (default: 4 with
+        ``O3-native``, one AVX2 register of doubles; 2 otherwise, one SSE2 register of
+        the x86-64 baseline). The function must expand to SX (straight-line code).
 
     Attributes
     ----------
@@ -497,21 +534,30 @@ class BatchEvaluator:
                  parallelization: Parallelization | str = Parallelization.SERIAL,
                  optimization: Optimization | str = Optimization.O2, compiler: str = "gcc",
                  cache_dir: str | os.PathLike | None = None,
-                 linear_solver: LinearSolver | str = LinearSolver.QR) -> None:
+                 linear_solver: LinearSolver | str = LinearSolver.QR,
+                 lane_width: int | None = None) -> None:
         if not isinstance(fn, ca.Function):
             raise ModelError(f"fn must be a casadi.Function; got {type(fn).__name__}")
         how = choice(Compilation, compilation, "compilation", error=ModelError)
         par = choice(Parallelization, parallelization, "parallelization", error=ModelError)
         self.fn, self.n, self.shared = fn, count("n", n, error=ModelError), tuple(shared)
         self.compiled: CompiledFunction | None = None
+        if par is Parallelization.LANES and how is not Compilation.C:
+            raise ModelError("parallelization 'lanes' is compiled C: it needs "
+                             "compilation='c'")
         if how is Compilation.C:
             t0 = time.perf_counter()
             one, subs, _ = _generable_code(fn, linear_solver, False)
-            batched = batch_function(one, self.n, shared=self.shared, parallelization=par)
-            self.compiled = compile_function(
-                batched, optimization=optimization, compiler=compiler, cache_dir=cache_dir,
-                linear_solver=linear_solver,
-                substitutions=subs, extra_seconds=time.perf_counter() - t0)
+            if par is Parallelization.LANES:
+                self.compiled = _compile_lanes(one, self.n, self.shared, lane_width,
+                                               optimization, compiler, cache_dir, subs, t0)
+            else:
+                batched = batch_function(one, self.n, shared=self.shared,
+                                         parallelization=par)
+                self.compiled = compile_function(
+                    batched, optimization=optimization, compiler=compiler,
+                    cache_dir=cache_dir, linear_solver=linear_solver,
+                    substitutions=subs, extra_seconds=time.perf_counter() - t0)
             batched = self.compiled.function()
         else:
             batched = batch_function(fn, self.n, shared=self.shared, parallelization=par)
