@@ -30,8 +30,8 @@ def _controller(controller: ExportableController) -> ExportableController:
         got = f"{type(controller).__name__} {controller!r}" if isinstance(controller, str) \
             else type(controller).__name__
         raise ModelError(f"controller must be an ExportableController (the papers' "
-                         f"controllers are built by name with workbench.app.catalogue.build(name)); "
-                         f"got {got}")
+                         f"controllers are built by name with "
+                         f"workbench.app.catalogue.build(name)); got {got}")
     return controller
 
 
