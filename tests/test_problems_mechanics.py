@@ -25,6 +25,11 @@ def test_double_pendulum3d_quick():
     assert kane.workbench < 1e-10
     unstable = sorted(int(c.workbench) for c in res.comparisons if "unstable modes" in c.quantity)
     assert unstable == [0, 2, 2, 4]
+    # the long runs at the same step: RKMK4's energy error grows, the variational one's not
+    rk, vi = res.values["rkmk4_long_run"], res.values["variational_long_run"]
+    assert rk["last_tenth"] > 5 * rk["first_tenth"] and rk["growth_exponent"] > 0.8
+    assert vi["last_tenth"] < 1.5 * vi["first_tenth"] and abs(vi["growth_exponent"]) < 0.1
+    assert vi["L_z_drift"] < 1e-10 < rk["L_z_drift"]
 
 
 @pytest.mark.slow

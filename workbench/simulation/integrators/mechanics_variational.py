@@ -13,24 +13,28 @@ discrete velocity)::
     SO(3):  R_{k+1} = R_k cay(h Omega),   cay(a) = (I - hat(a)/2)^{-1} (I + hat(a)/2)
 
 so ``R_{k+1}`` is a product of rotations (SO(3) is kept to round-off, never projected). The
-velocity is recovered from two configurations by the inverse maps ``v = (x_{k+1} - x_k)/h``
-and ``hat(h Omega / 2) = (F - I)(F + I)^{-1}``, ``F = R_k^T R_{k+1}`` (a rational function,
-smooth near ``F = I``), which gives the discrete Lagrangian as an explicit graph of the two
-configurations::
+discrete Lagrangian is the trapezoidal rule at the discrete velocity::
 
-    L_d(c_k, c_{k+1}) = h/2 [L(c_k, xi) + L(c_{k+1}, xi)],   L = T - V.
+    L_d(c_k, xi) = h/2 [L(c_k, xi) + L(c_{k+1}, xi)],   L = T - V.
 
 It is symmetric (``L_d(c_{k+1}, c_k; -h) = -L_d(c_k, c_{k+1}; h)``, as
-``cay(-a) = cay(a)^{-1}``), hence of order 2. Its left-trivialised derivatives are the
-factors' ``K(c)^T`` applied to the ambient gradients (casadi's AD), ``D_i L_d = K(c_i)^T
-dL_d/dc_i``: the derivative along the perturbations ``x + eps eta`` and
-``R exp(eps hat(eta))``. With the trapezoidal discrete forces ``f^-_k = h/2 Q(x_k, u_k)``
-and ``f^+_k = h/2 Q(x_{k+1}, u_{k+1})`` (``Q`` the generalised loads and ``-dD/dnu`` of
-the Rayleigh function) the discrete Lagrange-d'Alembert principle in position-momentum
-form reads::
+``cay(-a) = cay(a)^{-1}``), hence of order 2. Its left-trivialised derivatives (along the
+perturbations ``x + eps eta`` and ``R exp(eps hat(eta))`` of one end, the other held) follow
+from the right-trivialised inverse derivative of the Cayley map, ``dcay_a^{-1} = I -
+hat(a)/2 + a a^T/4`` (identity on R^k)::
 
-    mu_k + f^-_k = -D_1 L_d(c_k, c_{k+1}(xi))          (implicit in xi: Newton)
-    mu_{k+1}     =  D_2 L_d(c_k, c_{k+1}) + f^+_k
+    -D_1 L_d = 1/2 (dcay_{h xi}^{-1})^T P - h/2 G(c_k, xi)
+     D_2 L_d = 1/2 (dcay_{-h xi}^{-1})^T P + h/2 G(c_{k+1}, xi)
+
+with ``P = Pi(c_k, xi) + Pi(c_{k+1}, xi)``, ``Pi = dT/dnu`` and ``G = K(c)^T dL/dc`` (the
+factors' ``K^T`` applied to casadi's gradient). (The tests check them against AD of ``L_d``
+written through the inverse map ``hat(h Omega/2) = (F - I)(F + I)^{-1}``, ``F = R_k^T
+R_{k+1}``.) With the trapezoidal discrete forces ``f^-_k = h/2 Q(x_k, u_k)`` and ``f^+_k =
+h/2 Q(x_{k+1}, u_{k+1})`` (``Q`` the generalised loads and ``-dD/dnu`` of the Rayleigh
+function) the discrete Lagrange-d'Alembert principle in position-momentum form reads::
+
+    mu_k + f^-_k = -D_1 L_d(c_k, xi)          (implicit in xi: Newton, Jacobian by AD)
+    mu_{k+1}     =  D_2 L_d(c_k, xi) + f^+_k
 
 The momenta ``mu`` are identified with the model's state through the Legendre transform
 ``Pi = dT/dnu`` (``der.Pi``; the left-trivialised momentum: body angular momentum on
@@ -157,16 +161,20 @@ class _Parts:
                 out.append(c[cs] + h * xi[vs])
         return ca.vertcat(*out)
 
-    def velocity(self, c0: ca.SX, c1: ca.SX, h: ca.SX) -> ca.SX:
-        """The discrete velocity ``xi`` with ``c1 = c0 tau(h xi)`` (inverse maps)."""
+    def dcay_inv_t(self, xi: ca.SX, h: ca.SX, cov: ca.SX) -> ca.SX:
+        """``(dtau_{h xi}^{-1})^T cov`` per factor (identity on R^k).
+
+        On SO(3), ``dcay_a^{-1} = I - hat(a)/2 + a a^T / 4`` (right-trivialised), so the
+        transpose at ``a = h xi`` is ``I + hat(a)/2 + a a^T / 4``; ``h -> -h`` gives the
+        left-trivialised one.
+        """
         out = []
-        for f, cs in zip(self.factors, self.c_sl):
+        for f, vs in zip(self.factors, self.nu_sl):
             if f.kind == "SO(3)":
-                F = ca.reshape(c0[cs], 3, 3).T @ ca.reshape(c1[cs], 3, 3)
-                A = (F - ca.SX.eye(3)) @ ca.inv(F + ca.SX.eye(3))
-                out.append(2.0 / h * vee(0.5 * (A - A.T)))
+                a, m = h * xi[vs], cov[vs]
+                out.append(m + 0.5 * ca.cross(a, m) + 0.25 * ca.dot(a, m) * a)
             else:
-                out.append((c1[cs] - c0[cs]) / h)
+                out.append(cov[vs])
         return ca.vertcat(*out)
 
 
@@ -224,23 +232,24 @@ def mechanics_variational(
         return compile_step(fn) if jit else fn
 
     step = model._build(key, make)
-    forced = controller is not None or bool(der.ing.loads) or not ca.SX(der.D).is_zero()
-    damped = not ca.SX(der.D).is_zero()
+    free = ca.substitute(_forces(der, _Parts(der))(der.x, der.ing.u, der.ing.p), der.ing.u,
+                         ca.SX.zeros(der.ing.u.shape[0]))
+    forced = controller is not None or not free.is_zero()  # loads acting at u = 0, damping
     return DiscreteFlow(
         name="mechanics_variational",
         step=step,
         order=2,
         newton_tol=tol,
         newton_max_iter=kmax,
-        evaluations_per_step=2,
+        evaluations_per_step=0,  # no vector field: gradients of the Lagrangian instead
         structure={
             "manifold": "R_{k+1} = R_k cay(h Omega_k) per SO(3) factor: kept to round-off, "
                         "never projected",
-            "symplectic": not (controller is not None or damped),
+            "symplectic": not forced,
             "symmetric": True,
             "implicit": True,
             "momentum": "momenta of the symmetries of L (rotations, translations) conserved "
-                        "to the Newton tolerance when u = 0 and undamped (discrete Noether)",
+                        "to the Newton tolerance when unforced (discrete Noether)",
             "forcing": "discrete Lagrange-d'Alembert, trapezoidal h/2 (Q_k, Q_{k+1})"
                        if forced else "none",
         },
@@ -261,35 +270,36 @@ def _forces(der: Any, parts: _Parts) -> ca.Function:
 def _make_step(der: Any, k_fn: ca.Function, tol: float, kmax: int) -> ca.Function:
     parts = _Parts(der)
     p = der.ing.p
-    n_c, n_nu = der.c.shape[0], der.nu.shape[0]
+    n_nu = der.nu.shape[0]
     h = ca.SX.sym("h")
-    c0, c1 = ca.SX.sym("c0", n_c), ca.SX.sym("c1", n_c)
     L = der.T - der.V
-    xi = parts.velocity(c0, c1, h)
-    Ld = h / 2 * (ca.substitute(L, ca.vertcat(der.c, der.nu), ca.vertcat(c0, xi))
-                  + ca.substitute(L, ca.vertcat(der.c, der.nu), ca.vertcat(c1, xi)))
-    D1 = ca.Function("D1", [c0, c1, p, h], [parts.kt(c0, ca.gradient(Ld, c0))])
-    D2 = ca.Function("D2", [c0, c1, p, h], [parts.kt(c1, ca.gradient(Ld, c1))])
-    Pi = ca.Function("Pi", [der.c, der.nu, p], [der.Pi])
+    PG = ca.Function("PG", [der.c, der.nu, p],
+                     [der.Pi, parts.kt(der.c, ca.gradient(L, der.c))])
     M = ca.Function("M", [der.c, p], [der.M])
-    grad_c = ca.Function("grad_c", [der.c, der.nu, p],
-                         [parts.kt(der.c, ca.gradient(L, der.c))])
     Q = _forces(der, parts)
 
     x = ca.SX.sym("x", der.x.shape[0])
     ck, nuk = parts.split(x)
-    mu = Pi(ck, nuk, p)
+    mu = PG(ck, nuk, p)[0]
     f_minus = h / 2 * Q(x, k_fn(x, p), p)
     lhs = mu + f_minus
 
-    def res_xi(z: ca.SX) -> ca.SX:
-        return -D1(ck, parts.advance(ck, z, h), p, h) - lhs
+    def ends(z: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+        """``(c_{k+1}, P, G_k, G_{k+1})``: ``P = Pi(c_k, xi) + Pi(c_{k+1}, xi)``."""
+        c1 = parts.advance(ck, z, h)
+        pi0, g0 = PG(ck, z, p)
+        pi1, g1 = PG(c1, z, p)
+        return c1, pi0 + pi1, g0, g1
 
-    scale = ca.fmax(ca.norm_inf(lhs), ca.norm_inf(h * grad_c(ck, nuk, p)))
+    def res_xi(z: ca.SX) -> ca.SX:  # -D_1 L_d - mu_k - f^-_k
+        _, P, g0, _ = ends(z)
+        return 0.5 * parts.dcay_inv_t(z, h, P) - h / 2 * g0 - lhs
+
+    scale = ca.fmax(ca.norm_inf(lhs), ca.norm_inf(h * PG(ck, nuk, p)[1]))
     xi_k, rel_xi, its_xi = newton(res_xi, nuk, scale, tol=tol, max_iter=kmax)
-    c_next = parts.advance(ck, xi_k, h)
-    mu_next = D2(ck, c_next, p, h)
-    M1, Pi0 = M(c_next, p), Pi(c_next, ca.SX.zeros(n_nu), p)
+    c_next, P, _, g1 = ends(xi_k)
+    mu_next = 0.5 * parts.dcay_inv_t(xi_k, -h, P) + h / 2 * g1  # D_2 L_d
+    M1, Pi0 = M(c_next, p), PG(c_next, ca.SX.zeros(n_nu), p)[0]
 
     def force_end(nu: ca.SX) -> ca.SX:
         x1 = parts.join(c_next, nu)
