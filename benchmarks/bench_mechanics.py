@@ -13,8 +13,11 @@ build costs and peak RSS are not shared), variants interleaved and repeated (med
 Columns: CPU seconds to build the model and ``f``, to build ``f_x``, to linearise at the
 hanging equilibrium the first time (``build+lin`` is the sum: the figure of the targets),
 then the median CPU time of a linearisation of the built model, of one ``f`` evaluation,
-and the peak RSS of the process. Targets: n = 50 build + linearise < 2 s CPU and < 400 MB;
-n = 100 < 10 s; a built model linearises at an equilibrium in < 50 ms at n = 50.
+and the peak RSS of the process. For the derived model the linearisation is timed
+interleaved with the old path (AD of the ``f`` graph, which calls the accelerations'
+supplied Jacobian once per batch of 64 directions, then dense products): both medians, the
+median ratio and the load average are printed. Targets: n = 50 build + linearise < 2 s
+CPU and < 400 MB; n = 100 < 10 s; a built model linearises at an equilibrium in < 50 ms at n = 50.
 
 Usage: ``python benchmarks/bench_mechanics.py [--quick] [--ns 5 10 20 50 100] [--repeat 3]
 [--sympy-ns 1 2 3]``.
@@ -66,6 +69,39 @@ def _hanging(model, n: int) -> np.ndarray:
     return model.manifold.join(parts)
 
 
+def _old_linearize(model):
+    """The previous path, for the ratio: AD of the ``f`` graph (the supplied Jacobian called
+    once per batch of 64 directions), a dense pseudo-inverse and products, the SVD norm."""
+    import casadi as ca
+
+    f = model.function("f")
+    x, u, p = (ca.MX.sym(k, f.size1_in(i)) for i, k in enumerate("xup"))
+    xdot = f(x, u, p)
+    jac = ca.Function("old_jacobians", [x, u, p],
+                      [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, u)])
+
+    def lin(xe: np.ndarray) -> tuple:
+        N = model.manifold.tangent_basis(xe)
+        f0, Jx, Ju = (np.asarray(v) for v in jac(xe, np.zeros(model.n_inputs), model.p))
+        np.linalg.norm(Jx, 2)
+        L = np.linalg.pinv(N)
+        return L @ Jx @ N, L @ Ju
+
+    return lin
+
+
+def _interleaved(new, old, repeat: int = 15) -> tuple[float, float, float]:
+    """CPU medians of ``new()`` and ``old()`` called alternately, and the median ratio."""
+    a, b = [], []
+    for _ in range(repeat):
+        for fn, out in ((new, a), (old, b)):
+            t0 = _cpu()
+            fn()
+            out.append(_cpu() - t0)
+    return (statistics.median(a), statistics.median(b),
+            statistics.median([y / x for x, y in zip(a, b)]))
+
+
 def child_casadi(variant: str, n: int) -> dict:
     """Build, Jacobian, linearisation and evaluation of one chain model (in this process)."""
     from workbench import linearize
@@ -87,12 +123,21 @@ def child_casadi(variant: str, n: int) -> dict:
     xe = _hanging(model, n)
     linearize(model, xe)
     t3 = _cpu()
-    again = _median_cpu(lambda: linearize(model, xe))
+    out = {}
+    if variant == "derived":
+        old = _old_linearize(model)
+        lin = linearize(model, xe)
+        A_old, _ = old(xe)
+        out["lin_dev"] = float(np.max(np.abs(lin.A - A_old)) / np.max(np.abs(A_old)))
+        again, out["lin_old"], out["lin_ratio"] = _interleaved(lambda: linearize(model, xe),
+                                                               lambda: old(xe))
+    else:
+        again = _median_cpu(lambda: linearize(model, xe))
     x = model.manifold.random_point(np.random.default_rng(0))
     u, p = np.zeros(2), model.p
     ev = _median_cpu(lambda: [f(x, u, p) for _ in range(20)]) / 20
     return {"build": t1 - t0, "jac": t2 - t1, "lin": t3 - t2, "total": t3 - t0,
-            "lin_again": again, "eval": ev, "rss": _rss_mb(), "rss_import": rss0}
+            "lin_again": again, "eval": ev, "rss": _rss_mb(), "rss_import": rss0, **out}
 
 
 def child_sympy(n: int) -> dict:
@@ -243,7 +288,7 @@ def main() -> None:
             print(f"{mod}: not installed (optional peer)")
     if "sympy" in peers and args.sympy_ns:
         _sympy_table(args.sympy_ns)
-    rows = []
+    rows, lin_runs = [], {}
     for n in ns:
         variants = ["derived"] + (["printed"] if n <= PRINTED_MAX_N else [])
         variants += [p for p in peers if p != "sympy"]
@@ -252,6 +297,7 @@ def main() -> None:
             for v in variants:
                 runs[v].append(run_child(v, n, timeout=600.0))
         d, h = runs["derived"], runs.get("printed", [])
+        lin_runs[n] = [r for r in d if r and "error" not in r]
         errors = {v: r["error"] for v, rs in runs.items() for r in rs if r and "error" in r}
         rows.append({
             "n": n,
@@ -264,6 +310,8 @@ def main() -> None:
             "printed RSS [MB]": _fmt(_med(h, "rss"), digits=4) if h else "-",
             "lin at eq. derived/printed [ms]": f"{_fmt(_med(d, 'lin_again'), 1e3)}/"
                                                f"{_fmt(_med(h, 'lin_again'), 1e3)}",
+            "lin at eq. old path [ms] (old/new)": f"{_fmt(_med(d, 'lin_old'), 1e3)} "
+                                                  f"({_fmt(_med(d, 'lin_ratio'))})",
             "f eval derived/printed [us]": f"{_fmt(_med(d, 'eval'), 1e6)}/"
                                            f"{_fmt(_med(h, 'eval'), 1e6)}",
             "pin build/lin/ABA [ms]": "/".join(_fmt(_med(runs.get("pin", []), k), 1e3)
@@ -281,6 +329,16 @@ def main() -> None:
               f"(printed {r['printed build+lin [s]']} s, ratio {r['ratio printed/derived']}); "
               f"peak RSS < 400 MB: {r['derived RSS [MB]']} MB (printed {r['printed RSS [MB]']})"
               f"; linearise a built model < 50 ms: {r['lin at eq. derived/printed [ms]']} ms")
+    for n in ns:
+        d = lin_runs.get(n, [])
+        if d:
+            print(f"n = {n}: linearise a built model at the hanging equilibrium: median "
+                  f"{_fmt(_med(d, 'lin_again'), 1e3)} ms CPU (target < 50 ms at n = 50); the "
+                  f"old path (AD of the f graph, dense pinv, SVD norm) "
+                  f"{_fmt(_med(d, 'lin_old'), 1e3)} ms interleaved in the same processes, "
+                  f"ratio old/new {_fmt(_med(d, 'lin_ratio'))}; max |A - A_old| / max |A_old| "
+                  f"= {_fmt(max(r['lin_dev'] for r in d), digits=2)}; load average "
+                  f"{os.getloadavg()}")
     if 100 in by_n:
         print(f"target n = 100 < 10 s CPU: {by_n[100]['derived build+lin [s]']} s")
     print(f"load average at end: {os.getloadavg()}")

@@ -31,19 +31,8 @@ from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
 from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import choice
 
-__all__ = [
-    "Symbolic",
-    "Parameter",
-    "BuildRecord",
-    "BuildLog",
-    "Context",
-    "Model",
-    "positive",
-    "nonnegative",
-    "spd3",
-    "finite",
-    "Evaluator",
-]
+__all__ = ["Symbolic", "Parameter", "BuildRecord", "BuildLog", "Context", "Model", "positive",
+           "nonnegative", "spd3", "finite", "Evaluator"]
 
 
 class Symbolic(StrEnum):
@@ -181,12 +170,8 @@ class BuildRecord:
 
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-serialisable form."""
-        return {
-            "function": self.name,
-            "n_nodes": self.n_nodes,
-            "build_seconds": self.seconds,
-            "symbolic": self.symbolic,
-        }
+        return {"function": self.name, "n_nodes": self.n_nodes, "build_seconds": self.seconds,
+                "symbolic": self.symbolic}
 
 
 @dataclass
@@ -295,6 +280,11 @@ class Model:
         The equations implemented, as LaTeX with their paper equation numbers (for reports).
     input_description : str
         What ``u`` is (units).
+    jacobian : callable, optional
+        ``jacobian(ctx, which) -> df/dx`` (``which == "f_x"``) or ``df/du`` (``"f_u"``) as
+        an expression, for a field whose Jacobian is cheaper written out than found by AD of
+        its graph (e.g. one call of a supplied Jacobian instead of one per batch of
+        directions). It must equal the Jacobian of ``vector_field``; None differentiates.
     """
 
     def __init__(
@@ -311,6 +301,7 @@ class Model:
         description: str = "",
         equations: Sequence[str] = (),
         input_description: str = "",
+        jacobian: Callable[[Context, str], Any] | None = None,
     ) -> None:
         symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
         validate.count("n_inputs", n_inputs, minimum=0, maximum=validate.MAX_DIM,
@@ -334,7 +325,7 @@ class Model:
         self.description = description
         self.equations = tuple(equations)
         self.input_description = input_description
-        self._vector_field = vector_field
+        self._vector_field, self._jacobian = vector_field, jacobian
         self._invariants: dict[str, Builder] = dict(invariants or {})
         self.parameter_slices: dict[str, slice] = {}
         k = 0
@@ -434,12 +425,9 @@ class Model:
         cache = self._graphs.functions
         if key not in cache:
             t0 = time.perf_counter()
-            fn = make()
-            dt = time.perf_counter() - t0
-            cache[key] = fn
-            self._graphs.log.add(
-                BuildRecord(f"{self.name}.{key}", int(fn.n_nodes()), dt, self.symbolic)
-            )
+            fn = cache[key] = make()
+            self._graphs.log.add(BuildRecord(f"{self.name}.{key}", int(fn.n_nodes()),
+                                             time.perf_counter() - t0, self.symbolic))
         return cache[key]
 
     def function(self, name: str, *, frozen: bool = False) -> ca.Function:
@@ -509,6 +497,15 @@ class Model:
         return ca.Function("f", [ctx.x, ctx.u, ctx.p], [xdot], ["x", "u", "p"], ["xdot"])
 
     def _make_jac(self, which: str) -> ca.Function:
+        if self._jacobian is not None:
+            ctx = self.context()
+            jac = self._jacobian(ctx, which)
+            cols = self.manifold.ambient_dim if which == "f_x" else self.n_inputs
+            if jac.shape != (self.manifold.ambient_dim, cols):
+                raise ModelError(f"the jacobian builder of {self.name!r} must give shape "
+                                 f"({self.manifold.ambient_dim}, {cols}) for {which}; got "
+                                 f"{jac.shape}")
+            return ca.Function(which, [ctx.x, ctx.u, ctx.p], [jac], ["x", "u", "p"], [which])
         f = self.function("f")
         S = self.sym
         x, u, p = S.sym("x", f.size1_in(0)), S.sym("u", f.size1_in(1)), S.sym("p", f.size1_in(2))

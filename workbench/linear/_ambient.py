@@ -73,6 +73,8 @@ def closed_loop_jacobians(model: Model, controller: ca.Function | None) -> ca.Fu
         k = controller(x) if controller.n_in() == 1 else controller(x, p)
         xdot = f(x, k + u, p)
         outs = [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, u)]
+    # dense outputs: converting a sparse DM to numpy costs more than the evaluation at n = 50
+    outs = [ca.densify(o) for o in outs]
     return ca.Function("jacobians", [x, u, p], outs, ["x", "u", "p"], ["f", "f_x", "f_u"])
 
 
@@ -153,7 +155,10 @@ def _equilibrium_jacobians(model: Model, x_e: Vector, u_e: Vector,
     f0, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(x_e, u_e, model.p))
     f0 = f0.ravel()
     res = float(np.max(np.abs(f0))) if f0.size else 0.0
-    # relative to the size of the field's terms near x_e: |df/dx| |x_e| (rounding of x_e)
+    # relative to the size of the field's terms near x_e: |df/dx| |x_e| (rounding of x_e);
+    # the limit is at least tol, so the spectral norm (an SVD) is needed only above tol
+    if res <= tol:
+        return f0, Jx, Ju.reshape(model.manifold.ambient_dim, model.n_inputs)
     scale = float(np.linalg.norm(Jx, 2) * np.linalg.norm(x_e, np.inf)) if Jx.size else 0.0
     limit = validate.scaled_tolerance(tol, scale)
     if not res <= limit:

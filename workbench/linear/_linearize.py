@@ -385,6 +385,25 @@ def _basis(model: Model, x_e: Vector, basis: ArrayLike | None, tol: float) -> tu
     return N, T
 
 
+def _project_blocks(model: Model, N: Matrix, Jx: Matrix, Ju: Matrix) -> tuple[Matrix, Matrix]:
+    """``pinv(N) Jx N`` and ``pinv(N) Ju`` for the block-diagonal basis of the manifold.
+
+    The pseudo-inverse of a block-diagonal matrix is block diagonal (the blocks' own
+    pseudo-inverses), so the products are taken factor by factor: the same sums without
+    the zero blocks (O(n^2) instead of dense O(n^3) products for n factors).
+    """
+    man = model.manifold
+    blocks = [(man.slices[n], man.tangent_slices[n]) for n in man.names]
+    JN = np.zeros((Jx.shape[0], N.shape[1]))
+    for rs, cs in blocks:
+        JN[:, cs] = Jx[:, rs] @ N[rs, cs]
+    A, B = np.zeros((N.shape[1], N.shape[1])), np.zeros((N.shape[1], Ju.shape[1]))
+    for rs, cs in blocks:
+        L = np.linalg.pinv(N[rs, cs])
+        A[cs, :], B[cs, :] = L @ JN[rs, :], L @ Ju[rs, :]
+    return A, B
+
+
 # ----------------------------------------------------------------------------------------
 # public entry points
 
@@ -440,9 +459,11 @@ def linearize(
     N, T = _basis(model, xe, basis, tol=1e-9)
     t0 = time.perf_counter()
     f0, Jx, Ju = _equilibrium_jacobians(model, xe, ue, controller, tol)
-    L = np.linalg.pinv(N)
-    A = L @ Jx @ N
-    B = L @ Ju
+    if basis is None:  # the manifold's basis is block diagonal by factor
+        A, B = _project_blocks(model, N, Jx, Ju)
+    else:
+        L = np.linalg.pinv(N)
+        A, B = L @ Jx @ N, L @ Ju
     seconds = time.perf_counter() - t0
     labels = tangent_labels(model)
     if basis is not None:

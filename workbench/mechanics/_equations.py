@@ -217,6 +217,18 @@ class Derivation:
         return ca.Function(f"{self.name}_rates", [self.x, acc], [ca.vertcat(*out)],
                            ["x", "acc"], ["xdot"])
 
+    def rates_jacobian(self) -> ca.Function:
+        """``(x, acc) -> [d x-dot/dx, d x-dot/d acc]`` of :meth:`rates` (SX, sparse AD).
+
+        With the accelerations' Jacobian ``d acc/dx`` the field's Jacobian is
+        ``d x-dot/dx + d x-dot/d acc * d acc/dx`` (the chain rule written out).
+        """
+        acc = ca.SX.sym("acc", self.n_nu)
+        xdot = self.rates()(self.x, acc)
+        return ca.Function(f"{self.name}_rates_jac", [self.x, acc],
+                           [ca.jacobian(xdot, self.x), ca.jacobian(xdot, acc)], ["x", "acc"],
+                           ["rates_x", "rates_acc"])
+
     def _jacobian_columns(self, x: ca.MX, u: ca.MX, p: ca.MX, a: ca.MX) -> ca.MX:
         """``dr/d(x, u, p)`` at ``a`` as MX: sparse AD (small) or mapped forward sweeps."""
         if self.n_nu <= SPARSE_JACOBIAN_MAX:
@@ -236,8 +248,13 @@ class Derivation:
                             zero_a))
         return ca.horzcat(*cols)[:, :n]
 
-    def accelerations_mx(self, linear_solver: str) -> ca.Function:
-        """``(x, u, p) -> nu-dot`` as an MX function with a numeric solve and its Jacobian."""
+    def accelerations_mx(self, linear_solver: str) -> tuple[ca.Function, ca.Function]:
+        """``(x, u, p) -> nu-dot`` as an MX function with a numeric solve and its Jacobian.
+
+        Returns the function and its supplied Jacobian ``(x, u, p, out_acc) -> [d nu-dot/dx,
+        d nu-dot/du, d nu-dot/dp]`` (to call once where a whole Jacobian is wanted: AD of
+        the function calls it once per batch of directions).
+        """
         asm, ing = self.assembly(), self.ing
         x = ca.MX.sym("x", self.x.shape[0])
         u = ca.MX.sym("u", ing.u.shape[0])
@@ -261,7 +278,7 @@ class Derivation:
             [sol[:, :nx], sol[:, nx : nx + nu_], sol[:, nx + nu_ :]],
             ["x", "u", "p", "out_acc"], ["jac_acc_x", "jac_acc_u", "jac_acc_p"])
         return ca.Function(f"{self.name}_acc", [x, u, p], [acc], ["x", "u", "p"], ["acc"],
-                           {"custom_jacobian": jac, "jac_penalty": 0})
+                           {"custom_jacobian": jac, "jac_penalty": 0}), jac
 
     def accelerations_sx(self) -> ca.SX:
         """``nu-dot`` as an SX expression (symbolic solve; small systems)."""
