@@ -74,6 +74,31 @@ def test_lgvi_failing_at_its_rounding_level_advises_a_larger_newton_tol():
     assert np.max(np.abs(tr.x - ref.x)) / np.max(np.abs(ref.x)) < 1e-3
 
 
+def test_derived_pendulum_at_cond_1e8_is_as_accurate_as_the_printed_form():
+    # issue 15 regression: the derived field wrote the rotational energy as
+    # (J_O - m(|rho|^2 I - rho rho^T)) + m |R (Omega x rho)|^2; the mass matrix was off by
+    # 1e-16 absolute (cancellation and R^T R rounding) against lambda_min(J) = 1e-8, the
+    # accelerations 1e-8 relative, and CVODES took 58,293 steps, rtol 1e-10 vs 1e-12
+    # differing by 1.42
+    from models.paper_forms import pendulum3d_full_printed
+
+    J = Q @ np.diag([1.0, 0.5, 1e-8]) @ Q.T
+    J, rho = 0.5 * (J + J.T), 0.1 * Q @ np.ones(3) / np.sqrt(3.0)
+    derived, printed = p3.full(J=J, rho=rho), pendulum3d_full_printed(J=J, rho=rho)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        x = derived.manifold.random_point(rng)
+        assert np.array_equal(np.asarray(derived.mechanics.mass_matrix()(x, derived.p)), J)
+        fd, fp = derived.rhs(x), printed.rhs(x)
+        assert np.max(np.abs(fd - fp)) <= 1e-13 * np.max(np.abs(fp))
+    x0 = derived.state(R=np.eye(3), omega=[0.1, 0.2, 0.3])
+    t = np.linspace(0.0, 0.025, 11)
+    a = simulate(derived, x0, t, rtol=1e-10, atol=1e-10)
+    b = simulate(derived, x0, t, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(a.x - b.x)) / np.max(np.abs(b.x)) < 1e-5
+    assert a.cost["steps"] < 10_000
+
+
 def test_spectrum_at_the_largest_condition_number_meets_the_closed_form():
     J = Q @ np.diag([1.0, 0.5, 1e-8]) @ Q.T
     J = 0.5 * (J + J.T)

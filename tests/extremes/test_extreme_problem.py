@@ -49,11 +49,6 @@ def _check_result(result):
     assert result.values["outcomes"][CORRECT] + result.values["outcomes"][CLEAR] == len(rows)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "open defect found by this problem: the 3D pendulum on TSO(3) derived from its Lagrangian "
-    "(models.pendulum3d.full since the mechanics rewrite) is far less accurate at cond J = 1e8 "
-    "than the printed field was: CVODES at rtol 1e-10 differs from 1e-12 by 1.42 relative over "
-    "0.025 s with 58,293 steps (printed field: 1e-6 with 3,479 steps)"))
 def test_quick_run_has_no_defect_and_every_comparison_holds(quick):
     _check_result(quick)
     assert len(quick.comparisons) >= 20
