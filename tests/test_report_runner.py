@@ -226,3 +226,16 @@ def test_the_key_follows_mode_and_sources(tmp_path):
     assert report_cache.problem_key(f, quick=True, root=root) not in (k_quick, k_engine)
     assert report_cache.problem_key(None, quick=True) is None  # no source: never cached
     assert set(report_cache.versions()) >= {"python", "casadi", "ipopt", "numpy"}
+
+
+def test_problems_run_together_only_while_their_last_peaks_fit_the_memory_budget():
+    from workbench.app.report.runner import _Job, _next_job
+
+    todo = [_Job(n, None, n) for n in ["huge", "big", "small"]]  # longest first
+    peaks = {"huge": 1700.0, "big": 700.0, "small": 170.0}
+    assert _next_job(todo, [], peaks, 1300.0) == 0          # alone, even over the budget
+    assert _next_job(todo[1:], [todo[0]], peaks, 1300.0) is None  # nothing fits beside it
+    running = [_Job("other", None, "other")]                # never measured: counts 0
+    assert _next_job(todo, running, peaks, 1300.0) == 1     # 'huge' waits, 'big' fits
+    assert _next_job(todo, [todo[1]], peaks, 1300.0) == 2   # beside 'big' only 'small'
+    assert _next_job([], running, peaks, 1300.0) is None

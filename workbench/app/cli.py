@@ -137,7 +137,7 @@ def _report(args: argparse.Namespace) -> int:
                            "--out", args.out, error=CLIError),
                        progress=not args.no_progress,
                        jobs=args.jobs, timeout=args.timeout, cache_dir=cache,
-                       rerun=args.rerun)
+                       rerun=args.rerun, memory_mb=args.memory)
     for fmt_, path in rep.paths.items():
         print(f"wrote {path} ({path.stat().st_size / 1024:.0f} kB, {fmt_.value})")
     print(rep.summary_line())
@@ -256,6 +256,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "a problem is re-used when nothing it depends on changed")
     p_rep.add_argument("--no-cache", action="store_true",
                        help="run every problem and cache nothing")
+    p_rep.add_argument("--memory", type=_positive_float, default=None, metavar="MB",
+                       help="run problems at the same time only while their peak memories "
+                       "(of their last runs) add up to at most MB (default 1300)")
     p_rep.add_argument("--rerun", action="append", metavar="NAME", default=None,
                        help="run NAME again even if its result is cached (repeatable); "
                        "'failed': every cached failure and time-out; 'all': every problem "

@@ -178,6 +178,7 @@ def build_report(
     timeout: float | None = None,
     cache_dir: str | Path | None = DEFAULT_CACHE,
     rerun: Sequence[str] | str | None = None,
+    memory_mb: float | None = None,
 ) -> Report:
     """Run (or re-use) problems and write their report.
 
@@ -209,6 +210,9 @@ def build_report(
     rerun : str or sequence of str, optional
         Problems to run even if their outcome is cached: names, ``"failed"`` (every
         cached failure or time-out) or ``"all"``.
+    memory_mb : float, optional
+        Budget of the peak memories (of their last runs) of the problems run at the same
+        time [MB] (default 1300); a problem that alone needs more runs by itself.
 
     Returns
     -------
@@ -242,6 +246,10 @@ def build_report(
                                     and timeout < float("inf")):
         raise ReportInputError(f"--timeout must be a positive number of seconds; got "
                                f"{timeout!r}")
+    if memory_mb is not None and not (isinstance(memory_mb, (int, float))
+                                      and not isinstance(memory_mb, bool)
+                                      and 0 < memory_mb < float("inf")):
+        raise ReportInputError(f"--memory must be a positive number of MB; got {memory_mb!r}")
     out = check_out_dir(out_dir)
     cache = None if cache_dir is None else check_out_dir(cache_dir)
     stem = stem or ("report-quick" if quick else "report")
@@ -251,7 +259,7 @@ def build_report(
     t0 = time.perf_counter()
     outcomes, stats = run_all(names, quick=quick, catalogue=catalogue, jobs=jobs,
                               timeout=timeout, cache_dir=cache, stream=stream,
-                              progress=progress, rerun=rerun)
+                              progress=progress, rerun=rerun, memory_mb=memory_mb)
     seconds["problems"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     modules = {n: catalogue.load(n) for n in names}

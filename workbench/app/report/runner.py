@@ -46,10 +46,14 @@ from workbench.app.report.progress import (
 )
 from workbench.study._result import PROGRESS_ENV
 
-__all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT"]
+__all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB"]
 
 DEFAULT_TIMEOUT = {True: 600.0, False: 1200.0}
 """Default wall-time limit of one problem [s], by quick mode."""
+
+DEFAULT_MEMORY_MB = 1300.0
+"""Default budget of the peak memories of the problems run at the same time [MB] (with the
+report's own process, about 200 MB, under the 1.5 GB of issue 18)."""
 
 POLL = 0.2
 """Seconds between checks of the running children."""
@@ -236,10 +240,12 @@ def _finished(job: _Job, path: Path, *, timed_out: bool, timeout: float) -> Outc
         return out
     seconds = time.monotonic() - job.started
     if timed_out:
+        used = job.cpu_sampled
+        cpu = f" having used {used:.0f} s of CPU time" if used == used else ""
         return Outcome(job.name, job.title, Status.TIMED_OUT, seconds, peak_mb=job.peak_sampled,
-                       error=f"timed out: stopped after {timeout:.0f} s, the time limit of one "
-                             f"problem (workbench report --timeout SECONDS)", ran_at=time.time(),
-                       cpu_seconds=job.cpu_sampled, limit=timeout)
+                       error=f"timed out: stopped after {timeout:.0f} s{cpu}, the time limit of "
+                             f"one problem (workbench report --timeout SECONDS)",
+                       ran_at=time.time(), cpu_seconds=job.cpu_sampled, limit=timeout)
     return Outcome(job.name, job.title, Status.FAILED, seconds, peak_mb=job.peak_sampled,
                    error=f"the process running the problem died (exit code "
                          f"{job.process.exitcode}; a negative code is the signal)",
@@ -302,6 +308,23 @@ def _read_progress(job: _Job) -> list[dict[str, Any]]:
     return out
 
 
+def _next_job(todo: list[_Job], running: list[_Job], peaks: dict[str, float],
+              budget: float) -> int | None:
+    """Index of the next problem to start: the first (longest) whose last peak memory fits.
+
+    Problems run together only while the sum of their peak memories in the last run stays
+    within ``budget`` [MB]; a problem never measured counts as 0, and one that alone
+    exceeds the budget runs when nothing else does. None: wait for a running one to end.
+    """
+    if not running:
+        return 0 if todo else None
+    used = sum(peaks.get(j.name, 0.0) for j in running)
+    for i, job in enumerate(todo):
+        if used + peaks.get(job.name, 0.0) <= budget:
+            return i
+    return None
+
+
 def _check_rerun(rerun: Collection[str] | str | None, names: Sequence[str]) -> frozenset[str]:
     if rerun is None:
         return frozenset()
@@ -327,6 +350,7 @@ def run_all(
     heartbeat: float = 30.0,
     on_done: Callable[[Outcome], None] | None = None,
     rerun: Collection[str] | str | None = None,
+    memory_mb: float | None = None,
 ) -> tuple[list[Outcome], RunStats]:
     """Run (or re-use) every problem; return the outcomes in the order of ``names``.
 
@@ -360,6 +384,10 @@ def run_all(
     rerun : str or collection of str, optional
         Problems to run even if cached: names, ``"failed"`` (every cached failure and
         time-out) or ``"all"``.
+    memory_mb : float, optional
+        Problems run at the same time only while the sum of their peak memories in the
+        last run is at most this [MB] (default :data:`DEFAULT_MEMORY_MB`); a problem that
+        alone needs more runs by itself.
 
     Returns
     -------
@@ -388,6 +416,8 @@ def run_all(
         if on_done:
             on_done(hit)
     todo.sort(key=lambda j: -timings.get(f"{mode}/{j.name}", 0.0))
+    peaks = {j.name: timings.get(f"{mode}/{j.name}/peak_mb", 0.0) for j in todo}
+    memory_mb = float(DEFAULT_MEMORY_MB if memory_mb is None else memory_mb)
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
     running: list[_Job] = []
@@ -397,7 +427,10 @@ def run_all(
         try:
             while todo or running:
                 while todo and len(running) < jobs:
-                    job = todo.pop(0)
+                    pick = _next_job(todo, running, peaks, memory_mb)
+                    if pick is None:
+                        break
+                    job = todo.pop(pick)
                     job.path = Path(tmp) / f"{job.name}.pkl"
                     job.process = ctx.Process(
                         target=_child, name=f"report:{job.name}",
@@ -430,6 +463,8 @@ def run_all(
                     running.remove(job)
                     done[job.name] = out
                     timings[f"{mode}/{job.name}"] = out.seconds
+                    if out.peak_mb == out.peak_mb:
+                        timings[f"{mode}/{job.name}/peak_mb"] = out.peak_mb
                     if cache_dir and job.key:  # failures and time-outs are cached too
                         cache.store(cache_dir, job.name, out, quick=quick, key=job.key)
                     show.finished(out, time.monotonic() - t0)
