@@ -75,7 +75,7 @@ class Method(str, Enum):
     MECHANICS_VARIATIONAL
         Variational integrator (order 2, symmetric, symplectic and momentum-preserving
         when unforced; Cayley update on SO(3)) for any model made by
-        :mod:`workbench.mechanics` with R^k and SO(3) factors, from its Lagrangian;
+        :mod:`workbench.mechanics` with R^k, SO(3) and S^2 factors, from its Lagrangian;
         knobs ``step``, ``newton_tol``, ``newton_max_iter``, ``jit``.
 
     The last four are :mod:`workbench.simulation.integrators`; they keep the state on the manifold

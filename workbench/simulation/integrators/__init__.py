@@ -3,7 +3,7 @@
 * :func:`lgvi`: Lie group variational integrator on TSO(3) (rigid body, 3D pendulum);
 * :func:`s2_variational`: variational integrator on S^2 (spherical pendulum);
 * :func:`mechanics_variational`: variational integrator of any model made by
-  :mod:`workbench.mechanics` on R^k and SO(3) factors (the 3D pendulum, the double 3D
+  :mod:`workbench.mechanics` on R^k, SO(3) and S^2 factors (the 3D pendulum, the double 3D
   pendulum, the pendulum on a cart), from its Lagrangian;
 * :func:`rkmk4`: explicit Runge-Kutta-Munthe-Kaas method of order 4 for any model on
   R^n, S1, S2, SO3 and TS2 factors.

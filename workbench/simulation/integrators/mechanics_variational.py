@@ -1,18 +1,24 @@
-"""A variational integrator on R^k and SO(3) factors for every model of :mod:`workbench.mechanics`.
+"""A variational integrator on R^k, SO(3) and S^2 factors for the models of the mechanics layer.
 
 The mechanics layer keeps its derivation on the model (``model.mechanics``: the kinetic
 energy ``T(c, nu)``, the potential ``V(c)``, the loads, the factors). From them this module
 writes a discrete Lagrangian and its discrete Lagrange-d'Alembert equations, so that any
-system declared with R^k and SO(3) factors (the 3D pendulum, the pendulum on a cart, the
-double 3D pendulum, chains of rigid bodies) gets a symplectic, momentum-preserving step.
+system declared with R^k, SO(3) and S^2 factors (the 3D pendulum, the pendulum on a cart,
+the double 3D pendulum, the chains on a cart, the quadrotor with a slung load) gets a
+symplectic, momentum-preserving step.
 
 Discrete configuration update, per factor (``h`` the signed step, ``xi`` the unknown
 discrete velocity)::
 
     R^k:    x_{k+1} = x_k + h v
     SO(3):  R_{k+1} = R_k cay(h Omega),   cay(a) = (I - hat(a)/2)^{-1} (I + hat(a)/2)
+    S^2:    q_{k+1} = cay(h w) q_k,       q_k . w = 0
 
-so ``R_{k+1}`` is a product of rotations (SO(3) is kept to round-off, never projected). The
+so ``R_{k+1}`` and ``q_{k+1}`` are rotated by rotations (SO(3) and S^2 are kept to
+round-off, never projected). On S^2 the discrete angular velocity ``w`` is normal to both
+ends, ``w = 2/h (q_k x q_{k+1}) / (1 + q_k . q_{k+1})``; the equation ``q_k . w = 0`` is
+added to the S^2 rows (whose other terms are normal to ``q_k``), weighted like the mass
+matrix's block, as the continuous derivation pins ``q . omega = 0``. The
 discrete Lagrangian is the trapezoidal rule at the discrete velocity::
 
     L_d(c_k, xi) = h/2 [L(c_k, xi) + L(c_{k+1}, xi)],   L = T - V.
@@ -21,7 +27,8 @@ It is symmetric (``L_d(c_{k+1}, c_k; -h) = -L_d(c_k, c_{k+1}; h)``, as
 ``cay(-a) = cay(a)^{-1}``), hence of order 2. Its left-trivialised derivatives (along the
 perturbations ``x + eps eta`` and ``R exp(eps hat(eta))`` of one end, the other held) follow
 from the right-trivialised inverse derivative of the Cayley map, ``dcay_a^{-1} = I -
-hat(a)/2 + a a^T/4`` (identity on R^k)::
+hat(a)/2 + a a^T/4`` (identity on R^k; on S^2 the derivative of the formula for ``w`` by
+AD, ``P`` pulled back through it, left-trivialised by ``q x``)::
 
     -D_1 L_d = 1/2 (dcay_{h xi}^{-1})^T P - h/2 G(c_k, xi)
      D_2 L_d = 1/2 (dcay_{-h xi}^{-1})^T P + h/2 G(c_{k+1}, xi)
@@ -46,9 +53,7 @@ by Newton as well). With ``u = 0`` and no damping the map is symplectic and cons
 momentum of every symmetry of ``L_d`` (discrete Noether: the rotations about the vertical
 and the translations the system declares), to the Newton tolerance.
 
-S^2 factors are not supported (their discrete velocity must stay normal to the
-direction); the spherical pendulum has :func:`~workbench.simulation.integrators.
-s2_variational.s2_variational`.
+Factors of other kinds are refused.
 """
 
 from __future__ import annotations
@@ -73,7 +78,7 @@ from workbench.simulation.integrators.common import (
 
 __all__ = ["mechanics_variational", "SUPPORTED_FACTORS"]
 
-SUPPORTED_FACTORS = ("R^k", "SO(3)")
+SUPPORTED_FACTORS = ("R^k", "SO(3)", "S^2")
 """Kinds of mechanics factors this integrator steps."""
 
 
@@ -91,12 +96,10 @@ def _derivation(model: Model) -> Any:
         )
     for f in der.ing.factors:
         if f.kind not in SUPPORTED_FACTORS:
-            hint = (" Use method 's2_variational' for a spherical pendulum on TS^2, or "
-                    "'rkmk4'." if f.kind == "S^2" else " Use method 'rkmk4'.")
             raise ModelError(
                 f"the mechanics variational integrator steps factors of kinds "
                 f"{list(SUPPORTED_FACTORS)}; factor {f.name!r} of model {model.name!r} is "
-                f"{f.kind}.{hint}"
+                f"{f.kind}. Use method 'rkmk4'."
             )
     if ca.depends_on(der.M, der.nu):
         raise ModelError(
@@ -147,6 +150,8 @@ class _Parts:
             if f.kind == "SO(3)":
                 R, G = ca.reshape(c[sl], 3, 3), ca.reshape(cov[sl], 3, 3)
                 out.append(vee(R.T @ G - G.T @ R))
+            elif f.kind == "S^2":
+                out.append(ca.cross(c[sl], cov[sl]))
             else:
                 out.append(cov[sl])
         return ca.vertcat(*out)
@@ -157,25 +162,73 @@ class _Parts:
         for f, cs, vs in zip(self.factors, self.c_sl, self.nu_sl):
             if f.kind == "SO(3)":
                 out.append(ca.vec(ca.reshape(c[cs], 3, 3) @ _cayley(h * xi[vs])))
+            elif f.kind == "S^2":
+                out.append(_cayley(h * xi[vs]) @ c[cs])
             else:
                 out.append(c[cs] + h * xi[vs])
         return ca.vertcat(*out)
 
-    def dcay_inv_t(self, xi: ca.SX, h: ca.SX, cov: ca.SX) -> ca.SX:
-        """``(dtau_{h xi}^{-1})^T cov`` per factor (identity on R^k).
+    def xi_terms(self, c0: ca.SX, c1: ca.SX, xi: ca.SX, h: ca.SX,
+                 P: ca.SX) -> tuple[ca.SX, ca.SX]:
+        """The parts of ``(-D_1 L_d, D_2 L_d)`` from the velocity's dependence on the ends.
 
-        On SO(3), ``dcay_a^{-1} = I - hat(a)/2 + a a^T / 4`` (right-trivialised), so the
-        transpose at ``a = h xi`` is ``I + hat(a)/2 + a a^T / 4``; ``h -> -h`` gives the
-        left-trivialised one.
+        ``P = Pi(c_k, xi) + Pi(c_{k+1}, xi)``. R^k: ``(P/2, P/2)``. SO(3): ``1/2
+        (dcay_{+-h xi}^{-1})^T P`` with ``(dcay_a^{-1})^T = I + hat(a)/2 + a a^T/4``.
+        S^2: ``-/+ q_i x (dw/dq_i)^T (h/2 P)`` by AD of the inverse map.
+        """
+        m1, m2 = [], []
+        for f, cs, vs in zip(self.factors, self.c_sl, self.nu_sl):
+            m = P[vs]
+            if f.kind == "SO(3)":
+                a = h * xi[vs]
+                sym = m + 0.25 * ca.dot(a, m) * a
+                m1.append(0.5 * (sym + 0.5 * ca.cross(a, m)))
+                m2.append(0.5 * (sym - 0.5 * ca.cross(a, m)))
+            elif f.kind == "S^2":
+                g0, g1 = _s2_vjp()(c0[cs], c1[cs], h, m)
+                m1.append(-g0)
+                m2.append(g1)
+            else:
+                m1.append(0.5 * m)
+                m2.append(0.5 * m)
+        return ca.vertcat(*m1), ca.vertcat(*m2)
+
+    def gauge(self, c: ca.SX, xi: ca.SX, M: ca.SX) -> ca.SX:
+        """``mu_f q (q . xi_f)`` on S^2 factors (``mu_f = tr(M_ff)/2``), zero elsewhere.
+
+        Added to the S^2 rows of an equation whose left side is normal to ``q``: it pins
+        ``q . xi = 0`` and makes the Jacobian regular (as the continuous derivation's
+        gauge block).
         """
         out = []
-        for f, vs in zip(self.factors, self.nu_sl):
-            if f.kind == "SO(3)":
-                a, m = h * xi[vs], cov[vs]
-                out.append(m + 0.5 * ca.cross(a, m) + 0.25 * ca.dot(a, m) * a)
+        for f, cs, vs in zip(self.factors, self.c_sl, self.nu_sl):
+            if f.kind == "S^2":
+                q = c[cs]
+                out.append(0.5 * ca.trace(M[vs, vs]) * ca.dot(q, xi[vs]) * q)
             else:
-                out.append(cov[vs])
+                out.append(ca.SX.zeros(vs.stop - vs.start))
         return ca.vertcat(*out)
+
+
+_S2_VJP: list[ca.Function] = []
+
+
+def _s2_vjp() -> ca.Function:
+    """``(q0, q1, h, s) -> (q0 x (dw/dq0)^T (h/2 s), q1 x (dw/dq1)^T (h/2 s))``.
+
+    ``w = 2/h (q0 x q1)/(1 + q0 . q1)`` is the discrete angular velocity normal to both
+    ends with ``q1 = cay(h w) q0``.
+    """
+    if not _S2_VJP:
+        q0, q1, s = ca.SX.sym("q0", 3), ca.SX.sym("q1", 3), ca.SX.sym("s", 3)
+        h = ca.SX.sym("h")
+        w = 2.0 / h * ca.cross(q0, q1) / (1.0 + ca.dot(q0, q1))
+        seed = h / 2 * s
+        _S2_VJP.append(ca.Function(
+            "s2_vjp", [q0, q1, h, s],
+            [ca.cross(q0, ca.jtimes(w, q0, seed, True)),
+             ca.cross(q1, ca.jtimes(w, q1, seed, True))]))
+    return _S2_VJP[0]
 
 
 def mechanics_variational(
@@ -191,8 +244,8 @@ def mechanics_variational(
     Parameters
     ----------
     model : Model
-        A model from ``workbench.mechanics.System(...).model()`` whose factors are R^k and
-        SO(3) (e.g. :func:`models.pendulum3d.full`, :func:`models.pendulum3d_cart.
+        A model from ``workbench.mechanics.System(...).model()`` whose factors are R^k,
+        SO(3) and S^2 (e.g. :func:`models.pendulum3d.full`, :func:`models.pendulum3d_cart.
         pendulum3d_cart`, :func:`models.double_pendulum3d.double_pendulum3d`).
     controller : casadi.Function, optional
         Feedback ``u = k(x)`` or ``k(x, p)``, applied in discrete Lagrange-d'Alembert form
@@ -213,8 +266,8 @@ def mechanics_variational(
     Raises
     ------
     ModelError
-        The model is not made by workbench.mechanics, has an S^2 factor (use
-        ``s2_variational``) or a kinetic energy not quadratic in the velocities, or the
+        The model is not made by workbench.mechanics, has a factor of another kind or a
+        kinetic energy not quadratic in the velocities, or the
         controller does not fit it.
     ParameterError
         Bad Newton options.
@@ -291,21 +344,25 @@ def _make_step(der: Any, k_fn: ca.Function, tol: float, kmax: int) -> ca.Functio
         pi1, g1 = PG(c1, z, p)
         return c1, pi0 + pi1, g0, g1
 
-    def res_xi(z: ca.SX) -> ca.SX:  # -D_1 L_d - mu_k - f^-_k
-        _, P, g0, _ = ends(z)
-        return 0.5 * parts.dcay_inv_t(z, h, P) - h / 2 * g0 - lhs
+    M0 = M(ck, p)
+
+    def res_xi(z: ca.SX) -> ca.SX:  # -D_1 L_d - mu_k - f^-_k (+ the S^2 gauge rows)
+        c1, P, g0, _ = ends(z)
+        return parts.xi_terms(ck, c1, z, h, P)[0] - h / 2 * g0 - lhs + parts.gauge(ck, z, M0)
 
     scale = ca.fmax(ca.norm_inf(lhs), ca.norm_inf(h * PG(ck, nuk, p)[1]))
     xi_k, rel_xi, its_xi = newton(res_xi, nuk, scale, tol=tol, max_iter=kmax)
     c_next, P, _, g1 = ends(xi_k)
-    mu_next = 0.5 * parts.dcay_inv_t(xi_k, -h, P) + h / 2 * g1  # D_2 L_d
+    mu_next = parts.xi_terms(ck, c_next, xi_k, h, P)[1] + h / 2 * g1  # D_2 L_d
     M1, Pi0 = M(c_next, p), PG(c_next, ca.SX.zeros(n_nu), p)[0]
+    # Pi is affine in nu: Pi(c, nu) = M nu + Pi(c, 0); the S^2 gauge pins q . omega = 0
+    nu_sym = ca.SX.sym("nu", n_nu)
+    M1 = M1 + ca.jacobian(parts.gauge(c_next, nu_sym, M1), nu_sym)
 
     def force_end(nu: ca.SX) -> ca.SX:
         x1 = parts.join(c_next, nu)
         return h / 2 * Q(x1, k_fn(x1, p), p)
 
-    nu_sym = ca.SX.sym("nu", n_nu)
     if ca.depends_on(force_end(nu_sym), nu_sym):
         def res_nu(z: ca.SX) -> ca.SX:
             return M1 @ z + Pi0 - mu_next - force_end(z)
