@@ -24,7 +24,7 @@ from typing import TextIO
 from workbench.app.report.collect import Status
 from workbench.app.report.errors import ReportInputError
 from workbench.app.report.frontpage import Document, document
-from workbench.app.report.progress import RunStats
+from workbench.app.report.progress import RunStats, process_age
 from workbench.app.report.runner import Outcome, run_all
 from workbench.core import files
 from workbench.core.validate import output_path
@@ -91,7 +91,10 @@ class Report:
         peak = max(own, self.stats.peak_total_mb if self.stats else 0.0)
         total = self.seconds.get("total", 0.0)
         stages = ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items() if k != "total")
-        return (f"report: {len(self.runs)} problems in {total:.1f} s ({stages}); peak memory "
+        age = process_age()
+        since = f", {age:.1f} s since the command started" if age == age else ""
+        return (f"report: {len(self.runs)} problems in {total:.1f} s ({stages}{since}); peak "
+                f"memory "
                 f"{peak:.0f} MB (the report's processes together, sampled), of which the "
                 f"report's own process {own:.0f} MB (its peak, rendering included)"
                 + (f"; {self.stats.line()}" if self.stats else ""))

@@ -8,7 +8,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-__all__ = ["Progress", "RunStats", "rss_mb", "pss_mb", "cpu_seconds_of", "clock"]
+__all__ = ["Progress", "RunStats", "rss_mb", "pss_mb", "cpu_seconds_of", "process_age", "clock"]
 
 _TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
@@ -48,6 +48,20 @@ def cpu_seconds_of(pid: int) -> float:
         with open(f"/proc/{pid}/stat") as fh:
             fields = fh.read().rsplit(")", 1)[1].split()
         return (int(fields[11]) + int(fields[12])) / _TICK
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def process_age() -> float:
+    """Seconds since this process started (nan where ``/proc`` cannot be read).
+
+    Interpreter start-up and imports included: what a user waits for.
+    """
+    try:
+        with open("/proc/self/stat") as fh:
+            start = int(fh.read().rsplit(")", 1)[1].split()[19]) / _TICK
+        with open("/proc/uptime") as fh:
+            return float(fh.read().split()[0]) - start
     except (OSError, ValueError, IndexError):
         return float("nan")
 
