@@ -8,7 +8,10 @@ equations come from the Lagrangian by :mod:`workbench.mechanics`.
 State factors, in storage order: ``R1``, ``Omega1``, ``R2``, ``Omega2``. Invariants:
 ``energy`` and the angular momentum about the vertical through the pivot, ``L_z``.
 Equilibria: each body hanging (``R_i = I``) or inverted (``R_i = exp(pi e1-hat)``) when
-``rho_i`` and ``d1`` lie along the body ``e3`` axes: four types.
+``rho_i`` and ``d1`` lie along the body ``e3`` axes: four types. Being made by the mechanics
+layer, it runs with the variational integrator ``simulate(..., method=
+"mechanics_variational")`` (symplectic, L_z kept to the Newton tolerance, bounded energy
+error: ``problems/double_pendulum3d``).
 """
 
 from __future__ import annotations
