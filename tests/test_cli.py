@@ -53,6 +53,9 @@ def test_help_everywhere(capsys, sub):
         (["report", "--jobs", "0"], "--jobs: expected a whole number >= 1; got '0'"),
         (["report", "--timeout", "-5"], "--timeout: expected a positive number; got '-5'"),
         (["report", "--timeout", "nan"], "--timeout: expected a positive number; got 'nan'"),
+        (["report", "--memory", "0"], "--memory: expected a positive number; got '0'"),
+        (["report", "chain_lqr", "--rerun", "chain_lq"],
+         "--rerun: 'chain_lq' is not a problem of this report"),
         (["run"], "the following arguments are required: name"),
         ([], "the following arguments are required: COMMAND"),
         (["frobnicate"], "invalid choice: 'frobnicate'"),
@@ -105,6 +108,9 @@ def test_report_writes_html_with_progress_and_reuses_it(capsys, tmp_path, monkey
     assert "1 run, 0 re-used" in out and "peak memory" in out  # the cost, at the end
     code, out, err = call(capsys, *argv)
     assert code == 0 and "re-used" in err and "0 run, 1 re-used" in out
+    assert "since the command started" in out
+    code, out, err = call(capsys, *argv, "--rerun", "pendulum3d_invariants")
+    assert code == 0 and "1 run, 0 re-used" in out
 
 
 def test_bench_lists_and_runs_scripts(capsys, tmp_path, monkeypatch):
