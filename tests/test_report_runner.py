@@ -234,8 +234,10 @@ def test_problems_run_together_only_while_their_last_peaks_fit_the_memory_budget
     todo = [_Job(n, None, n) for n in ["huge", "big", "small"]]  # longest first
     peaks = {"huge": 1700.0, "big": 700.0, "small": 170.0}
     assert _next_job(todo, [], peaks, 1300.0) == 0          # alone, even over the budget
-    assert _next_job(todo[1:], [todo[0]], peaks, 1300.0) is None  # nothing fits beside it
+    assert _next_job(todo[1:], [todo[0]], peaks, 1300.0) == 1  # beside it only small ones
+    assert _next_job(todo[1:2], [todo[0]], peaks, 1300.0) is None  # 'big' waits
     running = [_Job("other", None, "other")]                # never measured: counts 0
     assert _next_job(todo, running, peaks, 1300.0) == 1     # 'huge' waits, 'big' fits
+    assert _next_job(todo[:2], [todo[1]], peaks, 1300.0) is None  # 'big' + 'huge' too much
     assert _next_job(todo, [todo[1]], peaks, 1300.0) == 2   # beside 'big' only 'small'
     assert _next_job([], running, peaks, 1300.0) is None

@@ -55,6 +55,10 @@ DEFAULT_MEMORY_MB = 1300.0
 """Default budget of the peak memories of the problems run at the same time [MB] (with the
 report's own process, about 200 MB, under the 1.5 GB of issue 18)."""
 
+SMALL_MB = 300.0
+"""Problems whose last peak was at most this [MB] run beside any other (most of the report's
+problems peak at 170-270 MB, most of it pages shared with the report's process)."""
+
 POLL = 0.2
 """Seconds between checks of the running children."""
 
@@ -313,14 +317,17 @@ def _next_job(todo: list[_Job], running: list[_Job], peaks: dict[str, float],
     """Index of the next problem to start: the first (longest) whose last peak memory fits.
 
     Problems run together only while the sum of their peak memories in the last run stays
-    within ``budget`` [MB]; a problem never measured counts as 0, and one that alone
-    exceeds the budget runs when nothing else does. None: wait for a running one to end.
+    within ``budget`` [MB]; a problem never measured counts as 0, one that alone exceeds
+    the budget runs when nothing else does, and a small one (last peak at most
+    :data:`SMALL_MB`, most problems) always fits, so that a memory-heavy problem does not
+    leave the other cores idle. None: wait for a running one to end.
     """
     if not running:
         return 0 if todo else None
     used = sum(peaks.get(j.name, 0.0) for j in running)
     for i, job in enumerate(todo):
-        if used + peaks.get(job.name, 0.0) <= budget:
+        peak = peaks.get(job.name, 0.0)
+        if peak <= SMALL_MB or used + peak <= budget:
             return i
     return None
 
