@@ -34,7 +34,8 @@ class Knob(str, Enum):
     STEP = "step"
 
 
-_ORDERS = {Method.RK: 4, Method.LGVI: 2, Method.S2_VARIATIONAL: 2, Method.RKMK4: 4}
+_ORDERS = {Method.RK: 4, Method.LGVI: 2, Method.S2_VARIATIONAL: 2, Method.RKMK4: 4,
+           Method.MECHANICS_VARIATIONAL: 2}
 _FORBIDDEN = {"method", "rtol", "atol", "step", "controller"}
 
 
