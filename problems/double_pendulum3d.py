@@ -74,7 +74,13 @@ def solve(*, quick: bool = False) -> Result:
             x = model.state(R1=R1, Omega1=[0, 0, 0], R2=R2, Omega2=[0, 0, 0])
             res.compare(f"{label}: |f|", 0.0, np.linalg.norm(model.rhs(x)), tolerance=1e-13,
                         source="equilibrium")
-            lam = wb.eigenstructure(wb.linearize(model, x)).eigenvalues
+            lin = wb.linearize(model, x)
+            es, sym = wb.eigenstructure(lin), wb.linear.symmetry_directions(lin)
+            lam = es.eigenvalues
+            res.values[f"{label}: class"] = f"{es.describe()}; {sym.describe()}"
+            res.compare(f"{label}: zero eigenvalues from the rotation about e3", 2,
+                        sym.orbit_rank + sym.conserved_rank, tolerance=0,
+                        source="Noether: orbit and momentum L_z")
             ref = planar_spectrum(s1, s2)
             compare_spectrum(res, f"{label}: nonzero eigenvalues", lam[np.abs(lam) > 1e-8],
                              ref, tolerance=1e-9,
