@@ -241,3 +241,49 @@ def test_problems_run_together_only_while_their_last_peaks_fit_the_memory_budget
     assert _next_job(todo[:2], [todo[1]], peaks, 1300.0) is None  # 'big' + 'huge' too much
     assert _next_job(todo, [todo[1]], peaks, 1300.0) == 2   # beside 'big' only 'small'
     assert _next_job([], running, peaks, 1300.0) is None
+
+
+def test_a_killed_report_takes_its_running_problems_with_it(env):
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+    import time
+
+    script = env / "killed.py"
+    script.write_text(textwrap.dedent(f'''
+        import importlib.util, io, sys, types
+        from pathlib import Path
+        sys.path.insert(0, {str(Path(__file__).parent)!r})
+        from test_report_runner import catalogue
+        from workbench.app.report import Format, build_report
+        build_report(["sleeps"], quick=True, formats=[Format.HTML],
+                     out_dir={str(env / "out")!r}, cache_dir=None, stream=io.StringIO(),
+                     catalogue=catalogue(Path({str(env / "problems")!r}), ["sleeps"]))
+    '''))
+    proc = subprocess.Popen([sys.executable, str(script)], env={**os.environ})
+    try:
+        child = None
+        for _ in range(300):  # the problem's process: a child of the report's, own group
+            out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(proc.pid)],
+                                 capture_output=True, text=True).stdout.split()
+            if out:
+                child = int(out[0])
+                break
+            time.sleep(0.1)
+        assert child is not None, "the problem never started"
+        proc.send_signal(signal.SIGKILL)  # no clean-up runs in the report's process
+        proc.wait(10)
+        for _ in range(50):
+            if not os.path.exists(f"/proc/{child}"):
+                break
+            with open(f"/proc/{child}/stat") as fh:
+                if fh.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    break  # a zombie: dead, waiting to be reaped by init
+            time.sleep(0.1)
+        else:
+            os.kill(child, signal.SIGKILL)
+            raise AssertionError("the problem's process outlived the report's")
+    finally:
+        if proc.poll() is None:
+            proc.kill()

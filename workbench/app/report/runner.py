@@ -173,6 +173,25 @@ def outcome_of(name: str, *, quick: bool, catalogue: ModuleType) -> Outcome:
     return out
 
 
+def _die_with_parent() -> None:
+    """Ask Linux to kill this process when the report's process ends, however it ends.
+
+    The child has its own process group (so its time limit can kill everything it
+    started), hence a terminal's Ctrl-C does not reach it; when the parent is killed
+    without running its clean-up (SIGTERM, SIGKILL), ``PR_SET_PDEATHSIG`` still stops the
+    child. Elsewhere this does nothing.
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG = 1
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:  # the parent died before the request took effect
+        os._exit(1)
+
+
 def _child(name: str, quick: bool, catalogue: ModuleType, path: str) -> None:
     """Body of a forked child: own process group, run, write the outcome, exit.
 
@@ -180,6 +199,7 @@ def _child(name: str, quick: bool, catalogue: ModuleType, path: str) -> None:
     with the suffix ``.progress``, which the parent reads while it runs.
     """
     os.setpgrp()
+    _die_with_parent()
     os.environ[PROGRESS_ENV] = f"{path}.progress"
     try:
         out = outcome_of(name, quick=quick, catalogue=catalogue)
