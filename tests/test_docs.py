@@ -77,11 +77,7 @@ def test_the_docs_have_code_to_run():
     assert {"conventions.md", "user-guide.md"} <= pages
 
 
-KNOWN_BROKEN = {
-    ("user-guide.md", 6): "the spherical pendulum's swing-up (|u| <= 4, T = 4 s, N = 30) now ends "
-                          "INFEASIBLE from the default guess, with or without the rotation gauge; "
-                          "found at the end of the session of issues 14-19, open",
-}
+KNOWN_BROKEN: dict[tuple[str, int], str] = {}
 
 
 def _block_params():

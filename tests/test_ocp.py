@@ -154,6 +154,31 @@ def test_collocation_coefficients_integrate_and_differentiate_polynomials(scheme
         assert tau[-1] == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("scale", [0.25, 0.5, 2.0])
+def test_moment_on_a_link_keeps_its_authority_off_the_sphere(scale):
+    """The ambient extension of a moment on an S^2 link: ``omega-dot`` gains ``P u / (m l^2)``
+    with ``P = I - q q^T/|q|^2`` at every ``|q|`` (ambient iterates of a transcription leave
+    the sphere; a gain fading like ``|q|^2`` let swing-ups collapse to ``q -> 0``, issue 17),
+    and gravity's part is unchanged (``(g/l) q x e3``, as printed in paper 002)."""
+    from models.spherical import spherical_pendulum
+    m, l, g = 0.7, 1.3, 9.81
+    model = spherical_pendulum(m=m, l=l, g=g)
+    f = model.function("f")
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        q = rng.standard_normal(3)
+        q *= scale / np.linalg.norm(q)
+        w = np.cross(q, rng.standard_normal(3))  # normal to q
+        u = rng.standard_normal(3)
+        x = np.r_[q, w]
+        f0 = np.asarray(f(x, np.zeros(3), model.p)).ravel()
+        fu = np.asarray(f(x, u, model.p)).ravel()
+        P = np.eye(3) - np.outer(q, q) / (q @ q)
+        assert np.allclose(fu[3:] - f0[3:], P @ u / (m * l**2), rtol=1e-12, atol=1e-12)
+        assert np.allclose(f0[3:], (g / l) * np.cross(q, E3), rtol=1e-12, atol=1e-12)
+        assert np.allclose(f0[:3], np.cross(w, q), atol=1e-14)
+
+
 # --- solving ----------------------------------------------------------------------------
 
 

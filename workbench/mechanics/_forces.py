@@ -11,12 +11,16 @@ load                                   target ``y(c)``        weight ``w``
 world force ``F`` at point ``p(c)``    ``p``                  ``F``
 body-frame force ``F_b`` at ``p(c)``   ``p``                  ``R F_b``
 body moment ``M_b`` on attitude ``R``  ``vec(R)``             ``vec(R hat(M_b) / 2)``
-world moment ``tau`` on an S^2 ``q``   ``q``                  ``tau x q``
+world moment ``tau`` on an S^2 ``q``   ``q``                  ``tau x q / |q|^2``
 force ``F`` on an R^k factor ``x``     ``x``                  ``F``
 =====================================  =====================  =======================
 
-(``M_b . vee(R^T delta R) = <R hat(M_b), delta R> / 2``; ``q x (tau x q)`` is the part of
-``tau`` normal to ``q``.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
+(``M_b . vee(R^T delta R) = <R hat(M_b), delta R> / 2``; ``q x (tau x q) / |q|^2`` is the
+part of ``tau`` normal to ``q``, for every ``|q|``: the moment's virtual work on a rotation
+``delta q = eta x q`` is ``tau . (I - q q^T/|q|^2) eta`` off the sphere as on it, so its
+authority does not fade when an optimiser's ambient iterate has ``|q| < 1``; with the
+weight ``tau x q`` it would scale like ``|q|^2`` and swing-ups in ambient coordinates
+collapsed to ``q -> 0``, issue 17.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
 """
 
 from __future__ import annotations
@@ -62,8 +66,12 @@ def body_moment(label: str, attitude: ca.SX, moment: ca.SX) -> Load:
 
 
 def sphere_moment(label: str, q: ca.SX, moment: ca.SX) -> Load:
-    """A world moment on an S^2 factor's direction (only its part normal to ``q`` acts)."""
-    return Load(label, q, ca.cross(moment, q))
+    """A world moment on an S^2 factor's direction (only its part normal to ``q`` acts).
+
+    The weight ``moment x q / |q|^2`` gives the generalised force ``(I - q q^T/|q|^2) moment``
+    for every ambient ``q != 0`` (equal to ``moment x q`` on the sphere).
+    """
+    return Load(label, q, ca.cross(moment, q) / ca.dot(q, q))
 
 
 def coordinate_force(label: str, x: ca.SX, force: ca.SX) -> Load:
