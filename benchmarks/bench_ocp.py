@@ -18,13 +18,27 @@ seconds are printed beside wall seconds: other engineers share the cores. The do
 guess (the surrogate single link, see the problem) is computed before timing; N = 20 is
 too coarse for the double to be a cascade level (local defects of order 10).
 
-Usage: python benchmarks/bench_ocp.py [--quick]
+Multistart on all cores (issue 17; target: the best known minimum 4.2351 of the cart
+reference case in < 3 s wall on 2 cores): the old way, 12 seeded geodesic starts N = 10 ->
+20 -> 40 (:func:`workbench.control.ocp.multistart`, forked workers), against two pumping
+guesses (3 and 4 reversals over T = 2 s, :func:`~workbench.control.ocp.study.pumping_guess`)
+N = 20 -> 40 in one forked pool (:func:`~workbench.control.ocp.study.parallel_starts`),
+run to the end and stopped at the best known cost (the stop is reported), timed in turn
+round after round: medians of wall seconds and of CPU seconds (this process and its
+workers), the best cost and how many starts reached it, the ratio to the old way, the load
+average. Transcriptions and Ipopt instances are built once before timing (their seconds
+are printed: a first call pays them).
+
+Usage: python benchmarks/bench_ocp.py [--quick] [--multistart-only]
 """
 
 from __future__ import annotations
 
+import os
+import resource
 import statistics
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +59,11 @@ from workbench.control.ocp import (  # noqa: E402
     solve,
     transcribe,
 )
+from workbench.control.ocp.study import parallel_starts, pumping_guess  # noqa: E402
 from workbench.core import Symbolic  # noqa: E402
+
+BEST_KNOWN = 4.2351
+"""Best known local minimum of the cart reference case (docs/science.md: four swings)."""
 
 A, L = ManifoldHandling.AMBIENT, ManifoldHandling.LIE_GROUP
 
@@ -102,8 +120,71 @@ def scene(name, ocp, ladder, guess, variants, baseline, repeat, target, **kw):
     return rows
 
 
+def _cpu() -> float:
+    """CPU seconds of this process and of its finished children (the forked workers)."""
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + ch.ru_utime + ch.ru_stime
+
+
+def multistart_rows(repeat: int) -> list[dict]:
+    """The old multistart against the pumping starts in one pool, timed in turn."""
+    ocp = cart.problem()
+    workers = os.cpu_count() or 1
+    t0 = time.perf_counter()
+    old_ladder = [Collocation(N=n) for n in (10, 20, 40)]
+    for m in old_ladder:
+        transcribe(ocp, m)
+    print(f"builds N = 10, 20, 40: {time.perf_counter() - t0:.1f} s (once, before timing)")
+    guesses = [pumping_guess(ocp, half_swings=k, T=2.0) for k in (3, 4)]
+    ladder = [Collocation(N=20), Collocation(N=40)]
+    runs = {
+        "old: 12 geodesic starts 10->20->40": lambda: multistart(
+            ocp, old_ladder[0], seeds=range(12), T_guesses=cart.T_GUESSES,
+            refine_with=old_ladder[1:], max_iter=150, workers=workers),
+        "2 pumping starts 20->40": lambda: parallel_starts(
+            ocp, guesses, ladder, workers=workers, max_iter=150),
+        f"2 pumping starts 20->40, stop at {BEST_KNOWN}": lambda: parallel_starts(
+            ocp, guesses, ladder, workers=workers, max_iter=150, stop_below=BEST_KNOWN,
+            rel_tol=1e-4),
+    }
+    t0 = time.perf_counter()
+    _, _, first = runs["2 pumping starts 20->40"]()  # Ipopt instances of these options
+    print(f"first pumping run (creates the Ipopt instances): build "
+          f"{first['build_seconds']:.1f} s + pool {first['wall_seconds']:.2f} s")
+    samples: dict[str, list] = {k: [] for k in runs}
+    for _ in range(repeat):
+        for name, fn in runs.items():
+            w0, c0 = time.perf_counter(), _cpu()
+            out = fn()
+            samples[name].append((time.perf_counter() - w0, _cpu() - c0, out,
+                                  os.getloadavg()[0]))
+    rows = []
+    base_wall = statistics.median(s[0] for s in samples[next(iter(runs))])
+    for name, ss in samples.items():
+        wall = statistics.median(s[0] for s in ss)
+        cpu = statistics.median(s[1] for s in ss)
+        best, rec = ss[-1][2][0], ss[-1][2][1]
+        summ = ss[-1][2][2] if len(ss[-1][2]) > 2 else {}
+        ran = summ.get("finished", len(rec))
+        rows.append({
+            "multistart": name, "wall s": f"{wall:.2f}", "cpu s": f"{cpu:.2f}",
+            "vs old (wall)": f"{base_wall / wall:.1f}x", "best": f"{best.objective:.4f}",
+            "starts run": f"{ran}/{len(rec)}",
+            "reached best": sum(r.get("reached_best", False) for r in rec),
+            "target": f"{'met' if wall < 3 and best.objective <= BEST_KNOWN + 1e-4 else 'MISSED'}"
+                      f" (< 3 s to {BEST_KNOWN})",
+            "load": "/".join(f"{s[3]:.1f}" for s in ss)})
+    return rows
+
+
 def main() -> None:
     quick = "--quick" in sys.argv
+    if "--multistart-only" in sys.argv:
+        rows = multistart_rows(1 if quick else 3)
+        print(table(rows, list(rows[0])))
+        print(f"(medians of {1 if quick else 3} rounds in turn; wall and CPU seconds of each "
+              f"call, builds excluded; {os.cpu_count()} cores; load average per round)")
+        return
     repeat = 1 if quick else 3
     cols = ["scene", "variant", "build s", "cold s", "cold cpu s", "cold it", "cold status",
             "cold cost", "cascade s", "cascade it", "cascade cost", "warm s", "ratio cold",
@@ -139,6 +220,8 @@ def main() -> None:
                   dbl.lift(single, ocp2), variants, (Symbolic.MX, L), repeat, 5.0, max_iter=300)
 
     print(table(rows, cols))
+    ms = multistart_rows(repeat)
+    print(table(ms, list(ms[0])))
     print(f"(medians of {repeat} runs; wall seconds of Ipopt's solve, building excluded; "
           "'cascade' = solve at coarse N then refine, summed; ratios against the first "
           "variant of each scene, the model's own MX graph)")

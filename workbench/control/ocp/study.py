@@ -1,11 +1,16 @@
 """Studies shared by the swing-up problems.
 
 Speed-accuracy tables, closed-loop Monte Carlo runs, the classification of local minima by
-their swings, and figures.
+their swings, figures, and multistart on all cores: :func:`pumping_guess` (a guess that
+swings ``k`` times, for the minima with several swings) and :func:`parallel_starts` (any
+guesses in one forked pool, the builds inherited, optionally stopped at a known cost with
+the stop reported).
 """
 
 from __future__ import annotations
 
+import inspect
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -15,19 +20,32 @@ import numpy as np
 from workbench.control._tvlqr import TVLQR, closed_loop, perturbed_starts
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP, TargetPoint, TargetSet
-from workbench.control.ocp.solve import OCPSolution, solve
+from workbench.control.ocp.solve import (
+    WARM_START,
+    OCPSolution,
+    _ipopt_options,
+    solve,
+    transcribe,
+)
 from workbench.control.ocp.stepper import Stepper
+from workbench.control.ocp.strategies import _warm, coarse_to_fine
 from workbench.control.ocp.transcription import (
     Collocation,
     ManifoldHandling,
     Transcription,
     TranscriptionMethod,
 )
-from workbench.core.errors import ParameterError
-from workbench.core.manifolds import ProductManifold
+from workbench.core import validate
+from workbench.core._model import Symbolic
+from workbench.core.errors import ParameterError, SolverError
+from workbench.core.manifolds import S2, TS2, ProductManifold, sphere_basis
+from workbench.core.types import ArrayLike
 
 __all__ = ["swings", "speed_accuracy", "monte_carlo", "solution_row", "plot_swingup",
-           "transcription_builds", "dense", "effort_time_ocp", "solve_row"]
+           "transcription_builds", "dense", "effort_time_ocp", "solve_row", "pumping_guess",
+           "parallel_starts"]
+
+_OK = ("SUCCESS", "ACCEPTABLE")
 
 
 def effort_time_ocp(model: Any, x0: np.ndarray, xf: np.ndarray, *, u_max: float,
@@ -293,3 +311,249 @@ def plot_swingup(sol: OCPSolution, sphere_parts: Sequence[tuple[str, Callable]],
     fig.suptitle(title or sol.describe(), fontsize=9)
     fig.tight_layout()
     return fig
+
+
+# multistart on all cores ------------------------------------------------------------------
+
+def pumping_guess(ocp: OCP, *, half_swings: int, T: float | None = None,
+                  axes: dict[str, ArrayLike] | None = None, samples: int = 201) -> Guess:
+    """A swing-up guess that pumps: back and forth along a great circle, growing to the end.
+
+    For every factor on S^2 (or TS^2) whose end direction is antipodal to its start (a
+    link to be inverted), the direction ``q(s) = cos(th) q0 + sin(th) (a x q0)`` with
+    ``th(s) = pi s cos(pi k (1 - s))``: ``k = half_swings`` reversals of growing amplitude,
+    from hanging (``th = 0``) to inverted (``th = pi``) at ``s = 1``. The velocity of a TS^2
+    factor follows ``q(s)`` over ``T`` in the model's own convention (``w = q-dot`` or
+    ``q-dot = w x q``, read from the model's right-hand side at the start). The other
+    factors follow :meth:`Guess.geodesic`; the controls are zero. Local minima of the
+    swing-ups differ in their number of swings; a geodesic guess (``k = 0``) finds the
+    direct ones, a pumping guess the ones with several swings.
+
+    Parameters
+    ----------
+    ocp : OCP
+        A swing-up problem (at least one antipodal S^2 or TS^2 factor).
+    half_swings : int
+        ``k >= 0``; 0 is the great circle itself.
+    T : float, optional
+        Final time of the guess (default: the middle of the allowed range).
+    axes : dict of str to array-like, optional
+        Rotation axis ``a`` of the great circle per factor name (default: the first
+        vector of :func:`~workbench.core.manifolds.sphere_basis` of ``q0``).
+    samples : int
+        Number of samples.
+
+    Returns
+    -------
+    Guess
+
+    Raises
+    ------
+    ParameterError
+        ``half_swings`` not an integer >= 0, an axis parallel to ``q0``, no antipodal
+        factor, or a model whose TS^2 velocity is neither convention.
+    """
+    if isinstance(half_swings, bool) or not isinstance(half_swings, (int, np.integer)) or \
+            half_swings < 0:
+        raise ParameterError(f"half_swings must be an integer >= 0; got {half_swings!r}")
+    man = ocp.model.manifold
+    x0, xf = ocp.x0, ocp.target.witness
+    ax: dict[str, np.ndarray] = {}
+    for name, f in man.factors:
+        q0, q1 = x0[man.slices[name]][:3], xf[man.slices[name]][:3]
+        if isinstance(f, (S2, TS2)) and q0 @ q1 < -1 + 1e-9:
+            a = np.asarray((axes or {}).get(name, sphere_basis(q0)[:, 0]), float).reshape(3)
+            a = a - (a @ q0) * q0
+            if not np.linalg.norm(a) > 1e-9:
+                raise ParameterError(f"axes[{name!r}] must not be parallel to the start "
+                                     f"direction {q0.tolist()}; got {axes[name]!r}")
+            ax[name] = a / np.linalg.norm(a)
+    if not ax:
+        raise ParameterError(f"OCP {ocp.name!r}: no S^2 factor goes to its antipode; a "
+                             f"pumping guess needs one (use Guess.geodesic)")
+    unknown = sorted(set(axes or {}) - set(ax))
+    if unknown:
+        raise ParameterError(f"axes must name factors going to their antipode "
+                             f"{sorted(ax)}; got {unknown}")
+    g = Guess.geodesic(ocp, T=T, axes=ax, samples=samples)
+    s, X, k = g.s, g.x.copy(), float(half_swings)
+    th = np.pi * s * np.cos(np.pi * k * (1 - s))
+    dth = (np.pi * np.cos(np.pi * k * (1 - s))
+           + np.pi ** 2 * k * s * np.sin(np.pi * k * (1 - s))) / g.T
+    for name, a in ax.items():
+        sl = man.slices[name]
+        q0 = x0[sl][:3]
+        b = np.cross(a, q0)
+        q = np.cos(th)[:, None] * q0 + np.sin(th)[:, None] * b
+        X[:, sl.start: sl.start + 3] = q
+        if isinstance(dict(man.factors)[name], TS2):
+            qdot = (-np.sin(th)[:, None] * q0 + np.cos(th)[:, None] * b) * dth[:, None]
+            X[:, sl.start + 3: sl.start + 6] = qdot if _velocity_is_qdot(ocp, name) \
+                else np.cross(q, qdot)
+    return Guess(s=s, x=X, u=np.zeros((len(s) - 1, ocp.model.n_inputs)), T=g.T,
+                 local=g.local)
+
+
+def _velocity_is_qdot(ocp: OCP, name: str) -> bool:
+    """Whether the model's TS^2 factor ``name`` stores ``q-dot`` (else ``q-dot = w x q``)."""
+    man, model = ocp.model.manifold, ocp.model
+    sl = man.slices[name]
+    x = ocp.x0.copy()
+    q = x[sl][:3]
+    w = sphere_basis(q) @ np.array([0.3, -0.7])
+    x[sl.start + 3: sl.start + 6] = w
+    xdot = np.asarray(model.function("f")(x, np.zeros(model.n_inputs), model.p), float).ravel()
+    qdot = xdot[sl][:3]
+    if np.allclose(qdot, w, rtol=1e-9, atol=1e-12):
+        return True
+    if np.allclose(qdot, np.cross(w, q), rtol=1e-9, atol=1e-12):
+        return False
+    raise ParameterError(f"{model.name}: factor {name!r} has q-dot = {qdot.tolist()} for "
+                         f"(q, w) = ({q.tolist()}, {w.tolist()}): neither w nor w x q")
+
+
+_STARTS: dict[str, Any] = {}
+"""The job of :func:`parallel_starts`, inherited by the forked workers (never pickled)."""
+
+
+def _start_worker(i: int) -> tuple[int, dict[str, Any], tuple]:
+    """Start ``i``: the ladder from its guess; the record and the last primal-dual point."""
+    job = _STARTS
+    c0 = time.process_time()
+    s, path = coarse_to_fine(job["ocp"], job["ladder"], guess=job["guesses"][i],
+                             raise_on_failure=False, **job["options"])
+    record = {"start": i, "status": s.status.name, "objective": s.objective, "T": s.T,
+              "transcription": s.method.describe() if hasattr(s.method, "describe")
+              else repr(s.method),
+              "iterations": [p.cost["iterations"] for p in path],
+              "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
+              "cpu_seconds": time.process_time() - c0, "reached_ladder_end": len(path) ==
+              len(job["ladder"])}
+    return i, record, (s.method, s.w, s.lam_x, s.lam_g)
+
+
+def parallel_starts(ocp: OCP, guesses: Sequence[Guess], ladder: Sequence[TranscriptionMethod],
+                    *, workers: int, stop_below: float | None = None, rel_tol: float = 1e-6,
+                    **solve_options: Any) -> tuple[OCPSolution, list[dict[str, Any]],
+                                                   dict[str, Any]]:
+    """Solve from several guesses in forked processes (one pool); keep the cheapest.
+
+    Every transcription of ``ladder`` is built here first, so the workers (forked once,
+    fed one start at a time, the order of ``guesses`` first) inherit the builds and
+    return numbers only; each start goes through the ladder (see
+    :func:`~workbench.control.ocp.coarse_to_fine`). The cheapest converged end point is
+    re-solved here from its primal-dual vector (a warm start: a few iterations) into a
+    complete solution. With ``stop_below``, the pool is stopped as soon as a start
+    converges at a cost ``<= stop_below (1 + rel_tol)``: the starts not finished are
+    listed with status ``"STOPPED"`` and the summary says so.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem.
+    guesses : sequence of Guess
+        One start per guess.
+    ladder : sequence of transcriptions
+        From coarse to fine; the last is the one judged.
+    workers : int
+        Processes (>= 1).
+    stop_below : float, optional
+        A cost to stop at (e.g. the best known minimum); ``None`` runs every start.
+    rel_tol : float
+        Relative tolerance of ``stop_below`` and of "reached the best".
+    **solve_options
+        Passed to :func:`~workbench.control.ocp.solve` (``guess`` and
+        ``raise_on_failure`` are not allowed).
+
+    Returns
+    -------
+    (OCPSolution, list of dict, dict)
+        The best solution, one record per start (status, cost, T, iterations per level,
+        solve and CPU seconds, ``reached_best``), and a summary: starts given, finished,
+        converged, reaching the best, whether and why it stopped early, wall seconds of
+        the pool, build seconds of the ladder (transcriptions and Ipopt instances of
+        these options, made before forking), seconds of the final warm re-solve.
+
+    Raises
+    ------
+    ParameterError
+        Bad ``workers``, ``guesses``, ``ladder`` or options.
+    SolverError
+        If no start converged.
+    """
+    import multiprocessing
+
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
+    guesses, ladder = list(guesses), list(ladder)
+    if not guesses or not all(isinstance(g, Guess) for g in guesses):
+        raise ParameterError(f"guesses must be a non-empty sequence of Guess; got "
+                             f"{[type(g).__name__ for g in guesses]}")
+    if not ladder:
+        raise ParameterError("ladder must hold at least one transcription")
+    for key in ("guess", "raise_on_failure"):
+        if key in solve_options:
+            raise ParameterError(f"{key} is set by parallel_starts; got {key}=...")
+    if stop_below is not None and not np.isfinite(stop_below):
+        raise ParameterError(f"stop_below must be a finite cost or None; got {stop_below!r}")
+    rel_tol = validate.tolerance("rel_tol", rel_tol)
+    handling = solve_options.get("handling", ManifoldHandling.AMBIENT)
+    graph = solve_options.get("graph", Symbolic.SX)
+    t0 = time.perf_counter()
+    defaults = inspect.signature(solve).parameters
+    opts = _ipopt_options(*(solve_options.get(k, defaults[k].default)
+                            for k in ("tol", "max_iter", "print_level", "ipopt_options")))
+    for m in ladder:  # the solvers of these options too: a worker would create its own
+        tr, _ = transcribe(ocp, m, handling=handling, graph=graph)
+        tr.solver(opts, solve_options.get("compiled"))
+    if solve_options.get("ipopt_options") is None:  # and that of the final warm re-solve
+        tr.solver({**WARM_START, **opts}, solve_options.get("compiled"))
+    build = time.perf_counter() - t0
+    _STARTS.clear()
+    _STARTS.update(ocp=ocp, guesses=guesses, ladder=ladder, options=solve_options)
+    done: dict[int, tuple] = {}
+    stopped = ""
+    t1 = time.perf_counter()
+    try:
+        if workers == 1:
+            it = map(_start_worker, range(len(guesses)))
+            pool = None
+        else:
+            pool = multiprocessing.get_context("fork").Pool(min(workers, len(guesses)))
+            it = pool.imap_unordered(_start_worker, range(len(guesses)))
+        for i, record, end in it:
+            done[i] = (record, end)
+            if stop_below is not None and record["status"] in _OK and \
+                    record["objective"] <= stop_below + rel_tol * max(1.0, abs(stop_below)):
+                if len(done) < len(guesses):
+                    stopped = (f"stopped after start {i} reached {record['objective']:.6g} "
+                               f"<= stop_below {stop_below:.6g}")
+                break
+    finally:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+        _STARTS.clear()
+    wall = time.perf_counter() - t1
+    records = [done[i][0] if i in done else {"start": i, "status": "STOPPED"}
+               for i in range(len(guesses))]
+    ok = [(r["objective"], r["start"]) for r in records if r["status"] in _OK]
+    if not ok:
+        raise SolverError(f"OCP {ocp.name!r}: none of {len(done)} finished starts converged",
+                          status=records[-1]["status"])
+    best_cost, i_best = min(ok)
+    m, w, lam_x, lam_g = done[i_best][1]
+    t2 = time.perf_counter()
+    best = solve(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
+                 raise_on_failure=False, **solve_options)
+    final = time.perf_counter() - t2
+    for r in records:
+        r["reached_best"] = bool(r["status"] in _OK and abs(r["objective"] - best_cost)
+                                 <= rel_tol * max(1.0, abs(best_cost)))
+    summary = {"starts": len(guesses), "finished": len(done), "converged": len(ok),
+               "reached_best": sum(r["reached_best"] for r in records),
+               "best_objective": best.objective, "stopped_early": stopped,
+               "workers": int(workers), "wall_seconds": wall, "build_seconds": build,
+               "final_resolve_seconds": final,
+               "final_resolve_iterations": best.cost["iterations"]}
+    return best, records, summary
