@@ -17,8 +17,17 @@ from models.chain_cart import chain_cart, link_state
 from models.spherical import spherical_pendulum
 from workbench.core import Model
 from workbench.simulation import Method, simulate
-from workbench.simulation.accuracy import AccuracySweep, long_time, work_precision
-from workbench.study import Result
+from workbench.simulation.accuracy import AccuracySweep, work_precision
+from workbench.study import (
+    Result,
+    check_work_precision,
+    compare_constraint,
+    compare_energy_growth,
+    integrator_sweeps,
+    long_time_periods,
+    orders_figure,
+    per_step_costs,
+)
 
 TITLE = "Work-precision of casadi and geometric integrators; bounded energy of variational ones"
 
@@ -54,65 +63,6 @@ def chain_initial_state(model: Model) -> np.ndarray:
     links = {f"link{i + 1}": link_state(s[i] * E3) for i in range(n - 1)}
     links[f"link{n}"] = link_state([np.sin(d), 0.0, s[n - 1] * np.cos(d)])
     return model.state(x=[0.2, 0.1], v=[0.0, -0.1], **links)
-
-
-def _sweeps(quick: bool, steps: list[float], geometric: list[Method]) -> list[AccuracySweep]:
-    rtols = [10.0**-k for k in range(3, 13)]
-    if quick:
-        rtols = rtols[::2] + [1e-12]
-    out = [AccuracySweep(Method.CVODES, rtols),
-           AccuracySweep(Method.RK, steps),
-           AccuracySweep(Method.COLLOCATION, steps[:3 if quick else 4], {"degree": 2})]
-    out += [AccuracySweep(m, steps) for m in geometric]
-    return out
-
-
-def _independent_check(res: Result, wp, model, x0, name: str, tol: float) -> float:  # noqa: ANN001
-    tr = simulate(model, x0, np.linspace(0, wp.horizon, 11), rtol=1e-13, atol=1e-13)
-    dev = float(np.max(np.abs(tr.final - wp.reference.x_final)))
-    res.compare(f"{name}: reference (RK4, T/2^16) vs cvodes rtol 1e-13", 0.0, dev,
-                tolerance=tol, source="independent methods agree")
-    return dev
-
-
-def _orders(res: Result, wp, name: str) -> dict:  # noqa: ANN001
-    orders = wp.orders()
-    for lab, o in orders.items():
-        if o["fitted"] is not None and o["theory"] is not None:
-            res.compare(f"{name}: fitted order of {lab} ({o['points']} steps)", o["theory"],
-                        o["fitted"], tolerance=ORDER_TOLERANCE,
-                        source="theoretical order of the method")
-    return orders
-
-
-def _per_step_costs(model: Model, x0: np.ndarray, steps: int) -> dict:
-    """Seconds per step of the geometric integrators against casadi's RK4, same run.
-
-    Each in casadi's virtual machine and compiled (jit); medians of three runs.
-    """
-    t = np.linspace(0.0, steps * 0.01, 11)
-    out = {}
-    for label, kw in [("rk", {"method": "rk"}), ("lgvi", {"method": "lgvi"}),
-                      ("lgvi jit", {"method": "lgvi", "jit": True}),
-                      ("rkmk4", {"method": "rkmk4"}),
-                      ("rkmk4 jit", {"method": "rkmk4", "jit": True})]:
-        simulate(model, x0, t[:2], step=0.01, **kw)  # build (and compile) first
-        walls = []
-        for _ in range(3):
-            tr = simulate(model, x0, t, step=0.01, **kw)
-            walls.append(tr.cost["wall_seconds"] / tr.cost["steps"])
-        out[label] = float(np.median(walls))
-    out = {k: {"seconds_per_step": v, "ratio_to_rk": v / out["rk"]} for k, v in out.items()}
-    return out
-
-
-def _long(res: Result, model, x0, period: float, n_periods: int, settings, *,  # noqa: ANN001
-          name: str, spacing: float):
-    horizon = round(n_periods * period / spacing) * spacing
-    n_samples = int(round(horizon / spacing)) + 1
-    with res.timed(f"long-time {name}"):
-        lt = long_time(model, x0, horizon, settings, n_samples=n_samples)
-    return lt
 
 
 def solve(*, quick: bool = False) -> Result:
@@ -155,22 +105,22 @@ def solve(*, quick: bool = False) -> Result:
     repeats = 1 if quick else 3
     n_periods = 100 if quick else 10_000
     values: dict = {"accuracies": list(ACCURACIES), "quick": quick}
+    checks = {"order_tolerance": ORDER_TOLERANCE, "accuracies": ACCURACIES}
 
     # -- 3D pendulum -------------------------------------------------------------------
     body = p3.full(**BODY)
     x0 = body.state(R=np.eye(3), omega=C_CHAOTIC * np.ones(3))
     T = PENDULUM_HORIZON
     steps = [0.04, 0.02, 0.01, 0.005, 0.0025] + ([] if quick else [0.00125])
-    sweeps = _sweeps(quick, steps, [Method.LGVI, Method.RKMK4])
+    sweeps = integrator_sweeps(steps, [Method.LGVI, Method.RKMK4],
+                               collocation_steps=steps[:3 if quick else 4], quick=quick)
     with res.timed("work-precision pendulum3d"):
         wp = work_precision(body, x0, T, sweeps, repeats=repeats)
-    _independent_check(res, wp, body, x0, "3D pendulum", 1e-9)
+    checked = check_work_precision(res, wp, body, x0, "3D pendulum", reference_tolerance=1e-9,
+                                   **checks)
     values["pendulum3d"] = {
         "body": {k: np.asarray(v).tolist() for k, v in BODY.items()}, "c": C_CHAOTIC,
-        "E0": body.invariants(x0)["energy"], "horizon": T, **wp.as_dict(),
-        "orders": _orders(res, wp, "3D pendulum"),
-        "fastest": wp.winners(ACCURACIES),
-    }
+        "E0": body.invariants(x0)["energy"], "horizon": T, **wp.as_dict(), **checked}
     res.figure("work_precision_pendulum3d", wp.figure(
         title=f"3D pendulum (paper 000 Sec. 5.6 body, c = {C_CHAOTIC:g}), T = {T:g} s"),
         caption="Error at the final time against wall time and against vector-field "
@@ -182,15 +132,15 @@ def solve(*, quick: bool = False) -> Result:
     y0 = chain_initial_state(chain)
     Tc = CHAIN_HORIZON
     csteps = [0.004, 0.002, 0.001, 0.0005] + ([] if quick else [0.00025])
-    csweeps = _sweeps(quick, csteps, [Method.RKMK4])
     # casadi's collocation costs ~50x more per step on the chain: fewer steps
-    csweeps[2] = AccuracySweep(Method.COLLOCATION, csteps[:1 if quick else 3], {"degree": 2})
+    csweeps = integrator_sweeps(csteps, [Method.RKMK4],
+                                collocation_steps=csteps[:1 if quick else 3], quick=quick)
     with res.timed("work-precision chain n=3"):
         wpc = work_precision(chain, y0, Tc, csweeps, repeats=repeats)
-    _independent_check(res, wpc, chain, y0, "chain n=3", 1e-7)
+    checked = check_work_precision(res, wpc, chain, y0, "chain n=3", reference_tolerance=1e-7,
+                                   **checks)
     values["chain3"] = {**CHAIN, "horizon": Tc, "E0": chain.invariants(y0)["energy"],
-                        **wpc.as_dict(), "orders": _orders(res, wpc, "chain n=3"),
-                        "fastest": wpc.winners(ACCURACIES)}
+                        **wpc.as_dict(), **checked}
     res.figure("work_precision_chain3", wpc.figure(
         title=f"chain of 3 links on a cart (paper 003 Sec. 5, (27)), T = {Tc:g} s"),
         caption="Error at the final time against cost for every integrator on the "
@@ -198,52 +148,39 @@ def solve(*, quick: bool = False) -> Result:
     res.use(body, chain)
 
     # -- long-time behaviour -----------------------------------------------------------
-    x_hang = body.state(R=np.eye(3), omega=np.zeros(3))
-    period = slowest_period(body, x_hang)
+    period = slowest_period(body, body.state(R=np.eye(3), omega=np.zeros(3)))
     h = 0.01
     settings = [AccuracySweep(Method.LGVI, [h]), AccuracySweep(Method.RK, [h]),
                 AccuracySweep(Method.RKMK4, [h]), AccuracySweep(Method.CVODES, [1e-8])]
-    lt = _long(res, body, x0, period, n_periods, settings, name="pendulum3d", spacing=0.1)
+    lt = long_time_periods(res, body, x0, period, n_periods, settings, name="pendulum3d",
+                           spacing=0.1)
     # casadi's collocation costs ~50x more per step: a tenth of the periods, at 4 h
     n_coll = max(10, n_periods // 10)
-    lt_coll = _long(res, body, x0, period, n_coll,
-                    [AccuracySweep(Method.COLLOCATION, [4 * h], {"degree": 2})],
-                    name="pendulum3d collocation", spacing=0.2)
+    lt_coll = long_time_periods(res, body, x0, period, n_coll,
+                                [AccuracySweep(Method.COLLOCATION, [4 * h], {"degree": 2})],
+                                name="pendulum3d collocation", spacing=0.2)
     sph = spherical_pendulum()
     q0 = np.array([np.sin(2.0), 0.0, np.cos(2.0)])
     s0 = sph.state(q=np.concatenate([q0, np.cross(q0, [0.0, 2.0, 0.0])]))
     sph_period = 2 * np.pi * np.sqrt(1.0 / 9.81)
     hs = 0.02
-    lts = _long(res, sph, s0, sph_period, n_periods,
-                [AccuracySweep(Method.S2_VARIATIONAL, [hs]), AccuracySweep(Method.RK, [hs]),
-                 AccuracySweep(Method.RKMK4, [hs])], name="spherical", spacing=0.1)
+    lts = long_time_periods(res, sph, s0, sph_period, n_periods,
+                            [AccuracySweep(Method.S2_VARIATIONAL, [hs]),
+                             AccuracySweep(Method.RK, [hs]), AccuracySweep(Method.RKMK4, [hs])],
+                            name="spherical", spacing=0.1)
     res.use(sph)
 
-    lgvi_run = lt.run("lgvi")
-    summaries = {r["label"]: r for r in lt.table()}
-    ssum = {r["label"]: r for r in lts.table()}
-    for lab, tol_exp, ref_exp, src in [
+    compare_energy_growth(res, lt, "3D pendulum", n_periods, [
         ("lgvi", 0.15, 0.0, "variational integrator: bounded energy error"),
         ("rk", 0.7, 1.0, "non-symplectic: energy error drifts (~linearly)"),
-        ("rkmk4", 0.7, 1.0, "explicit Lie-group method, not symplectic: drifts"),
-    ]:
-        res.compare(f"3D pendulum, {lab}: growth exponent of the energy error over "
-                    f"{n_periods} periods", ref_exp, summaries[lab]["energy_exponent"],
-                    tolerance=tol_exp, source=src)
-    for lab, tol_exp, ref_exp, src in [
+        ("rkmk4", 0.7, 1.0, "explicit Lie-group method, not symplectic: drifts")])
+    compare_energy_growth(res, lts, "spherical pendulum", n_periods, [
         ("s2_variational", 0.15, 0.0, "variational integrator on S^2: bounded"),
-        ("rk", 0.7, 1.0, "non-symplectic: drifts"),
-    ]:
-        res.compare(f"spherical pendulum, {lab}: growth exponent of the energy error over "
-                    f"{n_periods} periods", ref_exp, ssum[lab]["energy_exponent"],
-                    tolerance=tol_exp, source=src)
-    for lab in ("lgvi", "rkmk4"):
-        res.compare(f"3D pendulum, {lab}: constraint residual after {n_periods} periods",
-                    0.0, summaries[lab]["constraint_max"], tolerance=1e-12,
-                    source="group actions keep SO(3) to round-off")
-    res.compare(f"spherical pendulum, s2_variational: constraint residual after {n_periods} "
-                f"periods", 0.0, ssum["s2_variational"]["constraint_max"], tolerance=1e-12,
-                source="TS^2 kept to round-off")
+        ("rk", 0.7, 1.0, "non-symplectic: drifts")])
+    compare_constraint(res, lt, "3D pendulum", ["lgvi", "rkmk4"], n_periods, tolerance=1e-12,
+                       source="group actions keep SO(3) to round-off")
+    compare_constraint(res, lts, "spherical pendulum", ["s2_variational"], n_periods,
+                       tolerance=1e-12, source="TS^2 kept to round-off")
     # vertical angular momentum: exact for the LGVI (discrete Noether)
     tr_h = simulate(body, x0, np.linspace(0.0, min(lt.horizon, 200.0), 201), method="lgvi",
                     step=h)
@@ -253,7 +190,8 @@ def solve(*, quick: bool = False) -> Result:
                 source="discrete Noether theorem (exact up to Newton tolerance and round-off)")
 
     with res.timed("per-step cost"):
-        per_step = _per_step_costs(body, x0, 1000 if quick else 20000)
+        values["per_step_cost"] = per_step_costs(body, x0, 1000 if quick else 20000)
+    lgvi_run = lt.run("lgvi")
     values["long_time"] = {
         "period_s": period, "n_periods": n_periods, "step": h,
         "pendulum3d": lt.table(),
@@ -262,7 +200,6 @@ def solve(*, quick: bool = False) -> Result:
         "lgvi_vertical_momentum_drift": h_series,
         "lgvi_seconds_per_step": lgvi_run.wall_seconds / max(lgvi_run.steps or 1, 1),
     }
-    values["per_step_cost"] = per_step
     res.values = values
     res.figure("long_time_pendulum3d", lt.figure(
         title=f"3D pendulum, c = {C_CHAOTIC:g}: {n_periods} periods of {period:.3f} s",
@@ -274,7 +211,7 @@ def solve(*, quick: bool = False) -> Result:
         time_unit=sph_period, unit_name="periods"), caption=(
         "The same over many periods of the spherical pendulum: the variational integrator "
         "on S^2 keeps the energy error bounded."))
-    res.figure("convergence_orders", _orders_figure(wp, wpc), caption=(
+    res.figure("convergence_orders", orders_figure(wp, wpc), caption=(
         "Final error against step size for the fixed-step methods on both scenes, with the "
         "fitted convergence orders (circled points) beside the theoretical ones."))
     res.notes.append(
@@ -289,36 +226,7 @@ def solve(*, quick: bool = False) -> Result:
     return res.finish()
 
 
-def _orders_figure(*wps):  # noqa: ANN002, ANN202
-    import matplotlib
-    import matplotlib.ticker
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(wps), figsize=(5.5 * len(wps), 4))
-    for ax, wp in zip(np.atleast_1d(axes), wps):
-        for lab, o in wp.orders().items():
-            rows = [r for r in wp.runs if r.label == lab and r.ok]
-            line = ax.loglog([r.step for r in rows], [r.final_error for r in rows], "o-",
-                             ms=4, label=f"{lab}: fitted {o['fitted']:.2f}, theory "
-                             f"{o['theory']}" if o["fitted"] is not None else lab)[0]
-            if o["fitted"] is not None:
-                s = np.array(o["steps"])
-                ax.loglog(s, np.array(o["errors"]), "o", mfc="none", ms=9,
-                          color=line.get_color())
-        ax.axhline(wp.reference.error_estimate, color="grey", ls=":", lw=1)
-        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        ax.set_xlabel("step h [s]")
-        ax.set_ylabel("error at final time")
-        ax.set_title(f"{wp.model}, T = {wp.horizon:g} s (circled: points fitted)")
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    return fig
-
-
 if __name__ == "__main__":
     from workbench.study import run_script
 
     run_script(solve)
-

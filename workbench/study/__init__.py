@@ -15,6 +15,15 @@ from workbench.study._compare import (
     sign_pattern,
 )
 from workbench.study._figures import Panel, line_figure, spectrum_figure
+from workbench.study._integrators import (
+    check_work_precision,
+    compare_constraint,
+    compare_energy_growth,
+    integrator_sweeps,
+    long_time_periods,
+    orders_figure,
+    per_step_costs,
+)
 from workbench.study._measures import (
     angle_travelled,
     axis_shares,
@@ -83,4 +92,11 @@ __all__ = [
     "sphere_axes",
     "sphere_curves",
     "to_jsonable",
+    "check_work_precision",
+    "compare_constraint",
+    "compare_energy_growth",
+    "integrator_sweeps",
+    "long_time_periods",
+    "orders_figure",
+    "per_step_costs",
 ]
