@@ -12,6 +12,7 @@ continuation; the name keeps "continuation" for the branches of
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -19,7 +20,13 @@ import numpy as np
 
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
-from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
+from workbench.control.ocp.solve import (
+    OCPSolution,
+    OCPStatus,
+    _ipopt_options,
+    solve,
+    transcribe,
+)
 from workbench.control.ocp.transcription import (
     Collocation,
     ManifoldHandling,
@@ -167,8 +174,16 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
 
     handling = job["options"].get("handling", ManifoldHandling.AMBIENT)
     graph = job["options"].get("graph", Symbolic.SX)
-    for m in [job["method"], *job["refine_with"]]:
-        transcribe(job["ocp"], m, handling=handling, graph=graph)
+    opts = job["options"]
+    defaults = inspect.signature(solve).parameters
+    ipopt = _ipopt_options(*(opts.get(k, defaults[k].default)
+                             for k in ("tol", "max_iter", "print_level", "ipopt_options")))
+    for m in [job["method"], *job["refine_with"]]:  # and their Ipopt instances: a worker
+        tr, _ = transcribe(job["ocp"], m, handling=handling, graph=graph)  # would make its own
+        tr.solver(ipopt, opts.get("compiled"))
+        for variant in job["variants"]:
+            if variant and m is job["method"]:
+                tr.solver({**ipopt, **variant}, opts.get("compiled"))
     _JOB.clear()
     _JOB.update(job)
     try:
