@@ -83,6 +83,7 @@ class Parallelization(str, Enum):
         Compiled C only: the straight-line (SX) code of one state run on several states
         per instruction, each work variable a vector (SIMD registers; see
         :mod:`workbench.codegen.lanes`); same operations in the same order as casadi's.
+        Needs a compiler with the GCC/clang ``vector_size`` extension.
 
     casadi's ``"openmp"`` map compiles (``-fopenmp``) and agrees, but a library loaded
     with OpenMP threads crashed the interpreter at exit (libgomp unloaded under its
