@@ -24,6 +24,7 @@ from workbench.study._integrators import (
     orders_figure,
     per_step_costs,
 )
+from workbench.study._manifold_measures import so3_axis_observations, stop_summary
 from workbench.study._measures import (
     angle_travelled,
     axis_shares,
@@ -99,4 +100,6 @@ __all__ = [
     "long_time_periods",
     "orders_figure",
     "per_step_costs",
+    "so3_axis_observations",
+    "stop_summary",
 ]
