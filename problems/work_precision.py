@@ -27,6 +27,7 @@ from workbench.study import (
     long_time_periods,
     orders_figure,
     per_step_costs,
+    slowest_period,
 )
 
 TITLE = "Work-precision of casadi and geometric integrators; bounded energy of variational ones"
@@ -40,19 +41,6 @@ CHAIN_HORIZON = 0.5
 ACCURACIES = (1e-2, 1e-4, 1e-6, 1e-8)
 ORDER_TOLERANCE = 0.3
 E3 = np.array([0.0, 0.0, 1.0])
-
-
-def slowest_period(model: Model, x_eq: np.ndarray) -> float:
-    """Period ``2 pi / omega_min`` of the slowest oscillation at an equilibrium.
-
-    The frequencies are the positive imaginary parts of the eigenvalues of the
-    linearisation ``pinv(N) df/dx N`` (``N`` the tangent basis), from the model's graph.
-    """
-    A = np.asarray(model.function("f_x")(x_eq, np.zeros(model.n_inputs), model.p))
-    N = model.manifold.tangent_basis(x_eq)
-    lam = np.linalg.eigvals(np.linalg.pinv(N) @ A @ N)
-    freqs = lam.imag[lam.imag > 1e-9]
-    return float(2 * np.pi / freqs.min())
 
 
 def chain_initial_state(model: Model) -> np.ndarray:

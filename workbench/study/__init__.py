@@ -23,6 +23,7 @@ from workbench.study._integrators import (
     long_time_periods,
     orders_figure,
     per_step_costs,
+    slowest_period,
 )
 from workbench.study._manifold_measures import so3_axis_observations, stop_summary
 from workbench.study._measures import (
@@ -100,6 +101,7 @@ __all__ = [
     "long_time_periods",
     "orders_figure",
     "per_step_costs",
+    "slowest_period",
     "so3_axis_observations",
     "stop_summary",
 ]

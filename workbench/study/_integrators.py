@@ -7,8 +7,9 @@ measurements; these helpers are its reusable pieces:
   geometric methods over steps;
 * :func:`check_work_precision` -- the reference against an independent cvodes run, the
   fitted orders against the theoretical ones, the fastest method per accuracy;
-* :func:`long_time_periods` -- :func:`~workbench.simulation.accuracy.long_time` over a number
-  of periods, sampled at a fixed spacing;
+* :func:`slowest_period` -- the period of the slowest small oscillation at an equilibrium,
+  and :func:`long_time_periods` -- :func:`~workbench.simulation.accuracy.long_time` over a
+  number of periods, sampled at a fixed spacing;
 * :func:`compare_energy_growth`, :func:`compare_constraint` -- the long-time behaviour
   against what each method's structure predicts;
 * :func:`per_step_costs` -- seconds per step against a baseline method, interpreted and jit;
@@ -28,7 +29,8 @@ from workbench.simulation.accuracy import AccuracySweep, LongTime, WorkPrecision
 from workbench.study._result import Result
 
 __all__ = ["check_work_precision", "compare_constraint", "compare_energy_growth",
-           "integrator_sweeps", "long_time_periods", "orders_figure", "per_step_costs"]
+           "integrator_sweeps", "long_time_periods", "orders_figure", "per_step_costs",
+           "slowest_period"]
 
 
 def integrator_sweeps(steps: Sequence[float], geometric: Sequence[Method], *,
@@ -106,6 +108,31 @@ def check_work_precision(res: Result, wp: WorkPrecision, model: Model, x0: np.nd
                         o["fitted"], tolerance=order_tolerance,
                         source="theoretical order of the method")
     return {"orders": orders, "fastest": wp.winners(accuracies)}
+
+
+def slowest_period(model: Model, x_eq: np.ndarray) -> float:
+    """Period ``2 pi / omega_min`` of the slowest oscillation at an equilibrium.
+
+    The frequencies are the positive imaginary parts of the eigenvalues of the
+    linearisation ``pinv(N) df/dx N`` (``N`` the tangent basis), from the model's graph; a
+    natural time unit for long-time runs.
+
+    Parameters
+    ----------
+    model : Model
+        The model (inputs at zero).
+    x_eq : numpy.ndarray
+        An equilibrium with at least one oscillatory mode.
+
+    Returns
+    -------
+    float
+    """
+    A = np.asarray(model.function("f_x")(x_eq, np.zeros(model.n_inputs), model.p))
+    N = model.manifold.tangent_basis(x_eq)
+    lam = np.linalg.eigvals(np.linalg.pinv(N) @ A @ N)
+    freqs = lam.imag[lam.imag > 1e-9]
+    return float(2 * np.pi / freqs.min())
 
 
 def long_time_periods(res: Result, model: Model, x0: np.ndarray, period: float,
