@@ -100,7 +100,7 @@ def test_result_labels():
         res.label(w1=" ")
 
 
-def test_progress_writes_lines_only_inside_a_report(tmp_path, monkeypatch):
+def test_progress_writes_lines_only_inside_a_report(tmp_path, monkeypatch, capsys):
     monkeypatch.delenv(PROGRESS_ENV, raising=False)
     progress("nothing to write to")  # outside a report: nothing happens
     path = tmp_path / "p.progress"
@@ -110,6 +110,9 @@ def test_progress_writes_lines_only_inside_a_report(tmp_path, monkeypatch):
     lines = [json.loads(x) for x in path.read_text().splitlines()]
     assert [(x["message"], x["done"], x["total"]) for x in lines] == [
         ("orbit", 1.0, 4.0), ("orbit", 2.0, 4.0)]
+    monkeypatch.setenv(PROGRESS_ENV, "-")  # workbench run: text on stderr
+    progress("orbit", done=3, total=4)
+    assert capsys.readouterr().err == "  progress: orbit (3/4)\n"
     for bad in ({"done": 1}, {"done": 5, "total": 4}, {"done": -1, "total": 4},
                 {"done": "a", "total": 4}, {"done": 0, "total": 0}):
         with pytest.raises(ParameterError, match="progress"):

@@ -15,9 +15,10 @@ import argparse
 import contextlib
 import importlib.util
 import json
+import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -25,7 +26,7 @@ from workbench.app.export_cli import add_export_c_parser
 from workbench.core.errors import WorkbenchError
 from workbench.core.files import writable_dir, write_atomic
 from workbench.core.validate import output_path
-from workbench.study._result import Result, format_result, to_jsonable
+from workbench.study._result import PROGRESS_ENV, Result, format_result, to_jsonable
 
 __all__ = ["main", "build_parser", "benchmark_scripts"]
 
@@ -81,6 +82,18 @@ def _positive_float(text: str) -> float:
     return value
 
 
+@contextlib.contextmanager
+def _progress_to_stderr() -> Iterator[None]:
+    """While problems run here, their ``progress(...)`` lines go to stderr as text."""
+    before = os.environ.get(PROGRESS_ENV)
+    os.environ.setdefault(PROGRESS_ENV, "-")
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(PROGRESS_ENV, None)
+
+
 def _run(args: argparse.Namespace) -> int:
     problems = _problems()
     targets = problems.names() if args.name == "all" else [args.name]
@@ -91,14 +104,15 @@ def _run(args: argparse.Namespace) -> int:
         )
     out = _writable_json(args.json) if args.json is not None else None
     results: list[Result] = []
-    for i, name in enumerate(targets):
-        if len(targets) > 1:
-            print(f"[{i + 1}/{len(targets)}] {name} ...", file=sys.stderr, flush=True)
-        t0 = time.perf_counter()
-        result = problems.load(name).solve(quick=args.quick)
-        result.timings.setdefault("total", time.perf_counter() - t0)
-        print(format_result(result), flush=True)
-        results.append(result)
+    with _progress_to_stderr():
+        for i, name in enumerate(targets):
+            if len(targets) > 1:
+                print(f"[{i + 1}/{len(targets)}] {name} ...", file=sys.stderr, flush=True)
+            t0 = time.perf_counter()
+            result = problems.load(name).solve(quick=args.quick)
+            result.timings.setdefault("total", time.perf_counter() - t0)
+            print(format_result(result), flush=True)
+            results.append(result)
     if out is not None:
         data = results[0].as_dict() if len(results) == 1 and args.name != "all" else {
             r.name: r.as_dict() for r in results

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -40,8 +41,9 @@ def progress(message: str, *, done: float | None = None, total: float | None = N
     The report runs each problem in its own process and points :data:`PROGRESS_ENV` at a
     file; every call appends one line to it, which the report prints with the problem's
     elapsed time and, when ``done`` and ``total`` are given, an estimate of the time left
-    in the problem (elapsed * (total - done) / done). Outside a report (``workbench run``,
-    tests, notebooks) the variable is unset and the call does nothing.
+    in the problem (elapsed * (total - done) / done). ``workbench run`` sets it to ``-``:
+    the line goes to stderr as text. Elsewhere (tests, notebooks) the variable is unset
+    and the call does nothing.
 
     Parameters
     ----------
@@ -76,6 +78,10 @@ def progress(message: str, *, done: float | None = None, total: float | None = N
         done, total = d, t
     path = os.environ.get(PROGRESS_ENV)
     if not path:
+        return
+    if path == "-":
+        of = f" ({done:g}/{total:g})" if done is not None else ""
+        print(f"  progress: {message}{of}", file=sys.stderr, flush=True)
         return
     line = json.dumps({"time": time.time(), "message": str(message), "done": done,
                        "total": total})
