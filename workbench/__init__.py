@@ -93,6 +93,7 @@ from workbench.linear import (
     pbh_second_order,
     second_order_form,
     symbolic,
+    symmetry_directions,
 )
 from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
 
@@ -170,6 +171,7 @@ __all__ = [
     "pbh_second_order",
     "poincare_map",
     "second_order_form",
+    "symmetry_directions",
     "simulate",
     "simulation",
     "so3_exp",
