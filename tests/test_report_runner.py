@@ -68,6 +68,12 @@ def solve(*, quick=False):
     time.sleep(120)
     return Result("sleeps", TITLE, quick=quick).finish()
 ''',
+    "spins": '''
+def solve(*, quick=False):
+    x = 0
+    while True:  # computes for ever: stopped by its CPU-time limit
+        x += 1
+''',
     "dies": '''
 def solve(*, quick=False):
     os._exit(3)
@@ -193,6 +199,17 @@ def test_timeout_and_crash_are_reported_and_the_others_go_on(env):
     rep6, _ = report(env, ["dies", "small"], cache_dir=env / "cache", timeout=4,
                      rerun="all")
     assert [r.cached for r in rep6.runs] == [False, False]
+
+
+def test_the_time_limit_is_cpu_time_and_a_waiting_problem_is_stopped_at_three_times_it(env):
+    rep, err = report(env, ["spins", "sleeps"], cache_dir=None, jobs=2, timeout=2)
+    by = {r.name: r for r in rep.runs}
+    assert by["spins"].status is Status.TIMED_OUT and by["sleeps"].status is Status.TIMED_OUT
+    assert "stopped after 2 s of CPU time" in by["spins"].error
+    assert 2.0 <= by["spins"].cpu_seconds < 4.0
+    # sleeping uses no CPU: stopped by the wall-time guard, 3 times the limit
+    assert "6 s wall, 3 times the limit, having used only 0 s of CPU" in by["sleeps"].error
+    assert by["sleeps"].seconds >= 6.0
 
 
 def test_rerun_of_an_unknown_problem_is_refused_before_anything_runs(env):

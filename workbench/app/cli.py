@@ -264,7 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_rep.add_argument("--jobs", type=_positive_int, default=None, metavar="N",
                        help="problems run at the same time (default: the number of cores)")
     p_rep.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
-                       help="time limit of one problem (default 600 quick, 1200 full)")
+                       help="time limit of one problem in CPU seconds (default 600 quick, "
+                       "1200 full); also stopped after 3 times as long in wall time")
     p_rep.add_argument("--cache", metavar="DIR", default=None,
                        help="cache of the problems' results (default: reports/out/cache/); "
                        "a problem is re-used when nothing it depends on changed")

@@ -206,7 +206,8 @@ def build_report(
     jobs : int, optional
         Problems run at the same time (default: the number of cores).
     timeout : float, optional
-        Wall-time limit of one problem [s] (default 600 quick, 1200 full).
+        Time limit of one problem [s of CPU time] (default 600 quick, 1200 full; a problem
+        is also stopped after three times as long in wall time).
     cache_dir : path or None
         Cache of the problems' outcomes; None runs every problem and caches nothing.
         Failures and time-outs are cached too (and shown as such when re-used).

@@ -43,11 +43,15 @@ def pss_mb(pid: int) -> float:
 
 
 def cpu_seconds_of(pid: int) -> float:
-    """CPU time (user + system) a live process has used so far [s] (nan if unreadable)."""
+    """CPU time (user + system) a live process and its ended children have used [s].
+
+    Children count once they have ended and been waited for (a compiler run by the
+    problem, say); nan if ``/proc`` cannot be read.
+    """
     try:
         with open(f"/proc/{pid}/stat") as fh:
             fields = fh.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / _TICK
+        return sum(int(f) for f in fields[11:15]) / _TICK
     except (OSError, ValueError, IndexError):
         return float("nan")
 

@@ -2,16 +2,19 @@
 
 Every problem whose cache key (:mod:`~workbench.app.report.cache`) has a stored outcome is
 taken from the cache. The others run in forked processes, at most ``jobs`` at a time,
-longest first (by the durations of earlier runs). Each child runs its problem, turns the
-result into what the report needs (its document section, figures as SVG text, captions,
+longest first (by the durations of earlier runs), and together only while the peak
+memories of their last runs fit a budget. Each child runs its problem, turns the result
+into what the report needs (its document section, figures as SVG text, captions,
 animations, summary numbers: :class:`Outcome`) and writes it to a file the parent reads;
-no live Model or figure crosses the process boundary. Each child has its own wall-time
-limit (its process group is killed when it is exceeded) and reports its peak resident
-memory (``getrusage`` of the child itself). A problem that raises, dies or times out is
-recorded as such, and the others go on.
+no live Model or figure crosses the process boundary. Each child has its own time limit
+in CPU seconds, and three times as much in wall time (its process group is killed when
+one is exceeded), and reports its CPU time and peak resident memory. A problem that
+raises, dies or times out is recorded as such, cached like a result (``rerun`` runs it
+again), and the others go on.
 
 Progress is printed problem by problem with the elapsed time and an estimate of what
-remains; a problem still running is mentioned every ``heartbeat`` seconds.
+remains; a problem still running is mentioned every ``heartbeat`` seconds, with the last
+line it gave through :func:`workbench.study.progress` and its own estimate.
 """
 
 from __future__ import annotations
@@ -49,7 +52,15 @@ from workbench.study._result import PROGRESS_ENV
 __all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB"]
 
 DEFAULT_TIMEOUT = {True: 600.0, False: 1200.0}
-"""Default wall-time limit of one problem [s], by quick mode."""
+"""Default time limit of one problem [s of CPU time], by quick mode.
+
+The limit is on CPU time (the problem's process and its ended children), so that a busy
+machine does not stop a problem that would finish in time on a quiet one: a cached
+time-out says the problem needs more than that much computing. A process that stays
+alive :data:`WALL_FACTOR` times as long in wall time is stopped too (waiting, hung)."""
+
+WALL_FACTOR = 3.0
+"""A problem is also stopped after this many times its time limit in wall time."""
 
 DEFAULT_MEMORY_MB = 1300.0
 """Default budget of the peak memories of the problems run at the same time [MB] (with the
@@ -255,8 +266,17 @@ def _write_timings(cache_dir: Path | None, timings: dict[str, float]) -> None:
     os.replace(tmp, cache_dir / "timings.json")
 
 
-def _finished(job: _Job, path: Path, *, timed_out: bool, timeout: float) -> Outcome:
-    """The outcome of a child that has exited, or was killed after ``timeout`` seconds."""
+def _over(job: _Job, timeout: float) -> str:
+    """``"cpu"`` or ``"wall"`` when a running problem is past its limit, else ``""``."""
+    if job.cpu_sampled > timeout:
+        return "cpu"
+    if time.monotonic() - job.started > WALL_FACTOR * timeout:
+        return "wall"
+    return ""
+
+
+def _finished(job: _Job, path: Path, *, timed_out: str, timeout: float) -> Outcome:
+    """The outcome of a child that has exited, or was stopped at its limit (``timed_out``)."""
     if path.is_file():
         with path.open("rb") as fh:
             out: Outcome = pickle.load(fh)
@@ -265,11 +285,13 @@ def _finished(job: _Job, path: Path, *, timed_out: bool, timeout: float) -> Outc
     seconds = time.monotonic() - job.started
     if timed_out:
         used = job.cpu_sampled
-        cpu = f" having used {used:.0f} s of CPU time" if used == used else ""
+        why = (f"{timeout:.0f} s of CPU time ({seconds:.0f} s wall)" if timed_out == "cpu" else
+               f"{seconds:.0f} s wall, {WALL_FACTOR:g} times the limit, having used only "
+               f"{used:.0f} s of CPU time (waiting for something, or the machine very busy)")
         return Outcome(job.name, job.title, Status.TIMED_OUT, seconds, peak_mb=job.peak_sampled,
-                       error=f"timed out: stopped after {timeout:.0f} s{cpu}, the time limit of "
-                             f"one problem (workbench report --timeout SECONDS)",
-                       ran_at=time.time(), cpu_seconds=job.cpu_sampled, limit=timeout)
+                       error=f"timed out: stopped after {why}; the time limit of one problem is "
+                             f"{timeout:.0f} s of CPU time (workbench report --timeout SECONDS)",
+                       ran_at=time.time(), cpu_seconds=used, limit=timeout)
     return Outcome(job.name, job.title, Status.FAILED, seconds, peak_mb=job.peak_sampled,
                    error=f"the process running the problem died (exit code "
                          f"{job.process.exitcode}; a negative code is the signal)",
@@ -397,7 +419,8 @@ def run_all(
     jobs : int, optional
         Problems run at the same time (default: the number of cores).
     timeout : float, optional
-        Wall-time limit of one problem [s] (default :data:`DEFAULT_TIMEOUT`).
+        Time limit of one problem [s of CPU time] (default :data:`DEFAULT_TIMEOUT`; also
+        stopped after :data:`WALL_FACTOR` times as long in wall time).
     cache_dir : Path, optional
         Where outcomes are cached; None runs everything and caches nothing.
     stream : file, optional
@@ -478,11 +501,11 @@ def run_all(
                     job.cpu_sampled = cpu if cpu == cpu else job.cpu_sampled
                     for step in _read_progress(job):
                         show.step(job.name, step)
-                    over = time.monotonic() - job.started > timeout
+                    over = _over(job, timeout)
                     if job.process.is_alive() and not over:
                         show.alive(job.name, heartbeat)
                         continue
-                    timed_out = over and job.process.is_alive()
+                    timed_out = over if job.process.is_alive() else ""
                     if timed_out:
                         _kill_group(job.process)
                     job.process.join()
