@@ -125,3 +125,20 @@ def test_relative_equilibria_within_1e_12_of_one_over_j_i(i, side):
     mon = problem.monitors(z.y)
     assert abs(float(alpha(mon["k"], mon["k1"])) - a) < 1e-13
     assert np.linalg.norm(z.y[:3] - gamma) < 1e-13
+
+
+def test_moving_pivot_body_keeps_a_positive_mass_matrix_off_so3():
+    # the ambient iterates of an optimiser stretch R; about a moving reference point the
+    # rotational block J_O - m rho-hat^T R^T R rho-hat turns indefinite at |R| ~ 1.2 for
+    # the cart pendulum (its swing-up then stalled at 1000 Ipopt iterations); the
+    # centre-of-mass form m |v_com|^2 / 2 + Omega.J Omega / 2 stays positive definite
+    from models.pendulum3d_cart import at_rest, pendulum3d_cart
+
+    model = pendulum3d_cart()
+    mass = model.mechanics.mass_matrix()
+    x = at_rest(model)
+    sl = model.manifold.slices["R"]
+    for s in (0.5, 1.0, 1.3, 2.0):
+        xs = x.copy()
+        xs[sl] = (s * np.eye(3)).ravel()
+        assert np.linalg.eigvalsh(np.asarray(mass(xs, model.p)))[0] > 0.01, s

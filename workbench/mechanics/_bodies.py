@@ -11,12 +11,17 @@ all bodies at once, so a chain costs O(n) nodes, not O(n^2).
   converted by the parallel-axis theorem ``J = J_O - m (|rho|^2 I - rho rho^T)``):
   ``T = m |p_com-dot|^2 / 2 + Omega^T J Omega / 2`` with the body angular velocity
   ``Omega`` (the factor's own when ``R`` is an SO(3) factor, else ``vee(R^T R-dot)``).
-  When ``R`` is an SO(3) factor (``R-dot = R hat(Omega)``) the same energy is written about
-  the reference point, ``T = m |p0-dot|^2 / 2 + m p0-dot . R (Omega x rho)
-  + Omega^T J_O Omega / 2``: the rotational block of the mass matrix is then ``J_O`` as
-  given (or ``J + m (|rho|^2 I - rho rho^T)``), not ``J_O - m (...)`` plus
-  ``m |R (Omega x rho)|^2`` (which cancels digits and sees the rounding of ``R^T R``: a
-  relative error ``eps |J| / lambda_min(J)`` in the accelerations, 1e-8 at cond J = 1e8).
+  When ``R`` is an SO(3) factor (``R-dot = R hat(Omega)``) and the reference point is
+  fixed, the same energy is written about it, ``T = Omega^T J_O Omega / 2``: the mass
+  matrix is then ``J_O`` as given (or ``J + m (|rho|^2 I - rho rho^T)``), not
+  ``J_O - m (...)`` plus ``m |R (Omega x rho)|^2`` (which cancels digits and sees the
+  rounding of ``R^T R``: a relative error ``eps |J| / lambda_min(J)`` in the
+  accelerations, 1e-8 at cond J = 1e8). With a moving reference point the
+  centre-of-mass form is kept: it is positive definite for every ambient ``R`` (a sum of
+  squares plus ``J``), which ambient optimisers need; the form about a moving point,
+  ``m p0-dot . R (Omega x rho) + Omega^T J_O Omega / 2`` added to ``m |p0-dot|^2 / 2``,
+  is not (its rotational block ``J_O - m rho-hat^T R^T R rho-hat`` turns indefinite
+  off SO(3)).
 """
 
 from __future__ import annotations
@@ -133,7 +138,13 @@ def kinetic_energy_of_bodies(
         return ca.SX(0)
 
     def about_origin(b: PointMass | RigidBody) -> bool:
-        return isinstance(b, RigidBody) and b.factor is not None
+        # a fixed reference point only: with a moving one (a cart, a quadrotor) the form
+        # about the reference point has the rotational block J_O - m rho-hat^T R^T R rho-hat
+        # off SO(3), indefinite once R is stretched by |J_c| / (m |rho|^2) (20% for the
+        # cart pendulum), where the ambient iterates of an optimiser go: its swing-up then
+        # stalled at Ipopt's iteration limit (31 iterations with the centre-of-mass form)
+        return (isinstance(b, RigidBody) and b.factor is not None
+                and not ca.depends_on(b.origin, c))
 
     points = ca.vertcat(*[b.origin if about_origin(b) else b.com for b in bodies])
     vel = ca.jtimes(points, c, cdot)
