@@ -108,7 +108,8 @@ def solve(*, quick: bool = False) -> Result:
             (f"n = {n}: unstable dimension = 2 #(s_i = -1) at every equilibrium", 2**n, match,
              0, "(16): inertia of G_qq = diag(s_i ...) x I2, M > 0"),
             (f"n = {n}: zero eigenvalues not from a symmetry, all equilibria", 0,
-             sum(s.unexplained for s in syms), 0, "cart translations: orbit + momentum each")])
+             sum(np.nan if s.unexplained is None else s.unexplained for s in syms), 0,
+             "cart translations: orbit + momentum each")])
         iters = [eq.iterations for eq in eqs]
         per_n[str(n)] = {
             "equilibria": len(eqs),

@@ -76,7 +76,8 @@ def solve(*, quick: bool = False) -> Result:
         sym = wb.linear.symmetry_directions(lin)
         res.values[f"{name}_class"] = f"{es.describe()}; {sym.describe()}"
         res.compare(f"{name}: zero eigenvalues not from a symmetry (cart, yaw)", 0,
-                    sym.unexplained, tolerance=0, source="Noether: p_x, p_y, L_z")
+                    np.nan if sym.unexplained is None else sym.unexplained, tolerance=0,
+                    source="Noether: p_x, p_y, L_z")
         test = wb.pbh(lin)
         res.values[f"{name}_uncontrollable_by_cart_force"] = [
             test.describe_mode(mode) for mode in test.uncontrollable]

@@ -90,3 +90,24 @@ def test_bad_input_is_refused():
     lin = linearize(model, at_rest(model), np.zeros(model.n_inputs))
     with pytest.raises(Exception, match="rtol"):
         symmetry_directions(lin, rtol=-1.0)
+
+
+def test_a_perturbed_matrix_keeps_its_jordan_pairs_counted():
+    # rounding of size delta splits each symmetry's Jordan pair into eigenvalues of size
+    # sqrt(delta): the zero threshold is sqrt(rtol) |A|, so 1e-13 relative noise keeps 6
+    import dataclasses
+
+    model = pendulum3d_cart()
+    lin = linearize(model, at_rest(model), np.zeros(model.n_inputs))
+    noise = np.random.default_rng(0).standard_normal(lin.A.shape)
+    noisy = dataclasses.replace(lin, A=lin.A + 1e-13 * np.linalg.norm(lin.A, 2) * noise)
+    s = symmetry_directions(noisy)
+    assert s.n_zero == 6 and s.unexplained == 0
+
+
+def test_a_point_not_at_rest_leaves_the_origin_of_the_zeros_unexamined():
+    model = pendulum3d_cart()
+    x = model.state(x=[0, 0], v=[3e-8, 0], R=np.eye(3), Omega=[0, 0, 0])
+    s = symmetry_directions(linearize(model, x, np.zeros(model.n_inputs)))
+    assert not s.examined and s.unexplained is None
+    assert "not examined" in s.describe() and "not at rest" in s.notes[0]

@@ -53,6 +53,11 @@ class SymmetryDirections:
         Symmetries that leave the point fixed (orbit direction zero).
     notes : list of str
         What was not computed, and why.
+    examined : bool
+        Whether the orbit directions were computed (a model with symmetry actions, at a
+        state at rest); without them :attr:`unexplained` is ``None``.
+    rtol : float
+        The relative tolerance of the checks (also of the ranks).
     """
 
     n_zero: int
@@ -63,27 +68,35 @@ class SymmetryDirections:
     vanishing: list = field(default_factory=list)
     fixed: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    examined: bool = True
+    rtol: float = 1e-8
 
     @property
     def orbit_rank(self) -> int:
         """Dimension spanned by the verified orbit directions."""
-        return _rank(list(self.orbits.values()))
+        return _rank(list(self.orbits.values()), self.rtol)
 
     @property
     def conserved_rank(self) -> int:
         """Dimension spanned by the verified left null vectors."""
-        return _rank(list(self.conserved.values()))
+        return _rank(list(self.conserved.values()), self.rtol)
 
     @property
-    def unexplained(self) -> int:
+    def unexplained(self) -> int | None:
         """Zero eigenvalues beyond one per orbit direction and one per conserved momentum.
 
         At a state at rest an orbit direction ``v`` and the momentum of the same symmetry
         ``c`` satisfy ``c . v = 0`` (the momentum is linear in the velocities), so they form
         a Jordan pair: one zero eigenvalue each. What is left over is a neutral direction
-        of this equilibrium that no declared or detected symmetry explains.
+        of this equilibrium that no declared or detected symmetry explains. ``None`` when
+        the orbits were not examined, or when fewer zero eigenvalues were counted than the
+        verified directions account for (the count is then not to be trusted; see
+        :attr:`notes`).
         """
-        return max(0, self.n_zero - self.orbit_rank - self.conserved_rank)
+        accounted = self.orbit_rank + self.conserved_rank
+        if not self.examined or self.n_zero < accounted:
+            return None
+        return self.n_zero - accounted
 
     def describe(self) -> str:
         """One line for a table, e.g. ``"4 zero eigenvalues: orbits of px, py; ..."``."""
@@ -94,16 +107,19 @@ class SymmetryDirections:
             parts.append(f"{self.conserved_rank} conserved: {', '.join(self.conserved)}")
         if self.fixed:
             parts.append(f"fixed by {', '.join(self.fixed)}")
-        if self.unexplained:
+        if self.unexplained is None:
+            parts.append("origin of the others not examined" if not self.examined
+                         else "fewer zeros than the symmetries account for (see notes)")
+        elif self.unexplained:
             parts.append(f"{self.unexplained} not from a symmetry")
         return "; ".join(parts)
 
 
-def _rank(vectors: list) -> int:
+def _rank(vectors: list, rtol: float) -> int:
+    """Numerical rank of unit vectors, singular values above ``sqrt(rtol)`` counting."""
     if not vectors:
         return 0
-    M = np.column_stack(vectors)
-    return int(np.linalg.matrix_rank(M, tol=1e-8 * max(1.0, float(np.abs(M).max()))))
+    return int(np.linalg.matrix_rank(np.column_stack(vectors), tol=np.sqrt(rtol)))
 
 
 def _gradient(model: Any, name: str) -> ca.Function:
@@ -122,8 +138,11 @@ def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
         A linearisation (:func:`workbench.linearize`), open or closed loop.
     rtol : float
         Relative tolerance of every check: ``|A v| <= rtol |A| |v|``,
-        ``|c^T A| <= rtol |A| |c|``, zero eigenvalues ``|lambda| <= rtol max(1, |A|)``,
-        vanishing differentials ``|grad J| <= rtol``.
+        ``|c^T A| <= rtol |A| |c|``, vanishing differentials
+        ``|N^T grad J| <= rtol max(1, |grad J|)``, velocities at rest ``<= rtol``. Zero
+        eigenvalues are those with ``|lambda| <= sqrt(rtol) max(1, |A|)``: the symmetries'
+        zeros come in Jordan pairs, which a perturbation ``delta`` of ``A`` splits into
+        eigenvalues of size ``sqrt(delta)``.
 
     Returns
     -------
@@ -141,12 +160,13 @@ def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
     A, N = np.asarray(lin.A, float), np.asarray(lin.basis, float)
     x, model = np.asarray(lin.x_e, float), lin.model
     a_norm = max(1.0, float(np.linalg.norm(A, 2)))
-    zero_tol = rtol * a_norm
+    zero_tol = np.sqrt(rtol) * a_norm
     n_zero = int(np.sum(np.abs(np.linalg.eigvals(A)) <= zero_tol)) if A.size else 0
     conserved, not_conserved, vanishing = {}, {}, []
     for name in model.invariant_names:
-        c = N.T @ np.asarray(_gradient(model, name)(x, model.p), float).ravel()
-        if np.linalg.norm(c) <= rtol:
+        g = np.asarray(_gradient(model, name)(x, model.p), float).ravel()
+        c = N.T @ g
+        if np.linalg.norm(c) <= rtol * max(1.0, float(np.linalg.norm(g))):
             vanishing.append(name)
             continue
         defect = float(np.linalg.norm(c @ A) / (np.linalg.norm(c) * a_norm))
@@ -174,9 +194,16 @@ def symmetry_directions(lin: Any, *, rtol: float = 1e-8) -> SymmetryDirections:
         else:
             notes.append(f"the orbit of {name} is not in the kernel of A here "
                          f"(|A v|/(|A||v|) = {defect:.1e})")
-    return SymmetryDirections(n_zero=n_zero, zero_tol=zero_tol, orbits=orbits,
-                              conserved=conserved, not_conserved=not_conserved,
-                              vanishing=vanishing, fixed=fixed, notes=notes)
+    examined = bool(actions) and at_rest
+    out = SymmetryDirections(n_zero=n_zero, zero_tol=zero_tol, orbits=orbits,
+                             conserved=conserved, not_conserved=not_conserved,
+                             vanishing=vanishing, fixed=fixed, notes=notes,
+                             examined=examined, rtol=rtol)
+    if n_zero < out.orbit_rank + out.conserved_rank:
+        notes.append(f"{n_zero} eigenvalues within {zero_tol:.1e} of zero, fewer than the "
+                     f"{out.orbit_rank + out.conserved_rank} verified directions account for:"
+                     " A is not exact to rtol here")
+    return out
 
 
 def _at_rest(model: Any, x: np.ndarray, tol: float) -> bool:
