@@ -464,7 +464,9 @@ class System:
         factors along their axes; a candidate is declared only when its Noether momentum is
         verified conserved (``|dJ/dt| <= rtol |grad J| |f|`` at ``n_states`` seeded random
         states, zero input) and independent of the momenta declared so far. See
-        :mod:`workbench.mechanics._symmetry`.
+        :mod:`workbench.mechanics._symmetry`. The test runs at the current parameter values:
+        a symmetry that holds only there (a spring constant that is zero now) is declared,
+        so detect again after changing such a value.
 
         Parameters
         ----------
