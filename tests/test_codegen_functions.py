@@ -139,6 +139,22 @@ def test_lanes_write_every_elementary_operation_as_casadi_does(cache):
         assert _rel(got, ref) <= 1e-14, opt
 
 
+def test_lanes_write_infinite_and_nan_constants_as_c99(cache):
+    """inf, -inf and nan constants become INFINITY, -INFINITY, NAN (repr gave 'inf': the
+    C did not compile); the compiled lanes equal casadi's VM, non-finite entries included."""
+    x = ca.SX.sym("x", 3)
+    a, b, c = x[0], x[1], x[2]
+    f = ca.Function("nonfinite", [x], [ca.vertcat(ca.if_else(a > 0, b, ca.inf),
+                                                  ca.if_else(b > 0, -ca.inf, c),
+                                                  ca.if_else(c > 0, np.nan, a))])
+    X = np.random.default_rng(11).normal(size=(7, 3))
+    ref = np.asarray(BatchEvaluator(f, 7)(X))
+    got = np.asarray(BatchEvaluator(f, 7, compilation="c", parallelization="lanes",
+                                    cache_dir=cache)(X))
+    assert np.isinf(ref).any() and np.isnan(ref).any()
+    np.testing.assert_array_equal(got, ref)  # equal, inf to inf and nan to nan
+
+
 def test_lanes_are_refused_where_they_cannot_apply(top):
     f = top.function("f")
     with pytest.raises(ModelError, match="needs compilation='c'"):

@@ -21,6 +21,7 @@ extra lanes repeat the last state and are not written back.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import casadi as ca
@@ -53,6 +54,15 @@ _LANE = {"OP_SQRT": "sqrt({x})", "OP_EXP": "exp({x})", "OP_LOG": "log({x})",
          "OP_NE": "({x} != {y})", "OP_NOT": "(!{x})", "OP_AND": "({x} && {y})",
          "OP_OR": "({x} || {y})", "OP_IF_ELSE_ZERO": "({x} ? {y} : 0.)"}
 """Operations written lane by lane, as casadi's code generator writes them."""
+
+
+def _c_double(c: float) -> str:
+    """A double constant as C99 source: ``INFINITY``, ``-INFINITY``, ``NAN`` (math.h)."""
+    if math.isnan(c):
+        return "NAN"
+    if math.isinf(c):
+        return "INFINITY" if c > 0 else "-INFINITY"
+    return repr(c)
 
 
 def _table() -> dict[int, tuple[str, str]]:
@@ -121,7 +131,7 @@ def lanes_source(fn: ca.Function, n: int, *, name: str, shared: Sequence[str] = 
         i_in, i_out = fn.instruction_input(k), fn.instruction_output(k)
         if op == ca.OP_CONST:
             c = float(fn.instruction_constant(k))
-            lines.append(f"  w{i_out[0]} = zero + {c!r};")
+            lines.append(f"  w{i_out[0]} = zero + {_c_double(c)};")
         elif op == ca.OP_INPUT:
             a, j = i_in
             lines.append(f"  w{i_out[0]} = in{a}[{j}];")
