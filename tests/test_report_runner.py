@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from workbench.app.report import Format, ReportInputError, Status, build_report
+from workbench.app.report import Format, ReportInputError, Status, build_report, runner
 from workbench.app.report import cache as report_cache
 
 HEADER = '''
@@ -201,12 +201,20 @@ def test_timeout_and_crash_are_reported_and_the_others_go_on(env):
     assert [r.cached for r in rep6.runs] == [False, False]
 
 
-def test_the_time_limit_is_cpu_time_and_a_waiting_problem_is_stopped_at_three_times_it(env):
-    rep, err = report(env, ["spins", "sleeps"], cache_dir=None, jobs=2, timeout=2)
+def test_the_time_limit_is_cpu_time_and_a_waiting_problem_is_stopped_at_three_times_it(
+        env, monkeypatch):
+    # the spinning problem must reach 2 s of CPU before the wall guard: on shared cores at
+    # load 8 it gets a quarter of a core, so its guard is widened here (runner's factor)
+    monkeypatch.setattr(runner, "WALL_FACTOR", 30.0)
+    rep, _ = report(env, ["spins"], cache_dir=None, jobs=1, timeout=2)
+    spins = rep.runs[0]
+    assert spins.status is Status.TIMED_OUT
+    assert "stopped after 2 s of CPU time" in spins.error
+    assert 2.0 <= spins.cpu_seconds < 4.0
+    monkeypatch.setattr(runner, "WALL_FACTOR", 3.0)
+    rep, err = report(env, ["sleeps"], cache_dir=None, jobs=1, timeout=2)
     by = {r.name: r for r in rep.runs}
-    assert by["spins"].status is Status.TIMED_OUT and by["sleeps"].status is Status.TIMED_OUT
-    assert "stopped after 2 s of CPU time" in by["spins"].error
-    assert 2.0 <= by["spins"].cpu_seconds < 4.0
+    assert by["sleeps"].status is Status.TIMED_OUT
     # sleeping uses no CPU: stopped by the wall-time guard, 3 times the limit
     assert "6 s wall, 3 times the limit, having used only 0 s of CPU" in by["sleeps"].error
     assert by["sleeps"].seconds >= 6.0
