@@ -296,8 +296,8 @@ def mechanics_variational(
         newton_max_iter=kmax,
         evaluations_per_step=0,  # no vector field: gradients of the Lagrangian instead
         structure={
-            "manifold": "R_{k+1} = R_k cay(h Omega_k) per SO(3) factor: kept to round-off, "
-                        "never projected",
+            "manifold": "R_{k+1} = R_k cay(h Omega_k) per SO(3) factor, q_{k+1} = "
+                        "cay(h w_k) q_k per S^2 factor: kept to round-off, never projected",
             "symplectic": not forced,
             "symmetric": True,
             "implicit": True,
