@@ -21,6 +21,7 @@ are reported, labelled as recorded.
 
 from __future__ import annotations
 
+import gc
 from typing import Any
 
 import numpy as np
@@ -69,52 +70,58 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("swingup_drake_reference", TITLE, quick=quick)
     plant = peer.drake_plant() if peer.drake_available() else None
     for case in ("origin", "free"):
-        ocp = problem(cart_free=case == "free")
-        res.use(ocp.model)
-        with res.timed(f"cart {case}: workbench, ambient then Lie group, from Drake's guess"):
-            ours, row = solve_row(ocp, METHOD, drake_guess(ocp), **SOLVE_OPTIONS)
-            _, lie_row = solve_row(ocp, METHOD, drake_guess(ocp),
-                                   handling=ManifoldHandling.LIE_GROUP)
-        values: dict[str, Any] = {"workbench": row, "workbench_lie_group": lie_row}
-        res.compare(f"cart {case}: converged (Ipopt {ours.ipopt_status})", 1.0,
-                    float(ours.status.ok), tolerance=0.0, source="Ipopt status")
-        res.compare(f"cart {case}: local defect against CVODES", 0.0,
-                    ours.error.get("local_defect", np.inf), tolerance=1e-2,
-                    source="Hermite-Simpson, h = T/40 (order 4)")
-        if plant is not None:
-            with res.timed(f"cart {case}: Drake DirectCollocation + IPOPT"):
-                d = peer.drake_solve(plant, cart_free=case == "free")
-                g = Guess.from_samples(ocp, *peer.to_workbench(d["t"], d["x"], d["u"]))
-                same, same_row = solve_row(ocp, METHOD, g, handling=ManifoldHandling.LIE_GROUP)
-            values["drake"] = {k: d[k] for k in ("cpu", "wall", "iterations", "cost",
-                                                 "status")} | {"source": "measured"}
-            values["lie_group_from_drakes_solution"] = same_row
-            res.compare(f"cart {case}: Lie-group HS from Drake's optimum = Drake's cost",
-                        d["cost"], same.objective, tolerance=1e-6, relative=True,
-                        source="same NLP (planar swing: local coordinates = Drake's angles)")
-        else:
-            values["drake"] = peer.RECORDED[case] | {"source": "RECORDED in issue 17, "
-                                                      "drake not installed"}
-        drake = values["drake"]
-        drake_cpu = drake.get("cpu", drake.get("cpu_seconds"))
-        values["cpu_ratio_drake_over_workbench"] = drake_cpu / row["solve_cpu_seconds"]
-        if case == "origin":
-            res.compare("cart origin: cost <= Drake's recorded 5.2289 (excess)", 0.0,
-                        max(0.0, ours.objective - peer.RECORDED["origin"]["cost"]),
-                        tolerance=0.0, source="issue 17 (Drake 1.51, same problem and guess)")
-            res.figure("swingup", plot_swingup(
-                ours, [("link direction q1", lambda X: X[:, 4:7])],
-                title=f"Drake's problem, cart at the origin: cost {ours.objective:.4f}, "
-                      f"T = {ours.T:.3f} s, {row['iterations']} iterations"),
-                caption="The workbench's optimal swing-up of Drake's problem (cart back at "
-                        "the origin): the link direction on the unit sphere (up = -e3) and "
-                        "the first-order-hold force, Hermite-Simpson on 41 knots.")
-        res.values[f"cart_{case}"] = values
+        solve_case(res, case, plant)
+        gc.collect()  # each case's NLPs (~0.5 GB apiece) go before the next is built
     res.notes.append(
         "Both sides start from the same guess; Ipopt with the exact Hessian (workbench) and "
         "with Drake's limited-memory Hessian may reach different local minima of the same "
         "NLP. CPU seconds are Ipopt's solve only (building excluded) on both sides.")
     return res.finish()
+
+
+def solve_case(res: Result, case: str, plant: Any) -> None:
+    """One case of Drake's problem ("origin" or "free"): its solves and comparisons."""
+    ocp = problem(cart_free=case == "free")
+    res.use(ocp.model)
+    with res.timed(f"cart {case}: workbench, ambient then Lie group, from Drake's guess"):
+        ours, row = solve_row(ocp, METHOD, drake_guess(ocp), **SOLVE_OPTIONS)
+        _, lie_row = solve_row(ocp, METHOD, drake_guess(ocp),
+                               handling=ManifoldHandling.LIE_GROUP)
+    values: dict[str, Any] = {"workbench": row, "workbench_lie_group": lie_row}
+    res.compare(f"cart {case}: converged (Ipopt {ours.ipopt_status})", 1.0,
+                float(ours.status.ok), tolerance=0.0, source="Ipopt status")
+    res.compare(f"cart {case}: local defect against CVODES", 0.0,
+                ours.error.get("local_defect", np.inf), tolerance=1e-2,
+                source="Hermite-Simpson, h = T/40 (order 4)")
+    if plant is not None:
+        with res.timed(f"cart {case}: Drake DirectCollocation + IPOPT"):
+            d = peer.drake_solve(plant, cart_free=case == "free")
+            g = Guess.from_samples(ocp, *peer.to_workbench(d["t"], d["x"], d["u"]))
+            same, same_row = solve_row(ocp, METHOD, g, handling=ManifoldHandling.LIE_GROUP)
+        values["drake"] = {k: d[k] for k in ("cpu", "wall", "iterations", "cost",
+                                             "status")} | {"source": "measured"}
+        values["lie_group_from_drakes_solution"] = same_row
+        res.compare(f"cart {case}: Lie-group HS from Drake's optimum = Drake's cost",
+                    d["cost"], same.objective, tolerance=1e-6, relative=True,
+                    source="same NLP (planar swing: local coordinates = Drake's angles)")
+    else:
+        values["drake"] = peer.RECORDED[case] | {"source": "RECORDED in issue 17, "
+                                                  "drake not installed"}
+    drake = values["drake"]
+    drake_cpu = drake.get("cpu", drake.get("cpu_seconds"))
+    values["cpu_ratio_drake_over_workbench"] = drake_cpu / row["solve_cpu_seconds"]
+    if case == "origin":
+        res.compare("cart origin: cost <= Drake's recorded 5.2289 (excess)", 0.0,
+                    max(0.0, ours.objective - peer.RECORDED["origin"]["cost"]),
+                    tolerance=0.0, source="issue 17 (Drake 1.51, same problem and guess)")
+        res.figure("swingup", plot_swingup(
+            ours, [("link direction q1", lambda X: X[:, 4:7])],
+            title=f"Drake's problem, cart at the origin: cost {ours.objective:.4f}, "
+                  f"T = {ours.T:.3f} s, {row['iterations']} iterations"),
+            caption="The workbench's optimal swing-up of Drake's problem (cart back at "
+                    "the origin): the link direction on the unit sphere (up = -e3) and "
+                    "the first-order-hold force, Hermite-Simpson on 41 knots.")
+    res.values[f"cart_{case}"] = values
 
 
 if __name__ == "__main__":
