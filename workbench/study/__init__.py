@@ -50,6 +50,7 @@ from workbench.study._result import (
     Result,
     ResultStatus,
     format_result,
+    progress,
     to_jsonable,
 )
 from workbench.study._script import run_script
@@ -78,6 +79,7 @@ __all__ = [
     "Comparison",
     "MAX_SEGMENTS",
     "Result",
+    "progress",
     "ResultStatus",
     "angle_travelled",
     "axis_shares",

@@ -287,7 +287,12 @@ class Result(StatusResult):
 
     @contextmanager
     def timed(self, step: str) -> Iterator[None]:
-        """Time a block into ``timings[step]`` (accumulating)."""
+        """Time a block into ``timings[step]`` (accumulating).
+
+        The step is also reported as progress (:func:`progress`: shown by ``workbench
+        report`` while the problem runs, a no-op elsewhere).
+        """
+        progress(step)
         t0 = time.perf_counter()
         try:
             yield
