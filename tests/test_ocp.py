@@ -170,7 +170,7 @@ def test_moment_on_a_link_keeps_its_authority_off_the_sphere(scale):
     the sphere; a gain fading like ``|q|^2`` let swing-ups collapse to ``q -> 0``, issue 17),
     and gravity's part is unchanged (``(g/l) q x e3``, as printed in paper 002)."""
     from models.spherical import spherical_pendulum
-    m, l, g = 0.7, 1.3, 9.81
+    m, l, g = 0.7, 1.3, 9.81  # noqa: E741
     model = spherical_pendulum(m=m, l=l, g=g)
     f = model.function("f")
     rng = np.random.default_rng(5)
