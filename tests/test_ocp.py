@@ -232,6 +232,7 @@ def test_mx_graph_gives_the_same_solution(ocp, base):
     assert np.allclose(s.x, base.x, atol=1e-5)
 
 
+@pytest.mark.slow  # builds N = 80 (~115 s): in `make test-all`, keeps `make test` < 10 min
 def test_resimulation_error_falls_with_N(ocp, trajectory):
     mid = solve(ocp, Collocation(N=40), guess=trajectory, **COARSE)
     fine = solve(ocp, Collocation(N=80), guess=mid, **COARSE)
