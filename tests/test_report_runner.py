@@ -217,8 +217,9 @@ def test_the_time_limit_is_cpu_time_and_a_waiting_problem_is_stopped_at_three_ti
     by = {r.name: r for r in rep.runs}
     assert by["sleeps"].status is Status.TIMED_OUT
     # sleeping uses no CPU: stopped by the wall-time guard, 3 times the limit
-    # the guard is checked at each poll (every 2 s): it fires between 6 and 8 s
-    assert re.search(r"after [678] s wall, 3 times the limit, having used only 0 s of CPU",
+    # the guard is checked at each poll, so how long after 6 s it fires depends on the load:
+    # the test reads which guard fired, not how fast
+    assert re.search(r"after \d+ s wall, 3 times the limit, having used only 0 s of CPU",
                      by["sleeps"].error), by["sleeps"].error
     assert by["sleeps"].seconds >= 6.0
 
