@@ -185,8 +185,11 @@ def _pendulum():
 
 def test_compiled_nlp_gives_the_same_solution(tmp_path):
     ocp = _pendulum()
-    g = Guess.geodesic(ocp, T=1.5)
-    # N = 8 is coarse (defect_tol=None): this compares two evaluations of one NLP
+    # N = 8 is coarse (defect_tol=None): this compares two evaluations of one NLP. From
+    # T = 2.5 Ipopt converges in 36 iterations; from T = 1.5 it wanders for 250-350
+    # iterations and rounding at 1e-13 decides between Solve_Succeeded and a local
+    # infeasibility, which says nothing about the compiled code.
+    g = Guess.geodesic(ocp, T=2.5)
     plain = solve(ocp, HermiteSimpson(N=8), guess=g, defect_tol=None)
     comp = solve(ocp, HermiteSimpson(N=8), guess=g, defect_tol=None,
                  compiled=Compiled(cache_dir=str(tmp_path)))

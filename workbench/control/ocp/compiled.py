@@ -79,7 +79,8 @@ class Compiled:
 
 
 def compiled_solver(name: str, nlp: dict[str, Any], ipopt_opts: dict[str, Any],
-                    compiled: Compiled, *, graph_ok: bool = True
+                    compiled: Compiled, *, graph_ok: bool = True,
+                    derivatives: dict[str, ca.Function] | None = None,
                     ) -> tuple[ca.Function, dict[str, Any]]:
     """An Ipopt solver of ``nlp`` whose functions run from a compiled, cached library.
 
@@ -95,6 +96,11 @@ def compiled_solver(name: str, nlp: dict[str, Any], ipopt_opts: dict[str, Any],
         Compiler and flags.
     graph_ok : bool
         Whether the NLP's graph can be generated as C (``Symbolic.SX``).
+    derivatives : dict, optional
+        ``nlpsol`` derivative options (``jac_g``, ``hess_lag``, ``grad_f``) to generate
+        instead of casadi's own (the transcription's per-interval derivatives, see
+        :mod:`workbench.control.ocp.derivatives`): the compiled solver then evaluates the
+        same functions as the uncompiled one.
 
     Returns
     -------
@@ -116,14 +122,19 @@ def compiled_solver(name: str, nlp: dict[str, Any], ipopt_opts: dict[str, Any],
                              "linear solves are not generated as C here)")
     t0 = time.perf_counter()
     plain = ca.nlpsol(f"{name}_gen", "ipopt", nlp, {"ipopt": {"print_level": 0},
-                                                     "print_time": False})
-    for fn in ("nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
-        plain.get_function(fn)  # created on demand: create them before generating
+                                                     "print_time": False,
+                                                     **(derivatives or {})})
+    # the oracle and every function Ipopt calls, user-supplied derivatives included
+    # (generate_dependencies would leave those out)
+    gen = ca.CodeGenerator(f"{name}.c")
+    gen.add(plain.oracle())
+    for fn in ("nlp_f", "nlp_g", "nlp_grad", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l"):
+        gen.add(plain.get_function(fn))
     with tempfile.TemporaryDirectory() as tmp:
         cwd = os.getcwd()
         try:
             os.chdir(tmp)
-            plain.generate_dependencies(f"{name}.c")
+            gen.generate()
         finally:
             os.chdir(cwd)
         source = (Path(tmp) / f"{name}.c").read_text()

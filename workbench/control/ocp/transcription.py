@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.compiled import Compiled, compiled_solver
+from workbench.control.ocp.derivatives import IntervalLayout, structured_derivatives
 from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.hermite_simpson import HermiteSimpson, hermite_simpson_interval
 from workbench.control.ocp.local import ProductLocal
@@ -250,14 +251,19 @@ class Transcription:
                 if not isinstance(compiled, Compiled):
                     raise ParameterError(f"compiled must be a Compiled(...) or None; got "
                                          f"{compiled!r}")
+                if not self._derivatives and self._structure is not None:
+                    self._derivatives = self._structured(self.nlp)
                 solver, info = compiled_solver(name, self.nlp, opts, compiled,
-                                               graph_ok=self.graph is Symbolic.SX)
+                                               graph_ok=self.graph is Symbolic.SX,
+                                               derivatives=self._derivatives)
                 self.compile_info[compiled] = info
                 self._solvers[key] = solver
                 return solver
+            if not self._derivatives and self._structure is not None:
+                self._derivatives = self._structured(self.nlp)
             opts.update(self._derivatives)
             solver = ca.nlpsol(name, "ipopt", self.nlp, opts)
-            if not self._derivatives:
+            if "grad_f" not in self._derivatives:
                 self._derivatives = {
                     "hess_lag": solver.get_function("nlp_hess_l"),
                     "jac_g": solver.get_function("nlp_jac_g"),
@@ -429,8 +435,8 @@ class Transcription:
         add(ocp.target.equations(XN), 0.0, 0.0, "terminal")
         for e in ocp.target.domain(XN):
             add(e, 0.0, np.inf, "terminal chart domain")
-        if ocp.terminal_cost is not None:
-            J = J + ocp.terminal_cost(XN, T)
+        f_rest = ocp.terminal_cost(XN, T) if ocp.terminal_cost is not None else S.zeros(1)
+        J = J + f_rest
         self.i_gauge = None
         if self.symmetry is not None:
             self.i_gauge = len(kinds)
@@ -441,7 +447,23 @@ class Transcription:
         G = ca.vertcat(*g)
         P = ca.vertcat(p, c_gauge)
         self.n_nodes = int(ca.Function("nlp", [w, P], [J, G]).n_nodes())
-        return {"x": w, "p": P, "f": J, "g": G}
+        nlp = {"x": w, "p": P, "f": J, "g": G}
+        self._structure = (F, n_block, f_rest) if S is ca.SX and F.is_a("SXFunction") else None
+        return nlp
+
+    def _structured(self, nlp: dict[str, Any]) -> dict[str, ca.Function]:
+        """Exact ``jac_g`` and ``hess_lag`` built per interval (:mod:`.derivatives`)."""
+        F, n_block, f_rest = self._structure
+        nx, N, dn = self.nx, self.N, self.d * self.ncol
+        if self.foh:
+            blocks = [[(self.ix[k], nx), (self.ix[k + 1], nx), (self.ic[k], dn),
+                       (self.iu[k], self.nu), (self.iu[k + 1], self.nu)] for k in range(N)]
+        else:
+            blocks = [[(self.ix[k], nx), (self.ic[k], dn), (self.iu[k], self.nu)]
+                      for k in range(N)]
+        layout = IntervalLayout(F, blocks, [(self.ix[k + 1], nx) for k in range(N)], self.iT)
+        return structured_derivatives(layout, nlp, n_block, f_rest,
+                                      self.ocp.model.n_params)
 
     def gauge_direction(self, w0: np.ndarray) -> np.ndarray:
         """Unit coefficients ``c`` of the phase condition through ``w0`` (zeros: none).
