@@ -369,15 +369,18 @@ class Transcription:
 
     def _build_nlp(self) -> dict[str, Any]:
         ocp, N = self.ocp, self.N
-        S = self.S
+        F = self._interval()
+        if self.graph is Symbolic.SX and F.is_a("MXFunction"):
+            F = F.expand()
+        # SX intervals: the NLP maps the one interval function (an MX graph of N calls)
+        # and its derivatives are built per interval (see _structured); no N-fold inlining
+        structured = self.graph is Symbolic.SX and F.is_a("SXFunction")
+        S = ca.MX if structured else self.S
         w = S.sym("w", self.nw)
         p = S.sym("p", ocp.model.n_params)
         c_gauge = S.sym("c_gauge", self.nw if self.symmetry is not None else 0)
         T = w[self.iT]
         h = T / N
-        F = self._interval()
-        if self.graph is Symbolic.SX and F.is_a("MXFunction"):
-            F = F.expand()
         g, lbg, ubg, kinds = [], [], [], []
         J = 0
 
@@ -448,12 +451,12 @@ class Transcription:
         P = ca.vertcat(p, c_gauge)
         self.n_nodes = int(ca.Function("nlp", [w, P], [J, G]).n_nodes())
         nlp = {"x": w, "p": P, "f": J, "g": G}
-        self._structure = (F, n_block, f_rest) if S is ca.SX and F.is_a("SXFunction") else None
+        self._structure = (F, n_block, f_rest, ca.vertcat(*g[1:])) if structured else None
         return nlp
 
     def _structured(self, nlp: dict[str, Any]) -> dict[str, ca.Function]:
         """Exact ``jac_g`` and ``hess_lag`` built per interval (:mod:`.derivatives`)."""
-        F, n_block, f_rest = self._structure
+        F, n_block, f_rest, g_rest = self._structure
         nx, N, dn = self.nx, self.N, self.d * self.ncol
         if self.foh:
             blocks = [[(self.ix[k], nx), (self.ix[k + 1], nx), (self.ic[k], dn),
@@ -462,7 +465,7 @@ class Transcription:
             blocks = [[(self.ix[k], nx), (self.ic[k], dn), (self.iu[k], self.nu)]
                       for k in range(N)]
         layout = IntervalLayout(F, blocks, [(self.ix[k + 1], nx) for k in range(N)], self.iT)
-        return structured_derivatives(layout, nlp, n_block, f_rest,
+        return structured_derivatives(layout, nlp, n_block, g_rest, f_rest,
                                       self.ocp.model.n_params)
 
     def gauge_direction(self, w0: np.ndarray) -> np.ndarray:
