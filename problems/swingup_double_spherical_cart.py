@@ -6,19 +6,19 @@ rest with the cart back at the origin (12 independent chart equations on
 (R^2)^2 x (TS^2)^2). Cost integral u^T u dt + T, |u_i| <= 10 N, T free in [0.5, 3] s: the
 reference problem of the single cart with a second link.
 
-What it takes (measured, see the notes): geodesic guesses fail from cold at every N tried
-(the double has no feasible trajectory near a geodesic), and N = 20 is too coarse for the
-fast second link (converged "solutions" with a local defect of order 10). The strategy is a
+What it takes (measured, see the notes): geodesic guesses fail from cold at every N tried (the
+double has no feasible trajectory near a geodesic), and N = 20 is too coarse for the fast
+second link (converged "solutions" with a local defect of order 10). The strategy is a
 continuation in the model: a surrogate single link (m1 = 0.2 kg, l1 = 0.15 m) is swung up
-(cheap, from deterministic pumping guesses; its best known minimum 5.7039 comes from five
-half-swings over 2.5 s), both links of the double follow it as the guess, the double is
-solved at N = 40 and refined to N = 80 and N = 160 (only N = 160 is accurate: local defect
-~7e-4 against 0.06 at N = 80 and 1.7 at N = 40; N = 40 straight to 160 stalls). The problem
-is invariant under rotations about the vertical, so its optima come in circles and the
-reduced Hessian is singular there (Ipopt then crawls with a regularised Hessian); the OCP
-finds the symmetry and gauges it by itself (a phase condition through the guess, see
-workbench.control.ocp.symmetry). The graph is SX: with the NLP's derivatives built per
-interval (workbench.control.ocp.derivatives) the ladder takes about a minute, where the MX
+(cheap, from deterministic pumping guesses; its best known minimum 5.7039, T = 2.990 s, is
+reached from 4 to 7 half-swings over 3 s, but not over 2.5 s), both links of the double follow
+it as the guess, the double is solved at N = 40 and refined to N = 80 and N = 160 (only N = 160
+is accurate: local defect ~7e-4 against 0.06 at N = 80 and 1.7 at N = 40; N = 40 straight to
+160 stalls). The problem is invariant under rotations about the vertical, so its optima come in
+circles and the reduced Hessian is singular there (Ipopt then crawls with a regularised
+Hessian); the OCP finds the symmetry and gauges it by itself (a phase condition through the
+guess, see workbench.control.ocp.symmetry). The graph is SX: with the NLP's derivatives built
+per interval (workbench.control.ocp.derivatives) the ladder takes about a minute, where the MX
 graph took about 1000 s to N = 80.
 """
 
@@ -61,7 +61,8 @@ SURROGATE = {"m": 0.5, "masses": 0.2, "lengths": 0.15, "g": 9.81}
 U_MAX = 10.0
 T_RANGE = (0.5, 3.0)
 T_GUESSES = (1.0, 1.5, 2.0, 2.5)
-PUMPING = {True: [(4, 2.5), (5, 2.5)], False: [(k, T) for k in range(6) for T in (1.5, 2.5)]}
+PUMPING = {True: [(5, 3.0), (6, 3.0)],
+           False: [(k, T) for k in range(8) for T in (1.5, 2.5, 3.0)]}
 """Surrogate starts (half-swings, T of the guess): quick and full mode."""
 Q_LQR = np.r_[10.0, 10.0, 1.0, 1.0, 100.0, 100.0, 1.0, 1.0, 100.0, 100.0, 1.0, 1.0]
 R_LQR = 0.1
@@ -117,7 +118,7 @@ def solve(*, quick: bool = False) -> Result:
     Parameters
     ----------
     quick : bool
-        2 pumping guesses of the surrogate (4 and 5 half-swings) instead of 12; no cold
+        2 pumping guesses of the surrogate (5 and 6 half-swings) instead of 24; no cold
         geodesic starts; the table holds the ladder's own solves (N = 40, 80, 160, Lie
         group) instead of re-solving every N and handling from the N = 160 optimum; the
         TVLQR's flows at rtol 1e-8 instead of 1e-10; 1.5 s of hold in the closed loop.

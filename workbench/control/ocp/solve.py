@@ -296,7 +296,8 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
     if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
         raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
     opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
-            "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": 5}
+            "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": 5,
+            "mumps_permuting_scaling": 0, "mumps_scaling": 0}
     opts.update(extra or {})
     return opts
 
