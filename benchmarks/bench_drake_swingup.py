@@ -32,10 +32,13 @@ Further targets of issue 17, measured here too: the workbench's own reference sw
 12 seeded starts in processes on all cores (wall seconds, < 3 s on 2 cores; the best cost
 and how many starts reached it), and the compiled NLP (``Compiled()``: build seconds
 against solve seconds, both ways) on the reduced 3D pendulum, whose NLP is small enough
-to compile (the cart's exact Hessian generates ~115 MB of C at N = 40, refused by
-``Compiled.max_source_mb``). The load average is printed: the machine is shared.
+to compile. The load average is printed: the machine is shared.
+
+The compiled NLP of Drake's problem (per-interval derivatives: 3.4 MB of C, ~70 s of gcc
+-O1 once, then cached by hash) is timed beside the uncompiled one; ``--no-compiled`` skips it.
 
 Usage: python benchmarks/bench_drake_swingup.py [--quick] [--repeat K] [--drake-only]
+[--no-compiled]
 """
 
 from __future__ import annotations
@@ -67,16 +70,22 @@ def workbench_problem(*, cart_free: bool):
     return ref.problem(cart_free=cart_free), ref.METHOD, ref.drake_guess, ref.SOLVE_OPTIONS
 
 
-def workbench_solve(setup) -> dict:
-    """One solve of the workbench's problem from Drake's guess (transcription built once)."""
+def workbench_solve(setup, compiled=None) -> dict:
+    """One solve of the workbench's problem from Drake's guess (transcription built once).
+
+    With ``compiled`` (a :class:`~workbench.control.ocp.Compiled`), the NLP's functions run
+    from a C library compiled once (its one-off cost is in ``cost["compile"]``).
+    """
     from workbench.control.ocp import solve
 
     ocp, method, guess, options = setup
-    s = solve(ocp, method, guess=guess(ocp), raise_on_failure=False, **options)
+    s = solve(ocp, method, guess=guess(ocp), raise_on_failure=False, compiled=compiled,
+              **options)
     return {"side": "workbench", "cpu": s.cost["solve_cpu_seconds"],
             "wall": s.cost["solve_seconds"], "iterations": s.cost["iterations"],
             "cost": s.objective, "ok": s.status.ok, "status": s.ipopt_status,
-            "build": s.cost["first_build_seconds"], "gauge": s.gauge}
+            "build": s.cost["first_build_seconds"], "gauge": s.gauge,
+            "compile": (s.cost.get("compile") or {})}
 
 
 def _median(rows, key):
@@ -88,6 +97,9 @@ def main() -> None:
     repeat = 1 if quick else 3
     if "--repeat" in sys.argv:
         repeat = int(sys.argv[sys.argv.index("--repeat") + 1])
+    from workbench.control.ocp import Compiled
+
+    compiled = None if "--no-compiled" in sys.argv else Compiled()
     have_drake = peer.drake_available()
     plant = peer.drake_plant() if have_drake else None
     rows = []
@@ -100,11 +112,15 @@ def main() -> None:
             if have_drake:
                 print(peer.drake_solve(plant, cart_free=free))
             continue
-        drake_runs, ours = [], []
+        drake_runs, ours, comp = [], [], []
+        if compiled is not None:  # generate and compile once (cached by hash), untimed
+            first = workbench_solve(setup, compiled)["compile"]
         for _ in range(repeat):  # interleaved: drake, workbench, drake, workbench, ...
             if have_drake:
                 drake_runs.append(peer.drake_solve(plant, cart_free=free))
             ours.append(workbench_solve(setup))
+            if compiled is not None:
+                comp.append(workbench_solve(setup, compiled))
         if have_drake:
             d = {"cpu": _median(drake_runs, "cpu"), "wall": _median(drake_runs, "wall"),
                  **{k: drake_runs[-1][k] for k in ("iterations", "cost", "status")},
@@ -127,6 +143,15 @@ def main() -> None:
             "ratio (cpu)": f"{ratio:.1f}",
             "target": f"{'met' if ratio >= TARGET_RATIO else 'MISSED'} (>= {TARGET_RATIO:g}x)",
         })
+        if comp:
+            c_cpu = _median(comp, "cpu")
+            rows[-1].update({
+                "compiled cpu s": f"{c_cpu:.3f}", "compiled it": comp[-1]["iterations"],
+                "compiled cost": f"{comp[-1]['cost']:.6f}",
+                "ratio compiled": f"{d['cpu'] / c_cpu:.1f}",
+                "compile s (once)": f"{first.get('compile_seconds', 0.0):.0f}"
+                                    f"{' (cached)' if first.get('cached') else ''}, "
+                                    f"{first.get('source_mb', 0.0):.1f} MB C"})
         if case == "origin":
             rows[-1]["target"] += (" cost ok" if ours[-1]["cost"] <= peer.RECORDED["origin"]["cost"]
                                    else " COST ABOVE 5.2289")
@@ -137,6 +162,11 @@ def main() -> None:
             "drake status", "ours cpu s", "ours wall s", "ours it", "ours cost", "ours status",
             "ours build s", "ratio (cpu)", "target"]
     print(table(rows, cols))
+    if any("compiled cpu s" in r for r in rows):
+        print("the same solves with the NLP compiled (Compiled(): gcc -O1, cached by hash; the "
+              "compile is a one-off build cost, excluded like Drake's program build):")
+        print(table(rows, ["case", "drake cpu s", "compiled cpu s", "compiled it",
+                           "compiled cost", "ratio compiled", "compile s (once)"]))
     print(f"(CPU-time medians of {repeat} interleaved runs; building excluded on both sides; "
           f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; gauge: "
           f"{ours[-1]['gauge']})")
