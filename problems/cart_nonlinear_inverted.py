@@ -182,6 +182,11 @@ def solve(*, quick: bool = False) -> Result:
         f"{'<' if in_cert else '>='} the certified level {level:.4g}: "
         f"{'inside' if in_cert else 'outside'} the certified set, and it converges.")
     t, tilt = tr.t, np.degrees(np.arccos(np.clip(-tr.x[:, 6], -1, 1)))
+    words = res.label(x_1="cart position, first horizontal axis",
+                      x_2="cart position, second horizontal axis",
+                      tilt="tilt of link 1 from upright",
+                      u_1="force on the cart, first axis", u_2="force on the cart, second axis",
+                      V="Lyapunov function V")
     res.figure("fig5", line_figure([
         Panel("cart position x", {"x_1": (t, tr.x[:, 0]), "x_2": (t, tr.x[:, 1])},
               xlabel="t [s]", ylabel="m"),
@@ -190,7 +195,7 @@ def solve(*, quick: bool = False) -> Result:
         Panel("control force u", {"u_1": (t, tr.u[:, 0]), "u_2": (t, tr.u[:, 1])},
               xlabel="t [s]", ylabel="N"),
         Panel("Lyapunov function V (25)", {"V": (t, np.maximum(V.values(tr.x), 1e-300))},
-              xlabel="t [s]", yscale="log")]), caption=(
+              xlabel="t [s]", yscale="log")], labels=words), caption=(
         "The inverted spherical pendulum on a cart under the nonlinear feedback (21), (26) "
         "from the initial state of paper 003 Fig. 5: the cart returns to the origin, the "
         "link rises from 65 deg to upright, and the Lyapunov function (25) decreases."))

@@ -119,7 +119,10 @@ def solve(*, quick: bool = False) -> Result:
                    Panel("force on the cart [N]", {"u1": (tr.t, tr.u[:, 0]),
                                                    "u2": (tr.t, tr.u[:, 1])}, xlabel="t [s]")]
     res.values = values
-    res.figure("errors", line_figure(panels), caption=(
+    words = res.label(e_q="attitude error of the links",
+                      e_omega="angular-velocity error",
+                      u1="force on the cart, first axis", u2="force on the cart, second axis")
+    res.figure("errors", line_figure(panels, labels=words), caption=(
         "The five-link chain under the LQR feedback from the initial states of paper 003 "
         "Figs. 3 (top) and 4 (bottom): the attitude and angular-velocity errors e_q and "
         "e_omega decay exponentially (left, logarithmic) and the force on the cart (right)."))

@@ -139,13 +139,18 @@ def solve(*, quick: bool = False) -> Result:
         "full": tr_full.summary(), "reduced": tr_red.summary(), "routh": tr_routh.summary()}
     tt = tr_full.t[1:]
     E, h = tr_full.invariant_series("energy"), tr_full.invariant_series("h")
+    words = res.label(**{f"Gamma_{k}": f"gravity direction, body axis {k}"
+                         for k in (1, 2, 3)},
+                      **{"|E - E0|/|E0|": "energy drift",
+                         "|h - h0|/|h0|": "vertical momentum drift"})
     res.figure("invariant_drift", line_figure([
         Panel("invariant drift, cvodes rtol = 1e-12", {
             "|E - E0|/|E0|": (tt, np.abs(E[1:] - E[0]) / abs(E[0]) + 1e-18),
             "|h - h0|/|h0|": (tt, np.abs(h[1:] - h[0]) / abs(h[0]) + 1e-18)},
             xlabel="t [s]", yscale="log"),
         Panel("reduced attitude Gamma = R^T e3", {f"Gamma_{k + 1}": (tr_full.t, gamma_full[:, k])
-                                                  for k in range(3)}, xlabel="t [s]")]),
+                                                  for k in range(3)}, xlabel="t [s]")],
+        labels=words),
         caption="The free 3D pendulum of paper 000 Section 5.6 (c = 1): relative drift of "
                 "the energy E and of the vertical angular momentum h, both conserved "
                 "(Prop. 1), at the integration tolerance (left); the direction of gravity "

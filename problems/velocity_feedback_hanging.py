@@ -175,6 +175,10 @@ def solve(*, quick: bool = False) -> Result:
                                "Gamma uniform on S^2, omega ~ N(0, I) rad/s, seed 2007"},
         "trajectory": tr.summary(),
     }
+    words = res.label(**{f"omega_{i}": f"angular velocity, body axis {i}"
+                         for i in (1, 2, 3)},
+                      Theta="attitude error Theta (angle from hanging)",
+                      k="torque bound k", V="Lyapunov function V")
     res.figure("figs_3_5", line_figure([
         Panel("angular velocity (Fig. 3)", {f"omega_{i + 1}": (t, np.degrees(tr.x[:, 9 + i]))
                                             for i in range(3)}, xlabel="t [s]", ylabel="deg/s"),
@@ -183,7 +187,7 @@ def solve(*, quick: bool = False) -> Result:
         Panel("|u| (Fig. 5) and its bound k", {"|u|": (t, unorm), "k": (t[[0, -1]], [K_SAT] * 2)},
               xlabel="t [s]", ylabel="N m"),
         Panel("Lyapunov function V (30)", {"V": (t, np.maximum(Vt, 1e-300))}, xlabel="t [s]",
-              yscale="log")]), caption=(
+              yscale="log")], labels=words), caption=(
         "The 3D pendulum of paper 001 Section 7 under the saturated velocity feedback (34), "
         "from the printed (projected) initial attitude 179.2 deg from hanging: angular "
         "velocity, attitude error, torque within its bound k, and the Lyapunov function, "
