@@ -114,7 +114,8 @@ def solve(*, quick: bool = False) -> Result:
             out[f"A_x_{eq}"] = lin_x.A.round(12).tolist()
         values[bname] = out
     res.values = values
-    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="closed form"),
+    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="closed form",
+                                          tol=1e-8),
                caption="Eigenvalues of the full 3D pendulum (dimension 6) linearised at rest, "
                        "from the model (dots) and from the paper's simultaneous "
                        "diagonalisation (rings): two oscillation frequencies when hanging, "

@@ -122,7 +122,7 @@ def solve(*, quick: bool = False) -> Result:
                         source="paper 002 (11)")
             values[name]["stable_directions_ambient"] = W.tolist()
     res.values = values
-    res.figure("spectra", spectrum_figure(spectra, reference_label="paper (closed form)"),
+    res.figure("spectra", spectrum_figure(spectra, reference_label="paper (closed form)", tol=1e-8),
                caption="Closed-loop eigenvalues of the PD-controlled spherical pendulum, "
                        "computed from the model (dots) and printed in paper 002 Sec. II-C "
                        "(rings): a stable focus when hanging (left), a saddle with two "

@@ -98,7 +98,7 @@ def solve(*, quick: bool = False) -> Result:
                         values[name]["angle_to_printed_Es_erratum"], tolerance=1e-3,
                         source="paper 002 Sec. III-D, erratum")
     res.values = values
-    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="paper 002"),
+    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="paper 002", tol=1e-8),
                caption="Closed-loop eigenvalues of PD control on SO(3) at the desired "
                        "attitude I and at the three saddles exp(pi e_i^): computed from "
                        "the model (dots) and printed in paper 002 Sec. III-C, (17)-(19) "

@@ -150,7 +150,8 @@ def solve(*, quick: bool = False) -> Result:
     with res.timed("symbolic Remark 2 from the graph (sympy)"):
         values["symbolic"] = _symbolic_remark(res)
     res.values = values
-    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="Remarks 2-3"),
+    res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="Remarks 2-3",
+                                          tol=1e-8),
                caption="The 3D pendulum on TSO(3) under linear angular-velocity feedback: "
                        "closed-loop eigenvalues from the model (dots) and the roots of paper "
                        "001 Remarks 2-3 (rings), hanging (left) and inverted (right).")
