@@ -16,7 +16,7 @@ import numpy as np
 
 from models import pendulum3d as p3
 from models import pendulum3d_reference as paper
-from workbench.linear import eigenstructure, linearize
+from workbench.linear import eigenstructure, linearize, symmetry_directions
 from workbench.study import Result, compare_spectrum, spectrum_figure
 
 TITLE = "3D pendulum linearised at hanging and inverted: full, reduced, Routh (paper 000)"
@@ -71,6 +71,7 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("pendulum3d_linearization", TITLE, quick=quick)
     values: dict[str, Any] = {}
     spectra: dict[str, Any] = {}
+    syms: dict[str, Any] = {}
     for bname, body in list(BODIES.items())[: 1 if quick else None]:
         J, rho, m, g = body["J"], body["rho"], body["m"], body["g"]
         M, lam = paper.simultaneous_diagonalisation(J, rho, m, g)
@@ -99,6 +100,7 @@ def solve(*, quick: bool = False) -> Result:
                                  source=f"paper 000 {src}, simultaneous diagonalisation")
                 if mname == "full":
                     spectra[f"{bname}: {eq}"] = (es.eigenvalues, ref)
+                    syms[f"{bname}: {eq}"] = symmetry_directions(lin)
                 want = PAPER_DIMS[(mname, eq)]
                 res.compare(f"{tag}: (stable, unstable, centre) mismatch", 0,
                             int(np.sum(np.abs(np.subtract(es.dims, want)))), tolerance=0,
@@ -115,7 +117,7 @@ def solve(*, quick: bool = False) -> Result:
         values[bname] = out
     res.values = values
     res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="closed form",
-                                          tol=1e-8),
+                                          tol=1e-8, symmetry=syms),
                caption="Eigenvalues of the full 3D pendulum (dimension 6) linearised at rest, "
                        "from the model (dots) and from the paper's simultaneous "
                        "diagonalisation (rings): two oscillation frequencies when hanging, "

@@ -19,7 +19,7 @@ import sympy as sp
 from models import controllers as ctl
 from models import pendulum3d as p3
 from models import pendulum3d_reference as paper
-from workbench.linear import eigenstructure, linearize
+from workbench.linear import eigenstructure, linearize, symmetry_directions
 from workbench.linear.symbolic import symbolic_linearization
 from workbench.study import (
     Result,
@@ -112,6 +112,7 @@ def solve(*, quick: bool = False) -> Result:
     res.use(full, red)
     gains = {"linear, D diagonal": M @ np.diag(D_DIAG) @ M.T, "saturated (34)": K_SAT * P_SAT}
     spectra: dict[str, Any] = {}
+    syms: dict[str, Any] = {}
     values: dict[str, Any] = {"mgl": lam[:2], "M": M, "D_diagonal": D_DIAG}
     for gname, psi0 in gains.items():
         ks = {name: ctl.angular_velocity_feedback(mod, D=psi0) if gname.startswith("linear")
@@ -138,6 +139,7 @@ def solve(*, quick: bool = False) -> Result:
                                      source=f"paper 001 Remark {2 if k > 0 else 3}")
                     if mname == "full":
                         spectra[f"linear feedback, {eq}"] = (es.eigenvalues, ref)
+                        syms[f"linear feedback, {eq}"] = symmetry_directions(lin)
                 lemma, checks = paper.velocity_feedback_lemma(sg, es.n_stable, lin.dim,
                                                         full=mname == "full", hanging=k > 0)
                 compare_counts(res, tag, checks, source=f"paper 001 {lemma}")
@@ -151,7 +153,7 @@ def solve(*, quick: bool = False) -> Result:
         values["symbolic"] = _symbolic_remark(res)
     res.values = values
     res.figure("spectra", spectrum_figure(spectra, ncols=2, reference_label="Remarks 2-3",
-                                          tol=1e-8),
+                                          tol=1e-8, symmetry=syms),
                caption="The 3D pendulum on TSO(3) under linear angular-velocity feedback: "
                        "closed-loop eigenvalues from the model (dots) and the roots of paper "
                        "001 Remarks 2-3 (rings), hanging (left) and inverted (right).")

@@ -81,8 +81,12 @@ def test_figures_say_what_codes_are_and_the_class_of_each_spectrum():
                           symmetry={"up": {"rotation about e3": 2}},
                           labels={"up": "upright"})
     titles = [ax.get_title() for ax in fig.axes]
-    assert titles == ["upright (up)\n1 unstable, 1 stable, 2 centre (2 from rotation about e3)",
-                      "down\n0 unstable, 0 stable, 2 centre"]
+    # the class line is wrapped to the panel's width (3.4 in: 30 characters a line)
+    assert [t.replace("\n", " ") for t in titles] == [
+        "upright (up) 1 unstable, 1 stable, 2 centre (2 from rotation about e3)",
+        "down 0 unstable, 0 stable, 2 centre"]
+    assert all(t.startswith(("upright (up)\n", "down\n")) for t in titles)
+    assert max(len(line) for t in titles for line in t.split("\n")[1:]) <= 30
     with pytest.raises(ParameterError, match="not panels"):
         spectrum_figure({"up": (pendulum(True), None)}, tol=1e-9,
                         symmetry={"upp": {"rotation": 1}})

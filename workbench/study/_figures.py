@@ -18,6 +18,7 @@ shown or saved.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -280,8 +281,10 @@ def spectrum_figure(spectra: Mapping[str, tuple[ArrayLike, ArrayLike | None]], *
             r = np.asarray(reference, dtype=complex).ravel()
             ax.plot(r.real, r.imag, "o", ms=10, mfc="none", mec="C3", label=reference_label)
         head = labelled(title, labels)
-        if tol is not None:
-            head += "\n" + equilibrium_class(c, tol=tol, symmetry=symmetry.get(title))
+        if tol is not None:  # wrapped to the panel's width (about 9 characters an inch)
+            head += "\n" + textwrap.fill(equilibrium_class(c, tol=tol,
+                                                           symmetry=symmetry.get(title)),
+                                          width=max(20, int(9 * size[0])))
         ax.set(title=head, xlabel="Re lambda", ylabel="Im lambda")
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=8, loc="best")
