@@ -2,8 +2,8 @@
 
 Every function here returns a ``casadi.Function`` with inputs ``x`` (the model's stored
 ambient state) and ``p`` (the model's parameter vector, :attr:`Model.p`) and output ``u``,
-so a controller can be put in the loop by :func:`workbench.simulation._simulate.simulate`, linearised
-by automatic differentiation together with the model, and exported to C. Gains are
+so a controller can be put in the loop by :func:`workbench.simulation._simulate.simulate`,
+linearised by automatic differentiation together with the model, and exported to C. Gains are
 constants of the graph (validated here against the papers' conditions); model parameters
 used for cancellation (``m``, ``g``, ``l``, ``rho``) are read from ``p``, so the
 controller always cancels the model it is evaluated with.
