@@ -205,6 +205,7 @@ def enumerate_equilibria(
     max_iterations: int = 50,
     rank_rtol: float = 1e-8,
     guess_tol: float = DEFAULT_TOL,
+    max_step: float | None = None,
 ) -> EquilibriumSet:
     """Solve from every guess and keep the distinct equilibria.
 
@@ -215,8 +216,9 @@ def enumerate_equilibria(
     guesses : sequence of array-like
         Starting points on the manifold (for example the product of the candidate
         configurations a model's structure names).
-    u, params, tol, max_iterations, rank_rtol, guess_tol
-        As in :func:`find_equilibrium`.
+    u, params, tol, max_iterations, rank_rtol, guess_tol, max_step
+        As in :func:`find_equilibrium`; ``max_step`` (the largest tangent step norm per
+        Newton iteration) keeps each solve near its guess when the basins are small.
     distinct_tol : float
         Two solutions closer than this (max-norm of the stored coordinates) are the same.
 
@@ -234,7 +236,7 @@ def enumerate_equilibria(
     for i, g in enumerate(guesses):
         eq = find_equilibrium(model, g, u=u, tol=tol, max_iterations=max_iterations,
                               rank_rtol=rank_rtol, guess_tol=guess_tol,
-                              raise_on_failure=False)
+                              max_step=max_step, raise_on_failure=False)
         if not eq.ok:
             failures[i] = eq
             continue
