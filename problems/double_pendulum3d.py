@@ -107,6 +107,8 @@ def long_runs(res: Result, model: wb.Model, x0: np.ndarray, horizon: float) -> N
                        "max_relative_energy_error": float(err[-1] / abs(E[0])),
                        "first_tenth": float(dE[1 : tenth + 1].max()),
                        "last_tenth": float(dE[-tenth:].max()),
+                       "rms_first_tenth": float(np.sqrt(np.mean(dE[1 : tenth + 1] ** 2))),
+                       "rms_last_tenth": float(np.sqrt(np.mean(dE[-tenth:] ** 2))),
                        "growth_exponent": float(np.polyfit(np.log(t[late]), np.log(err[late]),
                                                            1)[0]),
                        "L_z_drift": run.diagnostics["invariant_drift"]["L_z"]["max_abs"],
@@ -118,8 +120,12 @@ def long_runs(res: Result, model: wb.Model, x0: np.ndarray, horizon: float) -> N
                 rk["max_relative_energy_error"], tolerance=1e-5, source="fourth-order accuracy")
     res.compare(f"variational (h = {STEP}), {horizon:g} s: max relative energy error", 0.0,
                 vi["max_relative_energy_error"], tolerance=2e-4, source="second-order accuracy")
-    res.compare(f"variational, {horizon:g} s: max |dE| last tenth / first tenth", 1.0,
-                vi["last_tenth"] / vi["first_tenth"], tolerance=0.5,
+    # The RMS over a window, not its maximum: on a chaotic orbit the window maximum is an
+    # extreme-value statistic that rounding at 1e-16 moves by a factor 2 (2.2 on one
+    # machine, 1.15 on another, same code); the RMS of a bounded error is stable, and a
+    # secular drift (RKMK4: ~t^1) multiplies it by ~10 between the first and last tenth.
+    res.compare(f"variational, {horizon:g} s: RMS |dE| last tenth / first tenth", 1.0,
+                vi["rms_last_tenth"] / vi["rms_first_tenth"], tolerance=0.5,
                 source="symplectic: bounded energy error, no secular growth")
     res.compare(f"variational, {horizon:g} s: drift of L_z", 0.0, vi["L_z_drift"],
                 tolerance=1e-10, source="discrete Noether theorem")
@@ -131,7 +137,9 @@ def long_runs(res: Result, model: wb.Model, x0: np.ndarray, horizon: float) -> N
                 f"tenth {rk['last_tenth'] / rk['first_tenth']:.1f}; not symplectic), the "
                 f"variational integrator's stays bounded (t^{vi['growth_exponent']:.2f}, "
                 f"ratio {vi['last_tenth'] / vi['first_tenth']:.2f}) and it keeps L_z to "
-                f"{vi['L_z_drift']:.0e}.")
+                f"{vi['L_z_drift']:.0e}. Ratios are of the window maxima; the check uses the "
+                f"windows' RMS ({vi['rms_last_tenth'] / vi['rms_first_tenth']:.2f}), which "
+                f"rounding does not move on a chaotic orbit.")
 
 
 if __name__ == "__main__":
