@@ -22,7 +22,8 @@ from models.relative_equilibria_figure import relative_equilibria_figure
 from models.relative_families import trace_relative_equilibria
 from workbench.core.errors import ParameterError
 from workbench.equilibria import PointKind, StepControl
-from workbench.study import Result
+from workbench.linear import eigenstructure, linearize, symmetry_directions
+from workbench.study import Result, spectrum_figure
 
 TITLE = ("Relative equilibria of the 3D pendulum: hanging, inverted, (4.10) and the families "
          "L1-L4 by continuation (paper 000 Sec. 4.3, Prop. 9, 20)")
@@ -149,6 +150,24 @@ def solve(*, quick: bool = False) -> Result:
         "the elliptic cylinder, coloured by the family parameter alpha, seen from two sides "
         "(the hanging and inverted equilibria and the equilibria (4.10) marked), and the "
         "momentum mu along each family L1-L4 with its stable and unstable stretches."))
+    spectra, syms = {}, {}
+    points = [(f"{name} (at rest)", eq.x) for name, eq in atlas.static.items()]
+    points += [(f"(4.10), k = {float(sp.y[3]):+.3f}", np.r_[sp.y[:3], sp.y[3] * sp.y[:3]])
+               for sp in sorted(case3, key=lambda sp: float(sp.y[3]))[:2]]
+    for title, x in points:
+        lin = linearize(model, x)
+        spectra[title] = (eigenstructure(lin).eigenvalues, None)
+        syms[title] = symmetry_directions(lin)
+    spin = max((float(np.max(np.abs(lam.real))) for t, (lam, _) in spectra.items()
+                if t.startswith("(4.10)")), default=float("nan"))
+    res.figure("spectra", spectrum_figure(spectra, ncols=2, size=(3.4, 3.0), tol=1e-8,
+                                          symmetry=syms), caption=(
+        "Eigenvalues of the reduced model (S^2 x R^3, dimension 5) linearised at the hanging "
+        "and inverted equilibria and at the two spinning equilibria (4.10) (omega = k Gamma, "
+        "k1 = 0). One centre mode at each comes from the conserved momentum h (and energy); "
+        "the hanging equilibrium's other four are oscillations, the inverted one is a "
+        "saddle with two real unstable modes, and both spinning equilibria are unstable "
+        f"with a complex quadruple (Re lambda = +-{spin:.2f})."))
     return res.finish()
 
 
