@@ -74,6 +74,8 @@ def test_closed_loop_input_is_recorded_and_acts():
         ({"method": "rk", "step": 5.0}, "must not exceed the horizon"),
         ({"rtol": 0.0}, "rtol must be a positive finite tolerance; got 0.0"),
         ({"multistep": "gear"}, "multistep must be one of"),
+        ({"corrector": "picard"}, r"corrector must be one of \['functional', 'newton'\]"),
+        ({"method": "rk", "step": 0.1, "corrector": "newton"}, "does not use it"),
         ({"controller": "pd"}, "controller must be a casadi.Function"),
     ],
 )
@@ -121,6 +123,23 @@ def test_simulate_keeps_its_model_error_for_unknown_choices(planar):
         simulate(planar, x0, [0.0, 1.0], method="rk45")
     with pytest.raises(ModelError, match=r"multistep must be one of \['adams', 'bdf'\]"):
         simulate(planar, x0, [0.0, 1.0], multistep="gear")
+
+
+@pytest.mark.parametrize(("multistep", "corrector"), [("adams", "newton"), ("bdf", None),
+                                                      ("bdf", "functional")])
+def test_correctors_agree_to_the_tolerance_and_are_recorded(multistep, corrector):
+    """Functional (the Adams default) and Newton iteration solve the same corrector
+    equation: the same trajectory to the global error, the choice in ``options``."""
+    model = p3.full(J=np.diag([0.13, 0.28, 0.17]), rho=[0, 0, 0.3])
+    x0 = model.state(R=p3.so3_exp([0.1, 0.2, 0.3]), omega=[0.5, -0.2, 0.4])
+    t = np.linspace(0, 5, 11)
+    ref = simulate(model, x0, t, rtol=1e-12, atol=1e-12)
+    assert ref.options["corrector"] == "functional" and ref.options["multistep"] == "adams"
+    other = simulate(model, x0, t, rtol=1e-12, atol=1e-12, multistep=multistep,
+                     corrector=corrector)
+    expected = corrector or ("newton" if multistep == "bdf" else "functional")
+    assert other.options["corrector"] == expected
+    assert_close(other.x, ref.x, atol=1e-9, what=f"{multistep}/{expected} vs adams/functional")
 
 
 def _count_residual_builds(monkeypatch, factor):

@@ -52,7 +52,7 @@ from workbench.global_dynamics._sections import (
     turning_section,
     turning_section_state,
 )
-from workbench.simulation._simulate import Multistep
+from workbench.simulation._cvodes import Multistep, cvodes_options
 
 __all__ = [
     "Direction",
@@ -137,11 +137,8 @@ def _event_function(model: Model, section: Section, field_fn: ca.Function) -> ca
 
 
 def _cvodes_options(multistep: Multistep, rtol: float, atol: float, max_steps: int) -> dict:
-    opts: dict[str, Any] = {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
-                            "linear_multistep_method": multistep.value}
-    if multistep is Multistep.ADAMS:
-        opts["nonlinear_solver_iteration"] = "functional"
-    return opts
+    """Functional iteration with Adams, Newton with BDF (:func:`cvodes_options`)."""
+    return cvodes_options(multistep=multistep, rtol=rtol, atol=atol, max_steps=max_steps)
 
 
 def _positive(name: str, value: float) -> float:

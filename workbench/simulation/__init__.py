@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from workbench.simulation._simulate import (
     GEOMETRIC_METHODS,
+    Corrector,
     Method,
     Multistep,
     Trajectory,
     closed_loop_function,
     constraint_residuals,
+    cvodes_options,
     simulate,
 )
 from workbench.simulation._sweep import (
@@ -53,6 +55,7 @@ from workbench.simulation.integrators import (
 
 __all__ = [
     "CHUNK",
+    "Corrector",
     "Cost",
     "GEOMETRIC_METHODS",
     "InlineExecutor",
@@ -80,6 +83,7 @@ __all__ = [
     "WorkPrecision",
     "closed_loop_function",
     "constraint_residuals",
+    "cvodes_options",
     "default_reference",
     "grid",
     "integrate",

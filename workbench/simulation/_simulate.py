@@ -28,6 +28,7 @@ from workbench.core.manifolds import DEFAULT_TOL, SO3
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
+from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
 from workbench.simulation.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -43,6 +44,8 @@ __all__ = [
     "GEOMETRIC_METHODS",
     "Method",
     "Multistep",
+    "Corrector",
+    "cvodes_options",
     "Trajectory",
     "simulate",
     "closed_loop_function",
@@ -94,23 +97,6 @@ class Method(str, Enum):
 GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4,
                      Method.MECHANICS_VARIATIONAL)
 """Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
-
-
-class Multistep(str, Enum):
-    """Linear multistep family of CVODES.
-
-    Attributes
-    ----------
-    ADAMS
-        Adams-Moulton, orders 1-12: the efficient choice for non-stiff dynamics such as the
-        uncontrolled pendulums (at rtol = atol = 1e-12 over 100 s of the 3D pendulum it
-        conserves E and h about 100 times better than BDF with 4 times fewer evaluations).
-    BDF
-        Backward differentiation formulas, orders 1-5: for stiff closed loops (high gains).
-    """
-
-    ADAMS = "adams"
-    BDF = "bdf"
 
 
 @dataclass
@@ -269,6 +255,7 @@ def simulate(
     step: float | None = None,
     degree: int | None = None,
     multistep: Multistep | str = Multistep.ADAMS,
+    corrector: Corrector | str | None = None,
     max_steps: int = 1_000_000,
     max_points: int = MAX_POINTS,
     tol: float = DEFAULT_TOL,
@@ -305,6 +292,9 @@ def simulate(
         Collocation degree (Legendre points), for ``"collocation"`` only (default 4).
     multistep : Multistep or str
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
+    corrector : Corrector or str, optional
+        CVODES' corrector iteration, ``"functional"`` (no Jacobian; default with Adams) or
+        ``"newton"`` (default with BDF); see :class:`Corrector`.
     max_steps : int
         CVODES' limit on internal steps per output interval; a long horizon between two
         output times may need more (the failure says so and names this knob).
@@ -358,6 +348,9 @@ def simulate(
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
     compilation = choice(Compilation, compilation, "compilation", error=ModelError)
+    if corrector is not None and method is not Method.CVODES:
+        raise ModelError(f"corrector is CVODES' (method 'cvodes'); method {method.value!r} "
+                         f"does not use it; got corrector={corrector!r}")
     if compilation is not Compilation.NONE and method in GEOMETRIC_METHODS:
         raise ModelError(f"method {method.value!r} does not use compilation="
                          f"{compilation.value!r} (it compiles its step with jit=True)")
@@ -367,10 +360,10 @@ def simulate(
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
     if method is Method.CVODES:
-        multistep = choice(Multistep, multistep, "multistep", error=ModelError)
-        opts.update(abstol=atol, reltol=rtol, max_num_steps=int(max_steps),
-                    linear_multistep_method=multistep.value)
-        options_used.update(rtol=rtol, atol=atol, multistep=multistep.value)
+        opts.update(cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol,
+                                   atol=atol, max_steps=max_steps))
+        options_used.update(rtol=rtol, atol=atol, multistep=opts["linear_multistep_method"],
+                            corrector=opts["nonlinear_solver_iteration"])
     else:
         if step is None:
             raise ModelError(f"step must be a positive number for method {method.value!r}; "
