@@ -13,9 +13,15 @@ model (S^2 x R^3) it is a point (5 equations). Both problems are solved:
 
 The reduced model is solved from seeded geodesic guesses (coarse N, refined); its solution,
 lifted to the full model by integrating R' = R hat(omega) along the nodes, warm-starts the
-full model. With ambient Gauss-Legendre collocation the two transcriptions are equivalent
-(Gamma = R^T e3 is linear in R, and collocation commutes with linear maps), so their
-optimal costs agree to the solver tolerance: a check of both models and of the target set.
+full model. With ambient Gauss-Legendre collocation the two transcriptions would be
+equivalent if the full model's field were linear in R (Gamma = R^T e3 is, and collocation
+commutes with linear maps). The derived body moment is not: off SO(3) it enters as
+vee((R^T R hat(u) + hat(u) R^T R)/2) (workbench.mechanics._forces), and the collocation
+stages leave SO(3) by the local error. So the optimal costs agree to the transcription's
+accuracy, not to the solver's: measured 2.4e-5 (minimum effort) and 5e-7 (minimum time)
+relative at N = 60; with the exact moment weight R^-T hat(u)/2, tried in issue 18, the same
+re-solves agreed to 1.9e-9 and 1.3e-8, which confirms the mechanism. The check holds the
+difference to 1e-4: a wrong model or target set moves the cost by far more.
 """
 
 from __future__ import annotations
@@ -137,16 +143,19 @@ def _solve_pair(kind: str, *, quick: bool, res: Result) -> dict[str, Any]:
         "_best": best, "_full": full_sols, "_ocps": (red, full),
     }
     amb = full_sols[ManifoldHandling.AMBIENT.value]
-    # The full solution, reduced (Gamma = R^T e3), is a KKT point of the reduced problem:
-    # re-solving the reduced problem from it must not move (a lifted guess may converge to
-    # a neighbouring minimum of the full problem, so the check goes this way round).
+    # The full solution, reduced (Gamma = R^T e3), is a KKT point of the reduced problem up
+    # to the stages' distance from SO(3) (module docstring): re-solving the reduced problem
+    # from it moves the cost by the transcription's accuracy only (a lifted guess may
+    # converge to a neighbouring minimum of the full problem, so the check goes this way
+    # round).
     back = solve_ocp(red, fine, guess=reduce(amb, red), raise_on_failure=False) \
         if amb.status.ok else None
     out["reduced_from_full"] = None if back is None else solution_row(back, resimulate=False)
     res.compare(f"{kind}: reduced re-solve from the full solution, cost change",
                 amb.objective if amb.status.ok else np.inf,
-                back.objective if back is not None else np.inf, tolerance=1e-6,
-                relative=True, source="equivalent transcriptions (Gamma = R^T e3)")
+                back.objective if back is not None else np.inf, tolerance=1e-4,
+                relative=True, source="same problem, transcriptions equal up to the stages' "
+                                      "distance from SO(3)")
     res.compare(f"{kind}: target-set residual of the full solution", 0.0,
                 amb.error["target_residual"], tolerance=1e-8, source="chart of S^2 x R^3")
     res.compare(f"{kind}: bound violation max(0, max |u_i| - 0.5)", 0.0,

@@ -10,18 +10,19 @@ load                                   target ``y(c)``        weight ``w``
 =====================================  =====================  =======================
 world force ``F`` at point ``p(c)``    ``p``                  ``F``
 body-frame force ``F_b`` at ``p(c)``   ``p``                  ``R F_b``
-body moment ``M_b`` on attitude ``R``  ``vec(R)``             ``vec(R^-T hat(M_b) / 2)``
+body moment ``M_b`` on attitude ``R``  ``vec(R)``             ``vec(R hat(M_b) / 2)``
 world moment ``tau`` on an S^2 ``q``   ``q``                  ``tau x q / |q|^2``
 force ``F`` on an R^k factor ``x``     ``x``                  ``F``
 =====================================  =====================  =======================
 
-(``M_b . vee(R^-1 delta R) = <R^-T hat(M_b), delta R> / 2`` for every invertible ambient
-``R``, so the generalised force on ``Omega`` is ``M_b`` off SO(3) as on it; with the weight
-``R hat(M_b) / 2`` (equal on SO(3)) it was ``vee((R^T R hat(M_b) + hat(M_b) R^T R) / 2)``,
-and Gauss-Legendre stages, which leave SO(3) by the local error, saw a moment the paper's
-equations do not have: the full and reduced 3D pendulum swing-ups then differed by
-2.4e-5 in cost, issue 18. ``R^-T`` is ``cof(R) / det(R)``, columns ``b x c, c x a,
-a x b`` of ``R = [a b c]``. ``q x (tau x q) / |q|^2`` is the
+(``M_b . vee(R^T delta R) = <R hat(M_b), delta R> / 2``; off SO(3) the body moment's
+generalised force on ``Omega`` is ``vee((R^T R hat(M_b) + hat(M_b) R^T R) / 2)``, so at the
+stages of a collocation, which leave SO(3) by the local error, it differs from ``M_b`` by
+that much. The exact weight ``R^-T hat(M_b) / 2`` (and its polynomial approximation
+``R (2I - R^T R) hat(M_b) / 2``) was tried in issue 18: it made the full and reduced 3D
+pendulum transcriptions agree to 1e-9, but the quadrotor's transport OCP then took 779
+Ipopt iterations and failed instead of converging in 41, so the weight stays linear in
+``R``; ``q x (tau x q) / |q|^2`` is the
 part of ``tau`` normal to ``q``, for every ``|q|``: the moment's virtual work on a rotation
 ``delta q = eta x q`` is ``tau . (I - q q^T/|q|^2) eta`` off the sphere as on it, so its
 authority does not fade when an optimiser's ambient iterate has ``|q| < 1``; with the
@@ -67,11 +68,8 @@ def force_at(label: str, point: ca.SX, force: ca.SX, attitude: ca.SX | None = No
 
 
 def body_moment(label: str, attitude: ca.SX, moment: ca.SX) -> Load:
-    """A moment on a rigid body, body frame (weight ``R^-T hat(M) / 2``, module table)."""
-    a, b, c = attitude[:, 0], attitude[:, 1], attitude[:, 2]
-    cof = ca.horzcat(ca.cross(b, c), ca.cross(c, a), ca.cross(a, b))
-    inv_t = cof / ca.dot(a, ca.cross(b, c))
-    return Load(label, ca.vec(attitude), ca.vec(0.5 * inv_t @ hat(moment)))
+    """A moment on a rigid body, body frame."""
+    return Load(label, ca.vec(attitude), ca.vec(0.5 * attitude @ hat(moment)))
 
 
 def sphere_moment(label: str, q: ca.SX, moment: ca.SX) -> Load:
