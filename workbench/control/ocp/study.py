@@ -184,9 +184,11 @@ def speed_accuracy(
 ) -> list[dict[str, Any]]:
     """Solve with every transcription and handling from one guess; tabulate cost and error.
 
-    Every entry starts from the same guess, so all converge to the same local minimum and
-    the rows compare like with like. Solve times are the median of ``repeats`` solves
-    (the build is excluded and reported separately).
+    Every entry starts from the same guess, so the rows compare like with like when they
+    reach the same local minimum; a finer transcription may move to another one from a
+    coarse optimum (the 3D pendulum's N = 120 and 240 rows do: compare the costs). Solve
+    times are the median of ``repeats`` solves (the build is excluded and reported
+    separately).
     """
     rows = []
     for method in methods:
