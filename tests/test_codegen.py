@@ -362,7 +362,8 @@ def test_void_unused_parameters_casts_every_parameter_of_a_definition():
 
 def test_the_engine_imports_no_concrete_model():
     """workbench.codegen receives ExportableController entries; models/ builds them."""
-    code = ("import sys, workbench, workbench.codegen, workbench.app.export_cli, workbench.app.cli; "
+    code = ("import sys, workbench, workbench.codegen, workbench.app.export_cli, "
+            "workbench.app.cli; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('models', 'problems')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=Path(__file__).resolve().parents[1])

@@ -88,7 +88,8 @@ def test_every_model_equation_converts_to_mathml_and_typst(tmp_path):
 
 def test_latex_structure_is_kept():
     ml = to_mathml(r"\frac{a}{b} + x_i^2 + \dot\omega \times \Gamma")
-    for tag in ("<mfrac>", "<msubsup>", '<mover><mi>ω</mi><mo>˙</mo></mover>', "<mo>×</mo>", "<mi>Γ</mi>"):
+    for tag in ("<mfrac>", "<msubsup>", '<mover><mi>ω</mi><mo>˙</mo></mover>', "<mo>×</mo>",
+                "<mi>Γ</mi>"):
         assert tag in ml
     ty = to_typst(r"\frac{a, b}{c} + R_{hor}^T + \text{(5.1)}")
     assert ty.startswith(r"frac(a \, b, c)")
