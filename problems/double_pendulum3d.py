@@ -121,12 +121,17 @@ def long_runs(res: Result, model: wb.Model, x0: np.ndarray, horizon: float) -> N
     res.compare(f"variational (h = {STEP}), {horizon:g} s: max relative energy error", 0.0,
                 vi["max_relative_energy_error"], tolerance=2e-4, source="second-order accuracy")
     # The RMS over a window, not its maximum: on a chaotic orbit the window maximum is an
-    # extreme-value statistic that rounding at 1e-16 moves by a factor 2 (2.2 on one
-    # machine, 1.15 on another, same code); the RMS of a bounded error is stable, and a
-    # secular drift (RKMK4: ~t^1) multiplies it by ~10 between the first and last tenth.
-    res.compare(f"variational, {horizon:g} s: RMS |dE| last tenth / first tenth", 1.0,
-                vi["rms_last_tenth"] / vi["rms_first_tenth"], tolerance=0.5,
-                source="symplectic: bounded energy error, no secular growth")
+    # extreme-value statistic that rounding moves by a factor 2 (2.2 on one machine, 1.15
+    # on another, same code); the RMS moves less (1.04-1.20 under perturbations of 1e-13 at
+    # 1000 s, 0.64 at 100 s). The bound is one-sided, no secular growth: at most 2, which
+    # RKMK4's drift (~t) exceeds, checked too so that the criterion is seen to discriminate.
+    ratio = {k: v["rms_last_tenth"] / v["rms_first_tenth"] for k, v in out.items()}
+    res.compare(f"variational, {horizon:g} s: growth of the RMS |dE|, max(0, last tenth / "
+                f"first tenth - 1)", 0.0, max(0.0, ratio["mechanics_variational"] - 1.0),
+                tolerance=1.0, source="symplectic: bounded energy error, no secular growth")
+    res.compare(f"RKMK4, {horizon:g} s: RMS |dE| last tenth / first tenth above 2 (1 = yes)",
+                1.0, float(ratio["rkmk4"] > 2.0), tolerance=0,
+                source="not symplectic: the same criterion sees its drift")
     res.compare(f"variational, {horizon:g} s: drift of L_z", 0.0, vi["L_z_drift"],
                 tolerance=1e-10, source="discrete Noether theorem")
     res.figure("energy", line_figure([Panel(
@@ -137,9 +142,9 @@ def long_runs(res: Result, model: wb.Model, x0: np.ndarray, horizon: float) -> N
                 f"tenth {rk['last_tenth'] / rk['first_tenth']:.1f}; not symplectic), the "
                 f"variational integrator's stays bounded (t^{vi['growth_exponent']:.2f}, "
                 f"ratio {vi['last_tenth'] / vi['first_tenth']:.2f}) and it keeps L_z to "
-                f"{vi['L_z_drift']:.0e}. Ratios are of the window maxima; the check uses the "
-                f"windows' RMS ({vi['rms_last_tenth'] / vi['rms_first_tenth']:.2f}), which "
-                f"rounding does not move on a chaotic orbit.")
+                f"{vi['L_z_drift']:.0e}. Ratios are of the window maxima; the checks use the "
+                f"windows' RMS ({ratio['mechanics_variational']:.2f} and "
+                f"{ratio['rkmk4']:.1f}), which rounding moves less on a chaotic orbit.")
 
 
 if __name__ == "__main__":

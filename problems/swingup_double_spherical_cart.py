@@ -220,8 +220,8 @@ def solve(*, quick: bool = False) -> Result:
         failed = sum(r["status"] not in ("SUCCESS", "ACCEPTABLE") for r in cold)
         res.notes.append(
             f"{failed} of {len(cold)} geodesic cold starts of the double did not converge "
-            f"within {COLD_MAX_ITER} iterations at N = 40 (listed); the lifted surrogate "
-            f"converged there in {s40.cost['iterations']}.")
+            f"within {COLD_MAX_ITER} iterations at N = 40 (listed); from the lifted "
+            f"surrogate N = 40 ended {s40.status.name} after {s40.cost['iterations']}.")
     res.notes.append(
         "N = 20 solutions of the double have local defects of order 10 (the transcription, "
         "not the dynamics, is being optimised), so the ladder starts at N = 40.")

@@ -76,6 +76,8 @@ def test_closed_loop_input_is_recorded_and_acts():
         ({"multistep": "gear"}, "multistep must be one of"),
         ({"corrector": "picard"}, r"corrector must be one of \['functional', 'newton'\]"),
         ({"method": "rk", "step": 0.1, "corrector": "newton"}, "does not use it"),
+        ({"max_steps": 2.7}, "max_steps must be an integer"),
+        ({"max_steps": -5}, "max_steps must be an integer"),
         ({"controller": "pd"}, "controller must be a casadi.Function"),
     ],
 )
@@ -140,6 +142,19 @@ def test_correctors_agree_to_the_tolerance_and_are_recorded(multistep, corrector
     expected = corrector or ("newton" if multistep == "bdf" else "functional")
     assert other.options["corrector"] == expected
     assert_close(other.x, ref.x, atol=1e-9, what=f"{multistep}/{expected} vs adams/functional")
+
+
+def test_stepper_refuses_bad_cvodes_options():
+    """The Stepper's CVODES options are checked like simulate's, the argument named."""
+    from workbench.control.ocp.stepper import Stepper
+
+    model = p3.planar(Jt=0.2, rho_s=0.3)
+    for kwargs, pattern in (({"max_steps": -5}, "max_steps must be an integer"),
+                            ({"max_steps": 2.7}, "max_steps must be an integer"),
+                            ({"corrector": "picard"}, "corrector must be one of"),
+                            ({"multistep": "gear"}, "multistep must be one of")):
+        with pytest.raises(ParameterError, match=pattern):
+            Stepper(model, **kwargs)
 
 
 def _count_residual_builds(monkeypatch, factor):

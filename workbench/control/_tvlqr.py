@@ -143,8 +143,9 @@ class TVLQR:
 class _Flow:
     """Flow over one sample and its sensitivities (CVODES, Adams, functional iteration).
 
-    Open loop over one sample the models are not stiff; with casadi's defaults (BDF,
-    Newton) the double cart's 160 flows took 4.6x the CPU time (issue 18).
+    Open loop over one sample the models are not stiff; casadi's defaults (BDF, Newton)
+    were used until issue 18 (the Stepper row of ``benchmarks/bench_corrector.py`` times
+    the same change on the same model).
     """
 
     def __init__(self, model: Model, rtol: float) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 from enum import Enum
 from typing import Any
 
-from workbench.core.errors import ModelError
-from workbench.core.validate import choice
+from workbench.core.errors import ModelError, WorkbenchError
+from workbench.core.validate import choice, count, tolerance
 
 __all__ = ["Multistep", "Corrector", "cvodes_options"]
 
@@ -54,7 +54,7 @@ class Corrector(str, Enum):
 
 def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
                    corrector: Corrector | str | None = None, rtol: float, atol: float,
-                   max_steps: int | None = None, error: type[Exception] = ModelError
+                   max_steps: int | None = None, error: type[WorkbenchError] = ModelError
                    ) -> dict[str, Any]:
     """CVODES options with the multistep family and corrector explicit.
 
@@ -65,17 +65,23 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
     corrector : Corrector or str, optional
         ``"functional"`` or ``"newton"``; default functional with Adams, Newton with BDF.
     rtol, atol : float
-        Tolerances (checked by the caller).
+        Tolerances: positive finite numbers.
     max_steps : int, optional
-        CVODES' limit on internal steps per output interval (casadi's default when None).
+        CVODES' limit on internal steps per output interval, an integer >= 1 (casadi's
+        default when None).
     error : type of Exception
-        Raised for an unknown ``multistep`` or ``corrector``.
+        Raised for an unknown ``multistep`` or ``corrector``, a bad tolerance or
+        ``max_steps``, naming the argument.
 
     Returns
     -------
     dict
         The options for ``casadi.integrator(..., "cvodes", ...)``.
     """
+    rtol = tolerance("rtol", rtol, error=error)
+    atol = tolerance("atol", atol, error=error)
+    if max_steps is not None:
+        max_steps = count("max_steps", max_steps, error=error)
     multistep = choice(Multistep, multistep, "multistep", error=error)
     if corrector is None:
         corrector = Corrector.FUNCTIONAL if multistep is Multistep.ADAMS else Corrector.NEWTON
@@ -84,5 +90,5 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
                             "linear_multistep_method": multistep.value,
                             "nonlinear_solver_iteration": corrector.value}
     if max_steps is not None:
-        opts["max_num_steps"] = int(max_steps)
+        opts["max_num_steps"] = max_steps
     return opts

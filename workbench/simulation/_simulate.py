@@ -294,7 +294,8 @@ def simulate(
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
     corrector : Corrector or str, optional
         CVODES' corrector iteration, ``"functional"`` (no Jacobian; default with Adams) or
-        ``"newton"`` (default with BDF); see :class:`Corrector`.
+        ``"newton"`` (default with BDF); see :class:`Corrector`. Before issue 18 Adams ran
+        with Newton; pass ``corrector="newton"`` for the old behaviour.
     max_steps : int
         CVODES' limit on internal steps per output interval; a long horizon between two
         output times may need more (the failure says so and names this knob).
@@ -329,7 +330,8 @@ def simulate(
     Raises
     ------
     ModelError
-        Bad input: an unknown ``method`` or ``multistep``, bad times, tolerances,
+        Bad input: an unknown ``method``, ``multistep`` or ``corrector`` (or a corrector
+        given to a method other than CVODES), bad times, tolerances,
         ``max_steps``, ``step`` (the check of :func:`workbench.simulation.integrators.integrate`,
         raised as ModelError here) or ``degree``, a bad controller, or ``step``,
         ``degree`` or ``jit`` given to a method that does not use them.

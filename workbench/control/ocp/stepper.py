@@ -41,7 +41,7 @@ class Stepper:
     corrector : Corrector or str, optional
         ``"functional"`` (default with Adams: no Jacobian) or ``"newton"`` (default with
         BDF), as in ``simulate``. Until issue 18 the stepper used casadi's defaults, BDF with
-        Newton: 4.6x the CPU time of the double cart's TVLQR design and closed loops.
+        Newton (``benchmarks/bench_corrector.py`` times both on the double cart).
     """
 
     def __init__(self, model: Model, *, rtol: float = 1e-10, atol: float = 1e-10,

@@ -186,7 +186,7 @@ def speed_accuracy(
 
     Every entry starts from the same guess, so the rows compare like with like when they
     reach the same local minimum; a finer transcription may move to another one from a
-    coarse optimum (the 3D pendulum's N = 120 and 240 rows do: compare the costs). Solve
+    coarse optimum (the 3D pendulum's N = 120 rows do: compare the costs). Solve
     times are the median of ``repeats`` solves (the build is excluded and reported
     separately).
     """
