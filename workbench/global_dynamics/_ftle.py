@@ -20,13 +20,8 @@ from workbench.core._model import Model
 from workbench.core.errors import ParameterError, SolverError
 from workbench.core.status import Record
 from workbench.core.types import ArrayLike
-from workbench.core.validate import choice
-from workbench.global_dynamics._poincare import (
-    _cvodes_options,
-    _positive,
-    stabilized_field,
-)
-from workbench.simulation._simulate import Multistep
+from workbench.global_dynamics._poincare import _positive, stabilized_field
+from workbench.simulation._cvodes import Multistep, cvodes_options
 
 __all__ = ["FTLECost", "LyapunovEstimate", "lyapunov_exponent"]
 
@@ -118,8 +113,8 @@ def lyapunov_exponent(
     F = ca.integrator("tangent", "cvodes", {"x": ca.vertcat(xs, vs), "p": ps,
                                             "ode": ca.vertcat(f, ca.jtimes(f, xs, vs))},
                       0.0, every,
-                      _cvodes_options(choice(Multistep, multistep, "multistep"), rtol, atol,
-                                      1_000_000))
+                      cvodes_options(multistep=multistep, rtol=rtol, atol=atol,
+                                     max_steps=1_000_000, error=ParameterError))
     n_int = max(1, int(round(t_final / every)))
     z, total, running, steps = np.r_[xc, v], 0.0, [], 0
     t0 = time.perf_counter()

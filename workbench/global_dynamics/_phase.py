@@ -52,13 +52,8 @@ from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import SO3, sphere_basis
 from workbench.core.status import Record
 from workbench.core.types import ArrayLike
-from workbench.global_dynamics._poincare import (
-    _cvodes_options,
-    _positive,
-    _rk_flow,
-    stabilized_field,
-)
-from workbench.simulation._simulate import Multistep
+from workbench.global_dynamics._poincare import _positive, _rk_flow, stabilized_field
+from workbench.simulation._cvodes import cvodes_options
 
 __all__ = [
     "PhaseCost",
@@ -365,7 +360,8 @@ def geometric_phase_check(
     n = int(round(t_max / sample_step))
     integ = ca.integrator("orbit", "cvodes", {"x": xs, "p": ps, "ode": fld(xs, ps)}, 0.0,
                           sample_step * np.arange(1, n + 1),
-                          _cvodes_options(Multistep.ADAMS, rtol, atol, 1_000_000))
+                          cvodes_options(rtol=rtol, atol=atol, max_steps=1_000_000,
+                                         error=ParameterError))
     try:
         X = np.vstack([xc, np.asarray(integ(x0=xc, p=model.p)["xf"]).T])
     except RuntimeError as exc:

@@ -136,11 +136,6 @@ def _event_function(model: Model, section: Section, field_fn: ca.Function) -> ca
     return ca.Function("event", [ctx.x, ctx.p], [ca.vertcat(g, gdot, s)], ["x", "p"], ["gs"])
 
 
-def _cvodes_options(multistep: Multistep, rtol: float, atol: float, max_steps: int) -> dict:
-    """Functional iteration with Adams, Newton with BDF (:func:`cvodes_options`)."""
-    return cvodes_options(multistep=multistep, rtol=rtol, atol=atol, max_steps=max_steps)
-
-
 def _positive(name: str, value: float) -> float:
     """A positive finite number: :func:`workbench.core.validate.positive`."""
     return validate.positive(name, value)
@@ -381,7 +376,8 @@ def poincare_map(
     ev_map = ev_fn.map(n_per + 1)
     S = model.sym
     xs, ps, tau = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("tau")
-    opts = _cvodes_options(multistep, rtol, atol, max_steps)
+    opts = cvodes_options(multistep=multistep, rtol=rtol, atol=atol, max_steps=max_steps,
+                          error=ParameterError)
     grid = dt * np.arange(1, n_per + 1)
     orbit_int = ca.integrator("orbit", "cvodes", {"x": xs, "p": ps, "ode": field_fn(xs, ps)},
                               0.0, grid, opts)

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
+from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
 from workbench.simulation._simulate import (
     GEOMETRIC_METHODS,
-    Corrector,
     Method,
-    Multistep,
     Trajectory,
     closed_loop_function,
     constraint_residuals,
-    cvodes_options,
     simulate,
 )
 from workbench.simulation._sweep import (

@@ -44,8 +44,6 @@ __all__ = [
     "GEOMETRIC_METHODS",
     "Method",
     "Multistep",
-    "Corrector",
-    "cvodes_options",
     "Trajectory",
     "simulate",
     "closed_loop_function",

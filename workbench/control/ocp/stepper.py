@@ -47,9 +47,6 @@ class Stepper:
     def __init__(self, model: Model, *, rtol: float = 1e-10, atol: float = 1e-10,
                  max_steps: int = 100_000, multistep: Multistep | str = Multistep.ADAMS,
                  corrector: Corrector | str | None = None) -> None:
-        for name, val in (("rtol", rtol), ("atol", atol)):
-            if not (np.isfinite(val) and val > 0):
-                raise ParameterError(f"{name} must be positive and finite; got {val!r}")
         opts = cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol, atol=atol,
                               max_steps=max_steps, error=ParameterError)
         self.model = model
