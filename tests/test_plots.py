@@ -60,7 +60,7 @@ def test_sphere_curves_budget_and_colours():
     s = np.linspace(0, np.pi, 2001)
     curves = [np.column_stack([np.cos(s + a), np.sin(s + a), 0 * s]) for a in (0.0, 1.0, 2.0)]
     values = [s, 2 * s, 3 * s]
-    coll = sphere_curves(ax, curves, values, max_segments=300)
+    coll = sphere_curves(ax, curves, values, max_segments=300, colour_run=1)
     segs = np.asarray(coll._segments3d)  # the 3D segments (matplotlib keeps them here)
     assert len(coll.get_array()) == len(segs) <= 300
     assert_close(np.linalg.norm(segs, axis=2), np.ones(segs.shape[:2]), atol=1e-12,
@@ -76,6 +76,28 @@ def test_sphere_curves_budget_and_colours():
         sphere_curves(ax, [np.zeros((5, 3))], [np.zeros(4)])
 
 
+@pytest.mark.parametrize("run", [1, 3, 4, 7])
+def test_sphere_curves_colour_runs_draw_every_segment_with_the_mean_colour(run):
+    # one curve of 2001 points decimated to 301 (300 segments), the value equal to the
+    # angle: a run's colour is the mean of its segments' midpoint values, read back here
+    # from the drawn points themselves
+    ax = sphere_axes()
+    s = np.linspace(0.0, np.pi, 2001)
+    curve = np.column_stack([np.cos(s), np.sin(s), 0 * s])
+    coll = sphere_curves(ax, [curve], [s], max_segments=300, colour_run=run)
+    lines = coll._segments3d
+    n_seg = sum(len(p) - 1 for p in lines)
+    assert n_seg == 300 and len(lines) == -(-300 // run) == len(coll.get_array())
+    for a, b in zip(lines[:-1], lines[1:]):  # consecutive runs share their end point
+        assert_close(a[-1], b[0], atol=0.0, what="runs are contiguous")
+    ang = [np.arctan2(p[:, 1], p[:, 0]) for p in lines]
+    expected = np.array([np.mean(0.5 * (a[:-1] + a[1:])) for a in ang])
+    assert_close(np.asarray(coll.get_array()), expected, atol=1e-12,
+                 what="colour of each run = mean of its segments")
+    with pytest.raises(ParameterError, match="colour_run"):
+        sphere_curves(ax, [curve], [s], colour_run=0)
+
+
 def test_fig3_rotation_about_e3_keeps_axis_three_fixed():
     # paper 002 Fig. 3: R(t) = exp(beta(t) e3^), beta = pi/6 (sin(pi t / 2) - 1), 0 <= t <= 1
     t = np.linspace(0.0, 1.0, 101)
@@ -83,7 +105,7 @@ def test_fig3_rotation_about_e3_keeps_axis_three_fixed():
     R = np.array([so3_exp([0.0, 0.0, b]) for b in beta])
     rate = np.abs(np.pi**2 / 12 * np.cos(np.pi * t / 2))
     ax = sphere_axes()
-    coll = body_axis_curves(ax, R, rate)
+    coll = body_axis_curves(ax, R, rate, colour_run=1)  # one polyline per segment
     segs = np.asarray(coll._segments3d)
     n = len(t) - 1
     axis1, axis3 = segs[:n], segs[2 * n:]

@@ -29,6 +29,7 @@ from workbench.core.types import ArrayLike
 
 __all__ = [
     "MAX_SEGMENTS",
+    "COLOUR_RUN",
     "decimate",
     "sphere_axes",
     "sphere_curves",
@@ -41,6 +42,10 @@ __all__ = [
 MAX_SEGMENTS = 40_000
 """Default budget of line segments per axes (drawing time grows with it; rasterised
 curves keep the size of vector outputs independent of it)."""
+
+COLOUR_RUN = 4
+"""Default number of consecutive segments drawn as one polyline of one colour (see
+:func:`sphere_curves`)."""
 
 
 def decimate(n: int, max_n: int) -> np.ndarray:
@@ -110,7 +115,7 @@ def _curve_list(curves: Any, values: Any) -> tuple[list[np.ndarray], list[np.nda
 def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLike], *,
                   cmap: str = "jet", vmin: float | None = None, vmax: float | None = None,
                   max_segments: int = MAX_SEGMENTS, linewidth: float = 0.8,
-                  rasterized: bool = True) -> Any:
+                  rasterized: bool = True, colour_run: int = COLOUR_RUN) -> Any:
     """Draw curves on the sphere coloured by a scalar given at their points.
 
     Parameters
@@ -131,32 +136,44 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
         Line width [pt].
     rasterized : bool
         Rasterise the curves in vector outputs (keeps SVGs small).
+    colour_run : int
+        Consecutive segments (after decimation) drawn as one polyline of one colour, the
+        mean of theirs. Matplotlib's drawing time grows with the number of polylines, not
+        of points: 1 colours every segment, :data:`COLOUR_RUN` draws the same points with
+        a few times fewer polylines (time and the colour error against 1 are measured by
+        ``benchmarks/bench_figures.py``).
 
     Returns
     -------
     mpl_toolkits.mplot3d.art3d.Line3DCollection
-        Its ``norm`` and ``cmap`` serve a colorbar.
+        Its ``norm`` and ``cmap`` serve a colorbar; its array holds one value per polyline.
     """
     from matplotlib.colors import Normalize
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
+    if isinstance(colour_run, bool) or not isinstance(colour_run, (int, np.integer)) \
+            or colour_run < 1:
+        raise ParameterError(f"colour_run must be an integer >= 1 (segments per colour); "
+                             f"got {colour_run!r}")
     cs, vs = _curve_list(curves, values)
     total = sum(max(len(c) - 1, 0) for c in cs)
     per = max(2, int(max_segments // max(len(cs), 1)) + 1) if total > max_segments else None
-    segs, cols = [], []
+    seg: list[np.ndarray] = []
+    cols = []
     for c, v in zip(cs, vs):
         if len(c) < 2:
             continue
         idx = decimate(len(c), per) if per is not None else np.arange(len(c))
         c, v = c[idx], v[idx]
-        segs.append(np.stack([c[:-1], c[1:]], axis=1))
-        cols.append(0.5 * (v[:-1] + v[1:]))
-    seg = np.concatenate(segs) if segs else np.zeros((0, 2, 3))
+        mid = 0.5 * (v[:-1] + v[1:])  # one value per segment
+        starts = np.arange(0, len(mid), int(colour_run))
+        seg.extend(c[s: s + colour_run + 1] for s in starts)
+        cols.append(np.add.reduceat(mid, starts) / np.diff(np.r_[starts, len(mid)]))
     col = np.concatenate(cols) if cols else np.zeros(0)
     lo = float(np.min(col)) if vmin is None and col.size else (vmin or 0.0)
     hi = float(np.max(col)) if vmax is None and col.size else (vmax if vmax is not None else 1.0)
-    coll = Line3DCollection(seg, cmap=cmap, norm=Normalize(lo, hi if hi > lo else lo + 1),
-                            linewidths=linewidth)
+    coll = Line3DCollection(seg if seg else np.zeros((0, 2, 3)), cmap=cmap,
+                            norm=Normalize(lo, hi if hi > lo else lo + 1), linewidths=linewidth)
     coll.set_array(col)
     coll.set_rasterized(bool(rasterized))
     ax.add_collection3d(coll)
@@ -258,7 +275,8 @@ def _velocity_norm(manifold: Any, X: np.ndarray) -> np.ndarray:
 def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | None = None,
                        marks: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                        size: float = 4.0, max_segments: int = MAX_SEGMENTS,
-                       max_trajectories: int = 400, rasterized: bool = True) -> Any:
+                       max_trajectories: int = 400, rasterized: bool = True,
+                       colour_run: int = COLOUR_RUN) -> Any:
     """Paper 002 Fig. 1: a manifold of a model on S^2 at several ``t``, coloured by speed.
 
     Each trajectory is drawn from its seed to parameter ``t`` (or to its stop) as the curve
@@ -285,6 +303,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
         Draw at most this many trajectories (evenly chosen by index).
     rasterized : bool
         Rasterise the curves in vector outputs.
+    colour_run : int
+        Segments per colour, as in :func:`sphere_curves`.
 
     Returns
     -------
@@ -303,7 +323,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
             manifold, t, lambda X: (X[:, sl][:, :3], _velocity_norm(manifold, X)),
             max_trajectories)
         coll = sphere_curves(ax, curves, vals, vmin=0.0, vmax=max(vmax, 1e-300),
-                             max_segments=max_segments, rasterized=rasterized)
+                             max_segments=max_segments, rasterized=rasterized,
+                             colour_run=colour_run)
         if marks:
             mark_directions(ax, np.array([np.asarray(v, float) for v in marks.values()]),
                             list(marks))
@@ -316,7 +337,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
 def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
                         attitudes: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                         size: float = 4.0, max_segments: int = MAX_SEGMENTS,
-                        max_trajectories: int = 200, rasterized: bool = True) -> Any:
+                        max_trajectories: int = 200, rasterized: bool = True,
+                        colour_run: int = COLOUR_RUN) -> Any:
     """Paper 002 Figs. 2, 4, 5: a manifold on TSO(3) as body-axis curves at several ``t``.
 
     Parameters
@@ -328,7 +350,7 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
     attitudes : mapping of str to array-like (3, 3), optional
         Attitudes whose three axes are marked and labelled ``name:1``, ``name:2``,
         ``name:3`` (e.g. the desired attitude and the saddle); different markers each.
-    ncols, size, max_segments, max_trajectories, rasterized
+    ncols, size, max_segments, max_trajectories, rasterized, colour_run
         As in :func:`s2_manifold_figure`.
 
     Returns
@@ -352,7 +374,8 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
         curves = [R[:, :, i] for R in Rs for i in range(3)]
         values = [v for v in vals for _ in range(3)]
         coll = sphere_curves(ax, curves, values, vmin=0.0, vmax=max(vmax, 1e-300),
-                             max_segments=max_segments, rasterized=rasterized)
+                             max_segments=max_segments, rasterized=rasterized,
+                             colour_run=colour_run)
         for k, (label, A) in enumerate((attitudes or {}).items()):
             A = np.asarray(A, dtype=float).reshape(3, 3)
             mark_directions(ax, A.T, [f"{label}:{i + 1}" for i in range(3)],

@@ -1,0 +1,116 @@
+"""Drawing curves on the sphere: segments per colour (``colour_run``) against time and colour.
+
+Issue 18 (the report's time): the manifold figures of paper 002 draw up to 40 000
+segments per panel, each its own polyline coloured by ``|Omega|``; matplotlib's drawing
+time grows with the number of polylines (one ``Path`` per polyline, per draw), and the
+figures of ``stable_manifolds_so3`` took about 2.5 s CPU each to write as SVG.
+:func:`workbench.study.sphere_curves` now draws ``colour_run`` consecutive segments as one
+polyline of one colour (their mean). The baseline is ``colour_run = 1`` (every segment its
+own colour, the previous drawing), timed in the same run: the settings are timed in turn,
+round by round (interleaved), building the figure and writing it as the report does
+(:func:`workbench.app.report.collect.figure_svg`), and the script prints CPU-second
+medians, the ratio to the baseline, the polylines drawn and the price in colour: the
+largest difference between a segment's own value and the colour it is drawn in, as a
+fraction of the colour range (0 for the baseline). The load average is printed with the
+table: the 2 cores are shared.
+
+The scene is shaped like ``so3_manifold_figure`` (4 panels, 200 trajectories of the three
+body axes each, 40 000 segments per panel, the speed growing like e^t along each).
+
+Usage: python benchmarks/bench_figures.py [--quick] [--repeat K]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parent.parent))
+from _timing import interleaved_cpu, table  # noqa: E402
+
+from workbench.core.manifolds import so3_exp  # noqa: E402
+from workbench.study import MAX_SEGMENTS, sphere_axes, sphere_curves  # noqa: E402
+
+
+def scene(n_traj: int, n_t: int, seed: int = 0) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Body-axis curves of ``n_traj`` rotations R(t) = R0 exp(theta(t) a^), speed ~ e^t."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 3.0, n_t)
+    curves, values = [], []
+    for _ in range(n_traj):
+        a = rng.standard_normal(3)
+        a /= np.linalg.norm(a)
+        R0 = so3_exp(rng.standard_normal(3))
+        theta = 0.05 * (np.exp(t) - 1.0)
+        R = np.array([R0 @ so3_exp(th * a) for th in theta])
+        speed = 0.05 * np.exp(t)
+        for i in range(3):
+            curves.append(R[:, :, i])
+            values.append(speed)
+    return curves, values
+
+
+def draw(curves, values, run: int, panels: int):  # noqa: ANN001, ANN201
+    """The figure: ``panels`` sphere panels with the curves and a colorbar, as SVG text."""
+    import matplotlib.pyplot as plt
+
+    from workbench.app.report.collect import figure_svg
+
+    fig = plt.figure(figsize=(8.0, 4.0 * ((panels + 1) // 2)))
+    colls = []
+    for k in range(panels):
+        ax = sphere_axes(fig, (((panels + 1) // 2), 2, k + 1))
+        coll = sphere_curves(ax, curves, values, vmin=0.0, max_segments=MAX_SEGMENTS,
+                             colour_run=run)
+        fig.colorbar(coll, ax=ax, shrink=0.6, pad=0.0, label="|Omega| [rad/s]")
+        colls.append(coll)
+    fig.tight_layout()
+    svg = figure_svg(fig, salt=f"bench{run}")
+    plt.close(fig)
+    return colls[0], svg
+
+
+def colour_error(coll, reference) -> float:  # noqa: ANN001
+    """Largest |segment value - drawn colour| / colour range (reference: one per segment)."""
+    seg_values = np.asarray(reference.get_array(), dtype=float)
+    drawn = np.repeat(np.asarray(coll.get_array(), dtype=float),
+                      [len(p) - 1 for p in coll._segments3d])
+    span = reference.norm.vmax - reference.norm.vmin
+    return float(np.max(np.abs(drawn - seg_values)) / span)
+
+
+def main() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one round, one panel")
+    ap.add_argument("--repeat", type=int, default=5)
+    a = ap.parse_args(sys.argv[1:] if __name__ == "__main__" else [])
+    if a.repeat < 1:
+        ap.error(f"--repeat must be an integer >= 1; got {a.repeat}")
+    rounds, panels = (1, 1) if a.quick else (a.repeat, 4)
+    curves, values = scene(200, 400)
+    runs = (1, 2, 4, 8)
+    drawn = {r: draw(curves, values, r, 1) for r in runs}  # untimed: the colours compared
+    med = interleaved_cpu({r: (lambda r=r: draw(curves, values, r, panels)) for r in runs},
+                          rounds=rounds)
+    ref = drawn[1][0]
+    rows = [{"colour_run": r, "polylines per panel": len(drawn[r][0]._segments3d),
+             "figure + SVG [s cpu]": f"{med[r]:.2f}", "ratio to 1": f"{med[1] / med[r]:.1f}x",
+             "SVG [kB]": len(drawn[r][1]) // 1000,
+             "max colour error / range": f"{colour_error(drawn[r][0], ref):.1e}"}
+            for r in runs]
+    print(table(rows, list(rows[0])))
+    print(f"({panels} panel(s) of {len(curves)} curves, {MAX_SEGMENTS} segments each; "
+          f"medians of {rounds} interleaved rounds, CPU seconds; load average "
+          f"{os.getloadavg()[0]:.2f})")
+
+
+if __name__ == "__main__":
+    main()
