@@ -316,3 +316,15 @@ def test_a_killed_report_takes_its_running_problems_with_it(env):
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+def test_warm_up_before_the_fork_leaves_no_figure_and_writes_nothing(tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    from workbench.app.report.figures import warm_up
+
+    monkeypatch.chdir(tmp_path)
+    before = set(plt.get_fignums())
+    warm_up()
+    assert set(plt.get_fignums()) == before
+    assert list(tmp_path.iterdir()) == []

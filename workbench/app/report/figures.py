@@ -18,8 +18,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PRINT_WIDTH", "MAX_HEIGHT", "MIN_POINTS", "FigureData", "report_style", "readable",
-           "auto_caption"]
+__all__ = ["PRINT_WIDTH", "MAX_HEIGHT", "MIN_POINTS", "FigureData", "report_style", "warm_up",
+           "readable", "auto_caption"]
 
 PRINT_WIDTH = 7.0
 """Width of the PDF's text block [in] (A4 with 1.5 cm margins is 7.09 in)."""
@@ -78,6 +78,29 @@ def report_style() -> Iterator[None]:
     matplotlib.use("Agg")
     with matplotlib.rc_context(STYLE):
         yield
+
+
+def warm_up() -> None:
+    """Load matplotlib, its fonts and its mathtext parser once, in this process.
+
+    The report runs each problem in a process forked from its own; a child inherits what
+    the parent has loaded, so warming up once before the fork saves every problem that
+    draws a figure the same start-up (measured 0.1 to 0.35 s CPU per problem, against
+    0.4 s once here). Draws one throw-away figure in :func:`report_style`; writes nothing.
+    """
+    import io
+
+    with report_style():
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots()
+        try:
+            ax.semilogy([1.0, 2.0], [1e-3, 1e3])
+            ax.set_title(r"$\omega^2$")
+            fig.tight_layout()
+            fig.savefig(io.StringIO(), format="svg")
+        finally:
+            plt.close(fig)
 
 
 def readable(fig: Any) -> dict[str, float]:

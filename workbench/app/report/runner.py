@@ -39,7 +39,7 @@ from workbench.app.report import cache
 from workbench.app.report.collect import Status, run_problem
 from workbench.app.report.document import ProblemSection, problem_section
 from workbench.app.report.errors import ReportInputError
-from workbench.app.report.figures import report_style
+from workbench.app.report.figures import report_style, warm_up
 from workbench.app.report.progress import (
     Progress,
     RunStats,
@@ -478,6 +478,8 @@ def run_all(
     memory_mb = float(DEFAULT_MEMORY_MB if memory_mb is None else memory_mb)
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
+    if todo:  # the forked children inherit matplotlib's loaded fonts and parser
+        warm_up()
     running: list[_Job] = []
     peak_total = pss_mb(os.getpid())
     sampled_at = time.monotonic()
