@@ -2,13 +2,13 @@
 
 Scenes: the inverted spherical pendulum under PD (paper 002 Sec. II, step 0.002 s, the
 paper's) and the saddle exp(pi e2^) of PD on SO(3) (Sec. III, step 0.002 s). For each, the
-vectorised growth (workbench.global_dynamics._invariant_manifolds: all points per casadi call) with the
-geometric method of the paper and with RKMK4, compiled (jit), on 1 and 2 threads, and the
-first one in casadi's virtual machine. Baseline, same run: the same method and step run
-point by point through workbench.simulation._simulate (compiled), measured on a subset and scaled to
-1000 points. Printed: median wall seconds of the stepping (and of the whole call, with
-linearisation, seeds, diagnostics), microseconds per point-step, and the ratio to the
-baseline. Compilation is done before timing.
+vectorised growth (workbench.global_dynamics._invariant_manifolds: all points per casadi
+call) with the geometric method of the paper and with RKMK4, compiled (jit), on 1 and 2
+threads, and the first one in casadi's virtual machine. Baseline, same run: the same method
+and step run point by point through workbench.simulation._simulate (compiled), measured on
+a subset and scaled to 1000 points. Printed: median wall seconds of the stepping (and of
+the whole call, with linearisation, seeds, diagnostics), microseconds per point-step, and
+the ratio to the baseline. Compilation is done before timing.
 
 Usage: python benchmarks/bench_manifolds.py [--quick]
 """

@@ -2,8 +2,9 @@
 
 Target: under 60 s on 2 cores. Measured in one run:
 
-1. the workbench sweep (``workbench.simulation._sweep`` over a 2-process pool, ``poincare_map`` on the
-   Routh model, CVODES Adams + RK4-refined crossings), 5 levels x N crossings, wall time;
+1. the workbench sweep (``workbench.simulation._sweep`` over a 2-process pool,
+   ``poincare_map`` on the Routh model, CVODES Adams + RK4-refined crossings), 5 levels x
+   N crossings, wall time;
 2. single-core per-crossing cost, workbench against the baseline, on the same 5 levels x
    M crossings, median of R repeats: the baseline is scipy ``solve_ivp`` (DOP853, same
    tolerances) on a hand-written numpy right-hand side of (5.7)-(5.9) with the same
