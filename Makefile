@@ -58,7 +58,7 @@ test-all: $(STAMP) test-deps
 	$(BIN)/python -m pytest -q -m ''
 
 lint: $(STAMP)
-	$(BIN)/ruff check workbench models problems
+	$(BIN)/ruff check workbench models problems tests benchmarks
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run_all.py
