@@ -398,6 +398,8 @@ def simulate(
     ode = sign * loop(xs, ps)[0]
     compiled = None
     if compilation is Compilation.C:
+        # casadi's CVODES interface builds the Jacobian function at init even for
+        # functional iteration (without it: "Derivatives cannot be calculated"); RK never
         ode, compiled = compiled_ode(model, xs, ps, ode, compile_options,
                                      jacobian=method is not Method.RK,
                                      key=(model.function("f"), controller, sign))
