@@ -79,12 +79,12 @@ def test_sphere_curves_budget_and_colours():
 @pytest.mark.parametrize("run", [1, 3, 4, 7])
 def test_sphere_curves_colour_runs_draw_every_segment_with_the_mean_colour(run):
     # one curve of 2001 points decimated to 301 (300 segments), the value equal to the
-    # angle: a run's colour is the mean of its segments' midpoint values, read back here
-    # from the drawn points themselves
+    # angle; colour_tol = 1 merges every run: a run's colour is the mean of its segments'
+    # midpoint values, read back here from the drawn points themselves
     ax = sphere_axes()
     s = np.linspace(0.0, np.pi, 2001)
     curve = np.column_stack([np.cos(s), np.sin(s), 0 * s])
-    coll = sphere_curves(ax, [curve], [s], max_segments=300, colour_run=run)
+    coll = sphere_curves(ax, [curve], [s], max_segments=300, colour_run=run, colour_tol=1.0)
     lines = coll._segments3d
     n_seg = sum(len(p) - 1 for p in lines)
     assert n_seg == 300 and len(lines) == -(-300 // run) == len(coll.get_array())
@@ -94,8 +94,45 @@ def test_sphere_curves_colour_runs_draw_every_segment_with_the_mean_colour(run):
     expected = np.array([np.mean(0.5 * (a[:-1] + a[1:])) for a in ang])
     assert_close(np.asarray(coll.get_array()), expected, atol=1e-12,
                  what="colour of each run = mean of its segments")
-    with pytest.raises(ParameterError, match="colour_run"):
-        sphere_curves(ax, [curve], [s], colour_run=0)
+    for bad in (0, True, 2.5):
+        with pytest.raises(ParameterError, match="colour_run"):
+            sphere_curves(ax, [curve], [s], colour_run=bad)
+
+
+def test_sphere_curves_colour_tol_bounds_the_colour_error_and_range_is_the_segments():
+    # values growing like e^(5 s) along a half circle: slow at the start (runs merge), fast
+    # at the end (runs split); every segment is drawn within colour_tol of the colour range
+    # of its own value, and the default range is that of the segments, not of the runs
+    ax = sphere_axes()
+    s = np.linspace(0.0, np.pi, 2001)
+    curve = np.column_stack([np.cos(s), np.sin(s), 0 * s])
+    value = np.exp(5 * s)
+    ref = sphere_curves(ax, [curve], [value], max_segments=1000, colour_run=1)
+    seg_values = np.asarray(ref.get_array())
+    for tol in (0.0, 0.005, 0.02, 0.1):
+        coll = sphere_curves(ax, [curve], [value], max_segments=1000, colour_run=8,
+                             colour_tol=tol)
+        lines = coll._segments3d
+        drawn = np.repeat(np.asarray(coll.get_array()), [len(p) - 1 for p in lines])
+        assert len(drawn) == len(seg_values)
+        assert (coll.norm.vmin, coll.norm.vmax) == (ref.norm.vmin, ref.norm.vmax) == (
+            seg_values.min(), seg_values.max())
+        err = np.max(np.abs(drawn - seg_values)) / (coll.norm.vmax - coll.norm.vmin)
+        assert err <= tol
+        if tol == 0.0:
+            assert len(lines) == len(seg_values)  # no two segments share a value
+        else:
+            assert len(seg_values) / 8 < len(lines) < len(seg_values)  # some merged, some not
+    for bad in (-0.1, float("nan"), float("inf"), True, "0.02"):
+        with pytest.raises(ParameterError, match="colour_tol"):
+            sphere_curves(ax, [curve], [value], colour_tol=bad)
+
+
+def test_sphere_curves_with_nothing_to_draw_returns_an_empty_collection():
+    ax = sphere_axes()
+    for curves, values in (([], []), ([np.array([[0.0, 0.0, 1.0]])], [np.zeros(1)])):
+        coll = sphere_curves(ax, curves, values)
+        assert len(coll.get_array()) == 0 and coll not in ax.collections
 
 
 def test_fig3_rotation_about_e3_keeps_axis_three_fixed():

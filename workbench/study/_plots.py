@@ -30,6 +30,7 @@ from workbench.core.types import ArrayLike
 __all__ = [
     "MAX_SEGMENTS",
     "COLOUR_RUN",
+    "COLOUR_TOL",
     "decimate",
     "sphere_axes",
     "sphere_curves",
@@ -43,8 +44,12 @@ MAX_SEGMENTS = 40_000
 """Default budget of line segments per axes (drawing time grows with it; rasterised
 curves keep the size of vector outputs independent of it)."""
 
-COLOUR_RUN = 4
-"""Default number of consecutive segments drawn as one polyline of one colour (see
+COLOUR_RUN = 8
+"""Default largest number of consecutive segments drawn as one polyline of one colour (see
+:func:`sphere_curves`)."""
+
+COLOUR_TOL = 0.02
+"""Default largest colour error of a merged run, as a fraction of the colour range (see
 :func:`sphere_curves`)."""
 
 
@@ -115,7 +120,8 @@ def _curve_list(curves: Any, values: Any) -> tuple[list[np.ndarray], list[np.nda
 def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLike], *,
                   cmap: str = "jet", vmin: float | None = None, vmax: float | None = None,
                   max_segments: int = MAX_SEGMENTS, linewidth: float = 0.8,
-                  rasterized: bool = True, colour_run: int = COLOUR_RUN) -> Any:
+                  rasterized: bool = True, colour_run: int = COLOUR_RUN,
+                  colour_tol: float = COLOUR_TOL) -> Any:
     """Draw curves on the sphere coloured by a scalar given at their points.
 
     Parameters
@@ -129,7 +135,7 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     cmap : str
         Matplotlib colormap name ("jet": blue at ``vmin``, red at ``vmax``, as Fig. 1).
     vmin, vmax : float, optional
-        Colour range (default: the range of the values drawn).
+        Colour range (default: the range of the segments' values).
     max_segments : int
         Budget of segments; every curve is decimated evenly to stay within it.
     linewidth : float
@@ -137,16 +143,22 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     rasterized : bool
         Rasterise the curves in vector outputs (keeps SVGs small).
     colour_run : int
-        Consecutive segments (after decimation) drawn as one polyline of one colour, the
-        mean of theirs. Matplotlib's drawing time grows with the number of polylines, not
-        of points: 1 colours every segment, :data:`COLOUR_RUN` draws the same points with
-        a few times fewer polylines (time and the colour error against 1 are measured by
-        ``benchmarks/bench_figures.py``).
+        At most this many consecutive segments (after decimation) are drawn as one
+        polyline of one colour, their mean value. Matplotlib's drawing time grows with the
+        number of polylines, not of points; 1 colours every segment.
+    colour_tol : float
+        A run is drawn as one polyline only if its segments' values differ by at most
+        ``colour_tol`` times the colour range (``vmax - vmin``); otherwise each of its
+        segments is drawn in its own colour. So no segment is drawn more than
+        ``colour_tol`` of the colour range away from its own value (0: only runs of
+        equal values are merged). Time and colour error of the settings are measured by
+        ``benchmarks/bench_figures.py``.
 
     Returns
     -------
     mpl_toolkits.mplot3d.art3d.Line3DCollection
-        Its ``norm`` and ``cmap`` serve a colorbar; its array holds one value per polyline.
+        Its ``norm`` and ``cmap`` serve a colorbar; its array holds one value per polyline
+        (not added to ``ax`` when there is nothing to draw).
     """
     from matplotlib.colors import Normalize
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
@@ -155,28 +167,45 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
             or colour_run < 1:
         raise ParameterError(f"colour_run must be an integer >= 1 (segments per colour); "
                              f"got {colour_run!r}")
+    if isinstance(colour_tol, bool) or not isinstance(colour_tol, (int, float, np.floating)) \
+            or not 0.0 <= colour_tol < np.inf:
+        raise ParameterError(f"colour_tol must be a finite number >= 0 (a fraction of the "
+                             f"colour range); got {colour_tol!r}")
     cs, vs = _curve_list(curves, values)
     total = sum(max(len(c) - 1, 0) for c in cs)
     per = max(2, int(max_segments // max(len(cs), 1)) + 1) if total > max_segments else None
+    drawn = []  # (points, one value per segment) of each curve, decimated
+    for c, v in zip(cs, vs):
+        if len(c) >= 2:
+            idx = decimate(len(c), per) if per is not None else np.arange(len(c))
+            drawn.append((c[idx], 0.5 * (v[idx][:-1] + v[idx][1:])))
+    mids = np.concatenate([m for _, m in drawn]) if drawn else np.zeros(0)
+    lo = float(np.min(mids)) if vmin is None and mids.size else (vmin or 0.0)
+    hi = float(np.max(mids)) if vmax is None and mids.size else (
+        vmax if vmax is not None else 1.0)
+    hi = hi if hi > lo else lo + 1
+    limit = float(colour_tol) * (hi - lo)
     seg: list[np.ndarray] = []
     cols = []
-    for c, v in zip(cs, vs):
-        if len(c) < 2:
-            continue
-        idx = decimate(len(c), per) if per is not None else np.arange(len(c))
-        c, v = c[idx], v[idx]
-        mid = 0.5 * (v[:-1] + v[1:])  # one value per segment
-        starts = np.arange(0, len(mid), int(colour_run))
-        seg.extend(c[s: s + colour_run + 1] for s in starts)
-        cols.append(np.add.reduceat(mid, starts) / np.diff(np.r_[starts, len(mid)]))
+    for c, mid in drawn:
+        n = len(mid)
+        starts = np.arange(0, n, int(colour_run))
+        lengths = np.diff(np.r_[starts, n])
+        spread = np.maximum.reduceat(mid, starts) - np.minimum.reduceat(mid, starts)
+        split = np.zeros(n, dtype=bool)  # a polyline starts before segment k
+        split[starts] = True
+        split |= np.repeat(spread > limit, lengths)  # too spread: every segment its own
+        first = np.flatnonzero(split)
+        last = np.r_[first[1:], n]
+        seg.extend(c[a: b + 1] for a, b in zip(first, last))
+        cols.append(np.add.reduceat(mid, first) / (last - first))
     col = np.concatenate(cols) if cols else np.zeros(0)
-    lo = float(np.min(col)) if vmin is None and col.size else (vmin or 0.0)
-    hi = float(np.max(col)) if vmax is None and col.size else (vmax if vmax is not None else 1.0)
     coll = Line3DCollection(seg if seg else np.zeros((0, 2, 3)), cmap=cmap,
-                            norm=Normalize(lo, hi if hi > lo else lo + 1), linewidths=linewidth)
+                            norm=Normalize(lo, hi), linewidths=linewidth)
     coll.set_array(col)
     coll.set_rasterized(bool(rasterized))
-    ax.add_collection3d(coll)
+    if seg:  # matplotlib refuses an empty 3D collection
+        ax.add_collection3d(coll)
     return coll
 
 
@@ -276,7 +305,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
                        marks: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                        size: float = 4.0, max_segments: int = MAX_SEGMENTS,
                        max_trajectories: int = 400, rasterized: bool = True,
-                       colour_run: int = COLOUR_RUN) -> Any:
+                       colour_run: int = COLOUR_RUN, colour_tol: float = COLOUR_TOL,
+                       ) -> Any:
     """Paper 002 Fig. 1: a manifold of a model on S^2 at several ``t``, coloured by speed.
 
     Each trajectory is drawn from its seed to parameter ``t`` (or to its stop) as the curve
@@ -303,8 +333,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
         Draw at most this many trajectories (evenly chosen by index).
     rasterized : bool
         Rasterise the curves in vector outputs.
-    colour_run : int
-        Segments per colour, as in :func:`sphere_curves`.
+    colour_run, colour_tol : int, float
+        Segments per colour and the colour error allowed, as in :func:`sphere_curves`.
 
     Returns
     -------
@@ -324,7 +354,7 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
             max_trajectories)
         coll = sphere_curves(ax, curves, vals, vmin=0.0, vmax=max(vmax, 1e-300),
                              max_segments=max_segments, rasterized=rasterized,
-                             colour_run=colour_run)
+                             colour_run=colour_run, colour_tol=colour_tol)
         if marks:
             mark_directions(ax, np.array([np.asarray(v, float) for v in marks.values()]),
                             list(marks))
@@ -338,7 +368,8 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
                         attitudes: Mapping[str, ArrayLike] | None = None, ncols: int = 2,
                         size: float = 4.0, max_segments: int = MAX_SEGMENTS,
                         max_trajectories: int = 200, rasterized: bool = True,
-                        colour_run: int = COLOUR_RUN) -> Any:
+                        colour_run: int = COLOUR_RUN, colour_tol: float = COLOUR_TOL,
+                        ) -> Any:
     """Paper 002 Figs. 2, 4, 5: a manifold on TSO(3) as body-axis curves at several ``t``.
 
     Parameters
@@ -350,7 +381,7 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
     attitudes : mapping of str to array-like (3, 3), optional
         Attitudes whose three axes are marked and labelled ``name:1``, ``name:2``,
         ``name:3`` (e.g. the desired attitude and the saddle); different markers each.
-    ncols, size, max_segments, max_trajectories, rasterized, colour_run
+    ncols, size, max_segments, max_trajectories, rasterized, colour_run, colour_tol
         As in :func:`s2_manifold_figure`.
 
     Returns
@@ -375,7 +406,7 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
         values = [v for v in vals for _ in range(3)]
         coll = sphere_curves(ax, curves, values, vmin=0.0, vmax=max(vmax, 1e-300),
                              max_segments=max_segments, rasterized=rasterized,
-                             colour_run=colour_run)
+                             colour_run=colour_run, colour_tol=colour_tol)
         for k, (label, A) in enumerate((attitudes or {}).items()):
             A = np.asarray(A, dtype=float).reshape(3, 3)
             mark_directions(ax, A.T, [f"{label}:{i + 1}" for i in range(3)],

@@ -72,7 +72,12 @@ STYLE = {
 
 @contextlib.contextmanager
 def report_style() -> Iterator[None]:
-    """Matplotlib's Agg backend and the report's font sizes, for the duration of a block."""
+    """The report's font sizes for the duration of a block, drawn with Agg.
+
+    Selects matplotlib's Agg backend for the whole process (``matplotlib.use``; the report
+    draws off-screen, and a backend cannot be switched back safely once figures exist);
+    the font sizes are restored when the block ends.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -86,7 +91,8 @@ def warm_up() -> None:
     The report runs each problem in a process forked from its own; a child inherits what
     the parent has loaded, so warming up once before the fork saves every problem that
     draws a figure the same start-up (measured 0.1 to 0.35 s CPU per problem, against
-    0.4 s once here). Draws one throw-away figure in :func:`report_style`; writes nothing.
+    0.4-0.7 s once here). Draws one throw-away figure in :func:`report_style` and writes
+    no file; like :func:`report_style` it leaves the process on the Agg backend.
     """
     import io
 
