@@ -24,8 +24,8 @@ from models.pendulum3d_poincare import (  # LP_SECTION: re-exported for tests/te
     reduced_model_crossings,
 )
 from workbench.global_dynamics import lyapunov_exponent, poincare_map, turning_section
-from workbench.simulation import grid, sweep
-from workbench.study import Result
+from workbench.simulation import InlineExecutor, grid, sweep
+from workbench.study import Result, cores
 
 TITLE = "Poincare maps of the 3D pendulum from regular to chaotic and back; geometric phase"
 
@@ -75,7 +75,9 @@ def solve(*, quick: bool = False) -> Result:
     rho = (0, 0, 0.3), g = 9.81) starts at R0 = I, omega0 = c (1, 1, 1); its Lagrange-Routh
     orbit on TS^2 (momentum mu = 0.17 c) is cut by the section P = {e3 . Gamma-dot = 0,
     e3 . (Gamma x Gamma-dot) > 0} at the energy E(c) = 0.29 c^2 - 2.943 (5.16). The five
-    values of c, one orbit each, run through :func:`workbench.simulation.sweep` in a process pool:
+    values of c, one orbit each, run through :func:`workbench.simulation.sweep` in a pool of 2
+    processes, or in this process when it has one core (:func:`workbench.study.cores`: in
+    the report):
 
     =====  ========  ==========================================================================
     c      E [J]     what the map shows (measured by the finite-time Lyapunov exponent)
@@ -105,9 +107,11 @@ def solve(*, quick: bool = False) -> Result:
     res = Result("poincare_3d_pendulum", TITLE, quick=quick)
     n_cross = 200 if quick else 1000
     t_ly = 100.0 if quick else 400.0
-    with res.timed("sweep of the five orbits (process pool, 2 workers)"):
+    n_cores = min(2, cores())
+    where = {"executor": InlineExecutor()} if n_cores == 1 else {"workers": n_cores}
+    with res.timed(f"sweep of the five orbits ({n_cores} process{'es' * (n_cores > 1)})"):
         out = sweep(orbit, grid(c=list(C_VALUES), n_crossings=[n_cross],
-                                lyapunov_time=[t_ly]), workers=2, desc="Poincare orbits")
+                                lyapunov_time=[t_ly]), desc="Poincare orbits", **where)
     items = out.values()
     per_c: dict[str, Any] = {}
     ftle_tol = 0.08 if quick else 0.05  # regular orbits: ~log(t)/t, 0.06 at 100 s

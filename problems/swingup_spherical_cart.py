@@ -17,7 +17,6 @@ seeded perturbed starts.
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import casadi as ca
@@ -45,7 +44,7 @@ from workbench.control.ocp.study import (
     swings,
     transcription_builds,
 )
-from workbench.study import Result
+from workbench.study import Result, cores
 
 TITLE = "Optimal swing-up of the spherical pendulum on a cart (paper 003, n = 1) + TVLQR"
 
@@ -106,7 +105,7 @@ def solve(*, quick: bool = False) -> Result:
         best, starts = multistart(
             ocp, ladder[0], seeds=range(4 if quick else 12), T_guesses=T_GUESSES,
             refine_with=ladder[1:], max_iter=150, describe=lambda s: swings(height(s.x)),
-            workers=os.cpu_count() or 1)
+            workers=cores())
         best = min(best, cold, key=lambda s: s.objective)  # the cheapest of every solve
     res.values["reference"] = {
         "problem": "integral u^T u dt + T, |u_i| <= 10 N, T in [0.5, 3] s, N = 40, "

@@ -28,6 +28,13 @@ TITLE = "{title}"
 '''
 
 BODIES = {
+    "cores": '''
+def solve(*, quick=False):
+    from workbench.study import cores
+    with open(os.environ["RUNNER_TEST_DIR"] + "/cores.log", "a") as fh:
+        fh.write(f"{cores()}\\n")
+    return Result("cores", TITLE, quick=quick).finish()
+''',
     "counted": '''
 def solve(*, quick=False):
     with open(os.environ["RUNNER_TEST_DIR"] + "/counted.log", "a") as fh:
@@ -328,3 +335,26 @@ def test_warm_up_before_the_fork_leaves_no_figure_and_writes_nothing(tmp_path, m
     warm_up()
     assert set(plt.get_fignums()) == before
     assert list(tmp_path.iterdir()) == []
+
+
+def test_each_problem_is_told_its_share_of_the_cores(env, monkeypatch):
+    # 4 cores (as the runner sees them): 2 jobs leave 2 each, 4 jobs 1 each, 8 jobs still 1
+    monkeypatch.setattr(runner.os, "cpu_count", lambda: 4)
+    for jobs in (2, 4, 8):
+        report(env, ["cores"], cache_dir=None, jobs=jobs)
+    assert (env / "cores.log").read_text().split() == ["2", "1", "1"]
+
+
+def test_cores_reads_its_variable_and_refuses_anything_but_a_positive_integer(monkeypatch):
+    from workbench.core.errors import ParameterError
+    from workbench.study import cores
+    from workbench.study._result import CORES_ENV
+
+    monkeypatch.delenv(CORES_ENV, raising=False)
+    assert cores() == (os.cpu_count() or 1)
+    monkeypatch.setenv(CORES_ENV, "3")
+    assert cores() == 3
+    for bad in ("0", "-1", "", "two", "1.5"):
+        monkeypatch.setenv(CORES_ENV, bad)
+        with pytest.raises(ParameterError, match=f"{CORES_ENV} must be a positive integer"):
+            cores()

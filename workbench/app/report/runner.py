@@ -47,7 +47,7 @@ from workbench.app.report.progress import (
     pss_mb,
     rss_mb,
 )
-from workbench.study._result import PROGRESS_ENV
+from workbench.study._result import CORES_ENV, PROGRESS_ENV
 
 __all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB"]
 
@@ -203,15 +203,17 @@ def _die_with_parent() -> None:
         os._exit(1)
 
 
-def _child(name: str, quick: bool, catalogue: ModuleType, path: str) -> None:
+def _child(name: str, quick: bool, catalogue: ModuleType, path: str, cores: int) -> None:
     """Body of a forked child: own process group, run, write the outcome, exit.
 
     The problem's progress lines (:func:`workbench.study.progress`) go to ``path``
-    with the suffix ``.progress``, which the parent reads while it runs.
+    with the suffix ``.progress``, which the parent reads while it runs; its own pools
+    may use ``cores`` cores (:func:`workbench.study.cores`).
     """
     os.setpgrp()
     _die_with_parent()
     os.environ[PROGRESS_ENV] = f"{path}.progress"
+    os.environ[CORES_ENV] = str(cores)
     try:
         out = outcome_of(name, quick=quick, catalogue=catalogue)
     except BaseException as exc:  # noqa: BLE001 - anything is reported to the parent
@@ -478,6 +480,7 @@ def run_all(
     memory_mb = float(DEFAULT_MEMORY_MB if memory_mb is None else memory_mb)
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
+    share = max(1, (os.cpu_count() or 1) // jobs)  # cores of each problem's own pools
     if todo:  # the forked children inherit matplotlib's loaded fonts and parser
         warm_up()
     running: list[_Job] = []
@@ -494,7 +497,7 @@ def run_all(
                     job.path = Path(tmp) / f"{job.name}.pkl"
                     job.process = ctx.Process(
                         target=_child, name=f"report:{job.name}",
-                        args=(job.name, quick, catalogue, str(job.path)))
+                        args=(job.name, quick, catalogue, str(job.path), share))
                     job.process.start()
                     job.started = time.monotonic()
                     running.append(job)
