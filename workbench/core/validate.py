@@ -406,25 +406,26 @@ def array(
     WorkbenchError
         Of class ``error``, naming ``name``, what was expected and what was got.
     """
-    what = "a real numeric array"
-    if shape is not None:
-        what += f" of shape {tuple('n' if w == -1 else int(w) for w in shape)}"
-    elif size is not None:
-        what += f" of {size} entries"
+    def expected() -> str:  # for the messages only (this check runs in hot loops)
+        if shape is not None:
+            dims = tuple("n" if w == -1 else int(w) for w in shape)
+            return f"a real numeric array of shape {dims}"
+        return "a real numeric array" + (f" of {size} entries" if size is not None else "")
+
     if value is None or isinstance(value, (str, bytes)):
-        raise error(f"{name} must be {what}; got {type(value).__name__} {_show(value)}")
+        raise error(f"{name} must be {expected()}; got {type(value).__name__} {_show(value)}")
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError) as exc:  # ragged nested lists
-        raise error(f"{name} must be {what}; got {_show(value)}") from exc
+        raise error(f"{name} must be {expected()}; got {_show(value)}") from exc
     kind = raw.dtype.kind
     if kind == "c":
         raise error(f"{name} must be real; got a complex array {_show(value)} (complex "
                     f"numbers are refused, never truncated to their real part)")
     if kind == "b":
-        raise error(f"{name} must be {what}; got booleans {_show(value)}")
+        raise error(f"{name} must be {expected()}; got booleans {_show(value)}")
     if kind not in "iuf":
-        raise error(f"{name} must be {what}; got {raw.dtype} entries {_show(value)}")
+        raise error(f"{name} must be {expected()}; got {raw.dtype} entries {_show(value)}")
     arr = np.array(raw, dtype=float)
     if shape is not None:
         want = tuple(int(s) for s in shape)
@@ -437,7 +438,7 @@ def array(
         raise error(f"{name} must be {ndim}-dimensional; got shape {arr.shape}")
     if not allow_empty and arr.size == 0:
         raise error(f"{name} must not be empty; got shape {arr.shape}")
-    if finite and not np.all(np.isfinite(arr)):
+    if finite and not np.isfinite(arr).all():
         bad = arr[~np.isfinite(arr)]
         raise error(f"{name} must be finite; got {bad.size} non-finite entries "
                     f"(e.g. {bad.ravel()[0]}) in {_show(arr.tolist())}")

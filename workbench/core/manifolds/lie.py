@@ -5,6 +5,8 @@ Each accepts numpy arrays and casadi expressions alike where it is used symbolic
 
 from __future__ import annotations
 
+import math
+
 import casadi as ca
 import numpy as np
 
@@ -38,7 +40,7 @@ def _finite_array(v: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray
     A thin use of :func:`workbench.core.validate.array` (complex, bool, str refused).
     """
     a = validate.array(name, v, error=ManifoldError)
-    if a.size != int(np.prod(shape)):
+    if a.size != math.prod(shape):
         raise ManifoldError(f"{name} must have shape {shape}; got shape {a.shape}")
     return a.reshape(shape)
 
@@ -202,11 +204,16 @@ def sphere_basis(q: ArrayLike) -> Matrix:
     q = _finite_array(q, "q (sphere_basis)", (3,))
     if not q @ q > 0:
         raise ManifoldError("q (sphere_basis) must be a unit vector; got the zero vector")
-    order = np.argsort(np.abs(q), kind="stable")
-    basis = []
-    for j in order[:2]:
-        b = np.eye(3)[j] - (q[j] / (q @ q)) * q
-        for c in basis:
-            b = b - (c @ b) * c
-        basis.append(b / np.linalg.norm(b))
-    return np.column_stack(basis)
+    i, j = np.argsort(np.abs(q), kind="stable")[:2]
+    qq = q @ q
+    # Gram-Schmidt of e_i, e_j (the same arithmetic as a loop over np.eye(3)'s rows; this
+    # is on the hot path of every Newton step on S^2)
+    b1 = -(q[i] / qq) * q
+    b1[i] += 1.0
+    b1 = b1 / math.sqrt(b1 @ b1)  # = np.linalg.norm, bit for bit
+    b2 = -(q[j] / qq) * q
+    b2[j] += 1.0
+    b2 = b2 - (b1 @ b2) * b1
+    out = np.empty((3, 2))
+    out[:, 0], out[:, 1] = b1, b2 / math.sqrt(b2 @ b2)
+    return out
