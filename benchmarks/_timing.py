@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import time
 from collections.abc import Callable
@@ -42,3 +43,19 @@ def interleaved_cpu(fns: dict[str, Callable[[], object]], *, rounds: int = 15,
                 fn()
             samples[k].append((time.process_time() - t0) / number)
     return {k: statistics.median(v) for k, v in samples.items()}
+
+
+def quick_repeat_arguments(doc: str, quick_help: str, argv: list[str], *,
+                           repeat: int = 5) -> argparse.Namespace:
+    """``--quick`` and ``--repeat K`` (an integer >= 1) of a benchmark script.
+
+    ``doc``'s first line is the description; ``argv`` is ``sys.argv[1:]`` when the script
+    runs as ``__main__`` and ``[]`` otherwise (the defaults, when ``run_all`` imports it).
+    """
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    ap.add_argument("--repeat", type=int, default=repeat)
+    a = ap.parse_args(argv)
+    if a.repeat < 1:
+        ap.error(f"--repeat must be an integer >= 1; got {a.repeat}")
+    return a

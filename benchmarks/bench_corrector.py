@@ -17,7 +17,6 @@ Usage: python benchmarks/bench_corrector.py [--quick] [--repeat K]
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import sys
@@ -28,7 +27,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parent.parent))
-from _timing import table  # noqa: E402
+from _timing import quick_repeat_arguments, table  # noqa: E402
 
 import workbench as wb  # noqa: E402
 from models import pendulum3d as p3  # noqa: E402
@@ -118,12 +117,8 @@ def measure(name, run, repeat, reference=True):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="one round, small scenes")
-    ap.add_argument("--repeat", type=int, default=5)
-    a = ap.parse_args(sys.argv[1:] if __name__ == "__main__" else [])
-    if a.repeat < 1:
-        ap.error(f"--repeat must be an integer >= 1; got {a.repeat}")
+    a = quick_repeat_arguments(__doc__, "one round, small scenes",
+                               sys.argv[1:] if __name__ == "__main__" else [])
     repeat = 1 if a.quick else a.repeat
     scenes = [(*chain_scene(20, 2.0), True), (*pendulum_scene(), True),
               (*stepper_scene(), True)]

@@ -25,7 +25,6 @@ Usage: python benchmarks/bench_figures.py [--quick] [--repeat K]
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -34,7 +33,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parent.parent))
-from _timing import interleaved_cpu, table  # noqa: E402
+from _timing import interleaved_cpu, quick_repeat_arguments, table  # noqa: E402
 
 from workbench.core.manifolds import so3_exp  # noqa: E402
 from workbench.study import MAX_SEGMENTS, sphere_axes, sphere_curves  # noqa: E402
@@ -95,12 +94,8 @@ def main() -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="one round, one panel")
-    ap.add_argument("--repeat", type=int, default=5)
-    a = ap.parse_args(sys.argv[1:] if __name__ == "__main__" else [])
-    if a.repeat < 1:
-        ap.error(f"--repeat must be an integer >= 1; got {a.repeat}")
+    a = quick_repeat_arguments(__doc__, "one round, one panel",
+                               sys.argv[1:] if __name__ == "__main__" else [])
     rounds, panels = (1, 1) if a.quick else (a.repeat, 4)
     curves, values = scene(200, 400)
     settings = [(1, 0.0), (4, 1.0), (8, 0.0), (8, 0.01), (8, 0.02), (8, 0.05)]
