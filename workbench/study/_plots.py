@@ -276,7 +276,10 @@ def _panels(n: int, ncols: int, size: float) -> tuple[Any, list[Any]]:
 
     ncols = min(ncols, n)
     nrows = -(-n // ncols)
-    fig = plt.figure(figsize=(size * ncols, size * nrows))
+    # constrained layout keeps every title and colorbar label inside the figure, also after
+    # the report shrinks it to the page (tight_layout does not lay out 3D axes: titles and
+    # colorbar labels were clipped at the edges)
+    fig = plt.figure(figsize=(size * ncols, size * nrows), layout="constrained")
     return fig, [sphere_axes(fig, (nrows, ncols, k + 1)) for k in range(n)]
 
 
@@ -358,9 +361,8 @@ def s2_manifold_figure(manifold: Any, times: Sequence[float], *, factor: str | N
         if marks:
             mark_directions(ax, np.array([np.asarray(v, float) for v in marks.values()]),
                             list(marks))
-        ax.set_title(f"t = {t:g} s, |omega|max = {vmax:.3g} rad/s", fontsize=9)
+        ax.set_title(f"t = {t:g} s\n|omega|max = {vmax:.3g} rad/s", fontsize=9)
         fig.colorbar(coll, ax=ax, shrink=0.6, pad=0.0, label="|omega| [rad/s]")
-    fig.tight_layout()
     return fig
 
 
@@ -411,7 +413,6 @@ def so3_manifold_figure(manifold: Any, times: Sequence[float], *,
             A = np.asarray(A, dtype=float).reshape(3, 3)
             mark_directions(ax, A.T, [f"{label}:{i + 1}" for i in range(3)],
                             marker=markers[k % len(markers)], color=["k", "m", "g", "b"][k % 4])
-        ax.set_title(f"t = {t:g} s, |Omega|max = {vmax:.3g} rad/s", fontsize=9)
+        ax.set_title(f"t = {t:g} s\n|Omega|max = {vmax:.3g} rad/s", fontsize=9)
         fig.colorbar(coll, ax=ax, shrink=0.6, pad=0.0, label="|Omega| [rad/s]")
-    fig.tight_layout()
     return fig
