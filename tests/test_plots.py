@@ -126,6 +126,18 @@ def test_sphere_curves_colour_tol_bounds_the_colour_error_and_range_is_the_segme
     for bad in (-0.1, float("nan"), float("inf"), True, "0.02"):
         with pytest.raises(ParameterError, match="colour_tol"):
             sphere_curves(ax, [curve], [value], colour_tol=bad)
+    # a value that is not a number is drawn alone; the finite segments keep the bound
+    value[1000] = np.nan
+    coll = sphere_curves(ax, [curve], [value], max_segments=1000, colour_run=8,
+                         vmin=0.0, vmax=float(np.exp(5 * np.pi)))
+    drawn = np.repeat(np.asarray(coll.get_array()), [len(p) - 1 for p in coll._segments3d])
+    own = np.asarray(sphere_curves(ax, [curve], [value], max_segments=1000, colour_run=1,
+                                   vmin=0.0, vmax=float(np.exp(5 * np.pi))).get_array())
+    finite = np.isfinite(own)
+    assert (~finite).sum() >= 1 and np.array_equal(np.isfinite(drawn), finite)
+    assert np.max(np.abs(drawn[finite] - own[finite])) <= 0.02 * np.exp(5 * np.pi)
+    with pytest.raises(ParameterError, match="vmax must not be below vmin"):
+        sphere_curves(ax, [curve], [value], vmin=1.0, vmax=0.5)
 
 
 def test_sphere_curves_with_nothing_to_draw_returns_an_empty_collection():

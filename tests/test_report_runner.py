@@ -338,11 +338,14 @@ def test_warm_up_before_the_fork_leaves_no_figure_and_writes_nothing(tmp_path, m
 
 
 def test_each_problem_is_told_its_share_of_the_cores(env, monkeypatch):
-    # 4 cores (as the runner sees them): 2 jobs leave 2 each, 4 jobs 1 each, 8 jobs still 1
+    # 4 cores (as the runner sees them), shared by the problems that run at once: one
+    # problem alone gets 4; two at once 2 each; three at once (4 jobs) 1 each (4 // 3)
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 4)
-    for jobs in (2, 4, 8):
-        report(env, ["cores"], cache_dir=None, jobs=jobs)
-    assert (env / "cores.log").read_text().split() == ["2", "1", "1"]
+    report(env, ["cores"], cache_dir=None, jobs=2)
+    report(env, ["cores", "small"], cache_dir=None, jobs=2)
+    report(env, ["cores", "small", "counted"], cache_dir=None, jobs=4)
+    report(env, ["cores", "small", "counted"], cache_dir=None, jobs=8)
+    assert (env / "cores.log").read_text().split() == ["4", "2", "1", "1"]
 
 
 def test_cores_reads_its_variable_and_refuses_anything_but_a_positive_integer(monkeypatch):
@@ -354,7 +357,7 @@ def test_cores_reads_its_variable_and_refuses_anything_but_a_positive_integer(mo
     assert cores() == (os.cpu_count() or 1)
     monkeypatch.setenv(CORES_ENV, "3")
     assert cores() == 3
-    for bad in ("0", "-1", "", "two", "1.5"):
+    for bad in ("0", "-1", "", "two", "1.5", "\u00b2"):  # superscript 2: isdigit, not int
         monkeypatch.setenv(CORES_ENV, bad)
         with pytest.raises(ParameterError, match=f"{CORES_ENV} must be a positive integer"):
             cores()

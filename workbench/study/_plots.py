@@ -183,6 +183,8 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     lo = float(np.min(mids)) if vmin is None and mids.size else (vmin or 0.0)
     hi = float(np.max(mids)) if vmax is None and mids.size else (
         vmax if vmax is not None else 1.0)
+    if vmin is not None and vmax is not None and vmax < vmin:
+        raise ParameterError(f"vmax must not be below vmin; got vmin={vmin!r}, vmax={vmax!r}")
     hi = hi if hi > lo else lo + 1
     limit = float(colour_tol) * (hi - lo)
     seg: list[np.ndarray] = []
@@ -194,7 +196,8 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
         spread = np.maximum.reduceat(mid, starts) - np.minimum.reduceat(mid, starts)
         split = np.zeros(n, dtype=bool)  # a polyline starts before segment k
         split[starts] = True
-        split |= np.repeat(spread > limit, lengths)  # too spread: every segment its own
+        # too spread (or not a number): every segment its own colour
+        split |= np.repeat(~(spread <= limit), lengths)
         first = np.flatnonzero(split)
         last = np.r_[first[1:], n]
         seg.extend(c[a: b + 1] for a, b in zip(first, last))

@@ -43,7 +43,8 @@ def cores() -> int:
     """The cores a problem may use for its own process pools.
 
     ``workbench report`` runs one problem per core and sets :data:`CORES_ENV` in each
-    problem's process to its share (1 on a machine with as many cores as report jobs):
+    problem's process to its share (the cores over the problems run at once: 1 when
+    there are as many of them as cores, all of them for a report of one problem):
     a pool inside a problem would then only compete with the other problems and pay its
     workers' start-up (the Poincare sweep's two spawned workers cost 3 s CPU more than the
     same orbits in the calling process, for no gain in wall time, measured). Elsewhere the
@@ -62,10 +63,14 @@ def cores() -> int:
     raw = os.environ.get(CORES_ENV)
     if raw is None:
         return os.cpu_count() or 1
-    if not raw.strip().isdigit() or int(raw) < 1:
+    try:
+        n = int(raw) if raw.strip().isdecimal() else 0
+    except ValueError:
+        n = 0
+    if n < 1:
         raise ParameterError(f"environment variable {CORES_ENV} must be a positive integer "
                              f"(cores per problem); got {raw!r}")
-    return int(raw)
+    return n
 
 
 def progress(message: str, *, done: float | None = None, total: float | None = None) -> None:

@@ -480,7 +480,8 @@ def run_all(
     memory_mb = float(DEFAULT_MEMORY_MB if memory_mb is None else memory_mb)
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
-    share = max(1, (os.cpu_count() or 1) // jobs)  # cores of each problem's own pools
+    # cores of each problem's own pools: the cores over the problems that run at once
+    share = max(1, (os.cpu_count() or 1) // max(1, min(jobs, len(todo))))
     if todo:  # the forked children inherit matplotlib's loaded fonts and parser
         warm_up()
     running: list[_Job] = []

@@ -208,10 +208,10 @@ def sphere_basis(q: ArrayLike) -> Matrix:
     qq = q @ q
     # Gram-Schmidt of e_i, e_j (the same arithmetic as a loop over np.eye(3)'s rows; this
     # is on the hot path of every Newton step on S^2)
-    b1 = -(q[i] / qq) * q
+    b1 = 0.0 - (q[i] / qq) * q  # 0 - x, not -x: the same signed zeros as e_i - x
     b1[i] += 1.0
     b1 = b1 / math.sqrt(b1 @ b1)  # = np.linalg.norm, bit for bit
-    b2 = -(q[j] / qq) * q
+    b2 = 0.0 - (q[j] / qq) * q
     b2[j] += 1.0
     b2 = b2 - (b1 @ b2) * b1
     out = np.empty((3, 2))
