@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from workbench.core import validate
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import SO3, TS2, Rn
 from workbench.core.types import ArrayLike
@@ -163,14 +164,8 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     from matplotlib.colors import Normalize
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
-    if isinstance(colour_run, bool) or not isinstance(colour_run, (int, np.integer)) \
-            or colour_run < 1:
-        raise ParameterError(f"colour_run must be an integer >= 1 (segments per colour); "
-                             f"got {colour_run!r}")
-    if isinstance(colour_tol, bool) or not isinstance(colour_tol, (int, float, np.floating)) \
-            or not 0.0 <= colour_tol < np.inf:
-        raise ParameterError(f"colour_tol must be a finite number >= 0 (a fraction of the "
-                             f"colour range); got {colour_tol!r}")
+    colour_run = validate.count("colour_run", colour_run)
+    colour_tol = validate.nonnegative("colour_tol", colour_tol)
     cs, vs = _curve_list(curves, values)
     total = sum(max(len(c) - 1, 0) for c in cs)
     per = max(2, int(max_segments // max(len(cs), 1)) + 1) if total > max_segments else None
@@ -186,12 +181,12 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     if vmin is not None and vmax is not None and vmax < vmin:
         raise ParameterError(f"vmax must not be below vmin; got vmin={vmin!r}, vmax={vmax!r}")
     hi = hi if hi > lo else lo + 1
-    limit = float(colour_tol) * (hi - lo)
+    limit = colour_tol * (hi - lo)
     seg: list[np.ndarray] = []
     cols = []
     for c, mid in drawn:
         n = len(mid)
-        starts = np.arange(0, n, int(colour_run))
+        starts = np.arange(0, n, colour_run)
         lengths = np.diff(np.r_[starts, n])
         spread = np.maximum.reduceat(mid, starts) - np.minimum.reduceat(mid, starts)
         split = np.zeros(n, dtype=bool)  # a polyline starts before segment k

@@ -63,10 +63,7 @@ def cores() -> int:
     raw = os.environ.get(CORES_ENV)
     if raw is None:
         return os.cpu_count() or 1
-    try:
-        n = int(raw) if raw.strip().isdecimal() else 0
-    except ValueError:
-        n = 0
+    n = int(raw) if raw.strip().isdecimal() else 0  # int() reads every decimal digit
     if n < 1:
         raise ParameterError(f"environment variable {CORES_ENV} must be a positive integer "
                              f"(cores per problem); got {raw!r}")
