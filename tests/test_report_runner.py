@@ -218,7 +218,9 @@ def test_the_time_limit_is_cpu_time_and_a_waiting_problem_is_stopped_at_three_ti
     spins = rep.runs[0]
     assert spins.status is Status.TIMED_OUT
     assert "stopped after 2 s of CPU time" in spins.error
-    assert 2.0 <= spins.cpu_seconds < 4.0
+    # stopped by its CPU time, not earlier by the wall guard (how promptly after the limit
+    # it is stopped depends on the machine's load: not asserted here)
+    assert spins.cpu_seconds >= 2.0
     monkeypatch.setattr(runner, "WALL_FACTOR", 3.0)
     rep, err = report(env, ["sleeps"], cache_dir=None, jobs=1, timeout=2)
     by = {r.name: r for r in rep.runs}
