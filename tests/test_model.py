@@ -130,3 +130,11 @@ def test_model_symbolic_is_a_str_enum(given, member, cls, kind):
 def test_model_refuses_an_unknown_symbol_class():
     with pytest.raises(ModelError, match=r"symbolic must be one of \['SX', 'MX'\]; got 'QX'"):
         _decay("QX")
+
+
+def test_model_spd_solves_is_a_declared_bool():
+    assert _decay("SX").spd_solves is False  # nothing declared: solves replay as QR
+    with pytest.raises(ModelError, match=r"spd_solves must be a bool; got 'yes'"):
+        Model(name="decay", manifold=ProductManifold([("x", Rn(2))]), n_inputs=0,
+              parameters=[Parameter("a", (), "rate [1/s]")], values={"a": 2.0},
+              vector_field=lambda ctx: -ctx["a"] * ctx["x"], spd_solves="yes")

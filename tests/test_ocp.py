@@ -32,7 +32,7 @@ from workbench.control.ocp import (
 )
 from workbench.control.ocp.local import dexpinv
 from workbench.control.ocp.transcription import collocation_coefficients
-from workbench.core._model import Symbolic
+from workbench.core._model import Symbolic, solve_spd
 from workbench.core.errors import ManifoldError, ParameterError, SolverError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
 
@@ -90,10 +90,12 @@ def trajectory(ocp):
 # --- building blocks ------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("spd", [False, True], ids=["qr", "ldl"])
 @pytest.mark.parametrize("n", [1, 2])
-def test_sx_function_equals_the_mx_graph(n):
+def test_sx_function_equals_the_mx_graph(n, spd):
     model = chain_cart(n)
-    f, fs = model.function("f"), sx_function(model.function("f"))
+    assert model.spd_solves  # a mechanics model: its solves are with the mass matrix
+    f, fs = model.function("f"), sx_function(model.function("f"), spd=spd)
     assert fs.is_a("SXFunction")
     rng = np.random.default_rng(n)
     for _ in range(5):
@@ -101,6 +103,28 @@ def test_sx_function_equals_the_mx_graph(n):
         u = rng.standard_normal(2)
         a, b = np.asarray(f(x, u, model.p)).ravel(), np.asarray(fs(x, u, model.p)).ravel()
         assert np.allclose(a, b, rtol=1e-12, atol=1e-10 * np.abs(a).max())
+
+
+def test_ldl_replay_is_smaller_than_qr():
+    # the reason for spd_solves: the double cart's field and its Hessian shrink
+    model = chain_cart(2)
+    qr, ldl = (sx_function(model.function("f"), spd=s) for s in (False, True))
+    assert ldl.n_instructions() < 0.6 * qr.n_instructions()
+
+
+def test_solve_spd_matches_a_dense_solve_and_refuses_nothing_silently():
+    rng = np.random.default_rng(3)
+    G = rng.standard_normal((6, 6))
+    A = G @ G.T + 6 * np.eye(6)
+    b = rng.standard_normal((6, 2))
+    As, bs = ca.SX.sym("A", 6, 6), ca.SX.sym("b", 6, 2)
+    fn = ca.Function("s", [As, bs], [solve_spd(As, bs)])
+    x = np.asarray(fn(A, b))
+    assert np.allclose(A @ x, b, rtol=0, atol=1e-12 * np.abs(b).max() * np.linalg.cond(A))
+    # a singular matrix gives non-finite values, not a silently wrong finite answer
+    S = A.copy()
+    S[:, 0] = S[0, :] = 0.0
+    assert not np.all(np.isfinite(np.asarray(fn(S, b))))
 
 
 @pytest.mark.parametrize("factor", [Rn(2), S1(), S2(), SO3(), TS2()], ids=repr)

@@ -19,6 +19,7 @@ from workbench.core._model import (
     finite,
     nonnegative,
     positive,
+    solve_spd,
     spd3,
 )
 from workbench.core.errors import (
@@ -97,6 +98,7 @@ __all__ = [
     "positive",
     "so3_exp",
     "so3_log",
+    "solve_spd",
     "spd3",
     "sphere_basis",
     "vee",

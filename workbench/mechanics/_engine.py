@@ -21,6 +21,7 @@ from workbench.core import (
     hat,
     nonnegative,
     positive,
+    solve_spd,
     sphere_basis,
     vee,
 )
@@ -40,6 +41,7 @@ __all__ = [
     "hat",
     "nonnegative",
     "positive",
+    "solve_spd",
     "sphere_basis",
     "vee",
 ]

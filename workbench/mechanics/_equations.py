@@ -19,8 +19,9 @@ symmetric positive definite when ``T`` is positive definite on the tangent veloc
 ``M`` costs O(n^2) nodes for a chain (it is dense); ``b``, ``dL/dc``, ``dPi/dc c-dot`` and
 the loads are reverse/forward sweeps of O(n) each.
 
-Two back-ends (:class:`Symbolic`): SX writes ``casadi.solve`` symbolically (small systems:
-compact scalar graphs that export to C and convert to sympy). MX puts a numeric linear
+Two back-ends (:class:`Symbolic`): SX writes the solve symbolically as L D L^T
+(:func:`workbench.core.solve_spd`; small systems: compact scalar graphs that export to C
+and convert to sympy). MX puts a numeric linear
 solve (a casadi linsol plugin) in the graph inside a function whose Jacobian is supplied
 (``custom_jacobian``): by the implicit-function theorem on the residual
 ``r(x, u, p, a) = M a + sum mu q q^T a - b``,
@@ -39,6 +40,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 
 from workbench.mechanics._bodies import kinetic_energy_of_bodies
+from workbench.mechanics._engine import solve_spd
 from workbench.mechanics._forces import load_covector
 
 __all__ = ["Derivation", "Ingredients", "SPARSE_JACOBIAN_MAX", "FORWARD_BATCH"]
@@ -281,8 +283,8 @@ class Derivation:
                            {"custom_jacobian": jac, "jac_penalty": 0}), jac
 
     def accelerations_sx(self) -> ca.SX:
-        """``nu-dot`` as an SX expression (symbolic solve; small systems)."""
-        return ca.solve(self.A, self.b)
+        """``nu-dot`` as an SX expression (symbolic L D L^T solve; small systems)."""
+        return solve_spd(self.A, self.b)
 
     def energy(self) -> ca.Function:
         """``(x, p) -> T + V``."""

@@ -13,7 +13,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._engine import Context, Model, ModelError, ProductManifold, Symbolic
+from workbench.mechanics._engine import (
+    Context,
+    Model,
+    ModelError,
+    ProductManifold,
+    Symbolic,
+    solve_spd,
+)
 from workbench.mechanics._equations import Derivation, Ingredients
 
 __all__ = ["build_model", "check_kinetic_energy", "MAX_SX_VELOCITIES"]
@@ -152,7 +159,7 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
     def field(ctx: Context) -> Any:
         if sym == "SX":
             A, b = asm(ctx.x, ctx.u, ctx.p)
-            return rates(ctx.x, ca.solve(A, b))
+            return rates(ctx.x, solve_spd(A, b))
         if "acc" not in cache:
             cache["acc"], cache["acc_jac"] = der.accelerations_mx(linear_solver)
         return rates(ctx.x, cache["acc"](ctx.x, ctx.u, ctx.p))
@@ -182,7 +189,7 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
             r" = K(c)^T \frac{\partial L}{\partial c} + Q"
             r"\quad\text{(Lagrange-d'Alembert on each factor, derived by AD)}",),
         input_description=input_description or "; ".join(system.input_descriptions()),
-        jacobian=jacobian if sym == "MX" else None)
+        jacobian=jacobian if sym == "MX" else None, spd_solves=True)
     model.mechanics = der  # the derivation, for inspection (mass matrix, residual)
     if check:
         x0 = manifold.random_point(np.random.default_rng(0))

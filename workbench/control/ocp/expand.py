@@ -6,16 +6,19 @@ matrix-valued nodes. ``casadi.Function.expand`` produces one for most MX graphs,
 a graph that contains a numeric linear solve (the chain model's ``casadi.solve(A, b,
 "lapacklu")``): a numeric factorisation has no scalar expression. :func:`sx_function`
 replays the MX algorithm instruction by instruction on SX symbols and replaces each linear
-solve ``A \\ b`` by casadi's symbolic QR solve of the same matrix, so the result is the same
-mathematical function (one graph, no re-typed equations), only evaluated differently. The
-size of the symbolic solve grows like ``n^3`` in the matrix dimension: fine for the 5x5 and
-8x8 systems of the one- and two-link carts, measured for both in ``benchmarks/bench_ocp.py``.
+solve ``A \\ b`` by a symbolic solve of the same matrix (casadi's QR, or L D L^T when the
+model declares its solves symmetric positive definite, as mass matrices are), so the result
+is the same mathematical function (one graph, no re-typed equations), only evaluated
+differently. The size of the symbolic solve grows like ``n^3`` in the matrix dimension:
+fine for the 5x5 and 8x8 systems of the one- and two-link carts, measured for both in
+``benchmarks/bench_ocp.py``.
 """
 
 from __future__ import annotations
 
 import casadi as ca
 
+from workbench.core import solve_spd
 from workbench.core.errors import ModelError
 
 __all__ = ["sx_function"]
@@ -23,7 +26,8 @@ __all__ = ["sx_function"]
 _UNSUPPORTED = "cannot be replayed on SX"
 
 
-def sx_function(fn: ca.Function, *, name: str | None = None) -> ca.Function:
+def sx_function(fn: ca.Function, *, name: str | None = None,
+                spd: bool = False) -> ca.Function:
     """An SX function equal to ``fn``, with numeric linear solves made symbolic.
 
     Parameters
@@ -35,6 +39,10 @@ def sx_function(fn: ca.Function, *, name: str | None = None) -> ca.Function:
         functions, linear solves, elementwise operations, matrix products, concatenations).
     name : str, optional
         Name of the new function (default: ``fn``'s name with ``_sx``).
+    spd : bool
+        Every linear solve in ``fn`` has a symmetric positive definite matrix (the caller's
+        guarantee, e.g. :attr:`workbench.core.Model.spd_solves`): written as L D L^T
+        (:func:`workbench.core.solve_spd`) instead of QR.
 
     Returns
     -------
@@ -65,13 +73,13 @@ def sx_function(fn: ca.Function, *, name: str | None = None) -> ca.Function:
         elif op == ca.OP_GETNONZEROS:
             work[i_out[0]] = _get_nonzeros(fn, node, work[i_in[0]])
         elif op == ca.OP_CALL:
-            sub = sx_function(node.which_function())
+            sub = sx_function(node.which_function(), spd=spd)
             res = sub.call([work[i] for i in i_in])
             for j, r in zip(i_out, res):
                 if j >= 0:
                     work[j] = r
         else:
-            work[i_out[0]] = _operation(fn, op, node, [work[i] for i in i_in])
+            work[i_out[0]] = _operation(fn, op, node, [work[i] for i in i_in], spd)
     return ca.Function(
         new_name, ins, outs,
         [fn.name_in(i) for i in range(fn.n_in())],
@@ -112,11 +120,12 @@ def _get_nonzeros(fn: ca.Function, node: ca.MX, value: ca.SX) -> ca.SX:
     return _reshape(src[idx], node.sparsity())
 
 
-def _operation(fn: ca.Function, op: int, node: ca.MX, args: list) -> ca.SX:
+def _operation(fn: ca.Function, op: int, node: ca.MX, args: list, spd: bool) -> ca.SX:
     """One arithmetic or structural operation of the replay, on SX arguments."""
     if op == ca.OP_SOLVE:
         b, A = args[0], args[1]
-        return ca.solve(A.T if node.info().get("tr", False) else A, b)
+        A = A.T if node.info().get("tr", False) else A
+        return solve_spd(A, b) if spd else ca.solve(A, b)
     if op == ca.OP_MTIMES:
         return args[0] + ca.mtimes(args[1], args[2])
     if op == ca.OP_VERTCAT:

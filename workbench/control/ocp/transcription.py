@@ -220,7 +220,7 @@ class Transcription:
         t0 = time.perf_counter()
         f = model.function("f")
         if graph is Symbolic.SX:
-            f = sx_function(f)
+            f = sx_function(f, spd=model.spd_solves)
         self.S = ca.SX if graph is Symbolic.SX else ca.MX
         self.f = f
         self._layout()
