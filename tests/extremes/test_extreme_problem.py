@@ -68,8 +68,12 @@ def test_the_cases_that_must_fail_do_so_clearly(quick):
         # still clear failures naming Ipopt's status
         ("optimisation", "|u| <= 1 N"): ("Infeasible_Problem_Detected",
                                          "Maximum_Iterations_Exceeded"),
+        # (which exit a hopeless solve takes is path dependent: with the mass matrix
+        # solved as L D L^T instead of QR, rounding-level differences, T = 0.05 s wanders
+        # to 300 iterations where it failed its restoration after 85)
         ("optimisation", "T = 0.05 s fixed (too short)"): ("Infeasible_Problem_Detected",
-                                                           "Restoration_Failed"),
+                                                           "Restoration_Failed",
+                                                           "Maximum_Iterations_Exceeded"),
         ("optimisation", "T = 100 s fixed on N = 20 (too coarse)"): ("INACCURATE",
                                                                      "Maximum_Iterations_Exceeded"),
     }
