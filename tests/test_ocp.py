@@ -32,7 +32,8 @@ from workbench.control.ocp import (
 )
 from workbench.control.ocp.local import dexpinv
 from workbench.control.ocp.transcription import collocation_coefficients
-from workbench.core._model import Symbolic, solve_spd
+from workbench.core import solve_spd
+from workbench.core._model import Symbolic
 from workbench.core.errors import ManifoldError, ParameterError, SolverError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, so3_exp
 

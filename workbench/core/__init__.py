@@ -19,9 +19,9 @@ from workbench.core._model import (
     finite,
     nonnegative,
     positive,
-    solve_spd,
     spd3,
 )
+from workbench.core._solve import solve_spd
 from workbench.core.errors import (
     ManifoldError,
     ModelError,

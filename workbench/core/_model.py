@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
@@ -25,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.core import validate
+from workbench.core._buildlog import BuildLog, BuildRecord
 from workbench.core._evaluator import Evaluator
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
@@ -32,7 +33,7 @@ from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import choice
 
 __all__ = ["Symbolic", "Parameter", "BuildRecord", "BuildLog", "Context", "Model", "positive",
-           "nonnegative", "spd3", "finite", "Evaluator", "solve_spd"]
+           "nonnegative", "spd3", "finite", "Evaluator"]
 
 
 class Symbolic(StrEnum):
@@ -50,31 +51,6 @@ class Symbolic(StrEnum):
 
     SX = "SX"
     MX = "MX"
-
-
-def solve_spd(A: ca.SX, b: ca.SX) -> ca.SX:
-    """``A^{-1} b`` for a symmetric positive definite ``A``, written symbolically as L D L^T.
-
-    The factorisation (``casadi.ldl`` in a fill-reducing order, without pivoting: a positive
-    definite matrix needs none) takes fewer operations than the QR that ``casadi.solve``
-    writes for SX, and no square roots. On the double spherical pendulum on a cart (an 8x8
-    mass matrix) the accelerations are 729 instead of 1638 instructions and the Hessian of
-    ``lambda . nu-dot`` 18k instead of 65k: what an OCP's exact Hessian evaluates at every
-    collocation point (``benchmarks/bench_ocp.py``).
-
-    Parameters
-    ----------
-    A : casadi.SX, shape=(n, n)
-        Symmetric positive definite: the caller's guarantee (a mass matrix). An indefinite
-        ``A`` may break the factorisation down (zero or tiny pivots) where QR would not.
-    b : casadi.SX, shape=(n, k)
-
-    Returns
-    -------
-    casadi.SX, shape=(n, k)
-    """
-    D, LT, p = ca.ldl(A)
-    return ca.ldl_solve(b, D, LT, p)
 
 
 # ----------------------------------------------------------------------------------------
@@ -178,47 +154,6 @@ class Parameter:
             if msg:
                 raise ParameterError(f"{label} {msg}")
         return arr
-
-
-# ----------------------------------------------------------------------------------------
-# build log
-
-
-@dataclass(frozen=True)
-class BuildRecord:
-    """One built casadi.Function: its name, size and the time it took."""
-
-    name: str
-    n_nodes: int
-    seconds: float
-    symbolic: str
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain JSON-serialisable form."""
-        return {"function": self.name, "n_nodes": self.n_nodes, "build_seconds": self.seconds,
-                "symbolic": self.symbolic}
-
-
-@dataclass
-class BuildLog:
-    """The functions a model has built, in build order."""
-
-    records: list[BuildRecord] = field(default_factory=list)
-
-    def add(self, record: BuildRecord) -> None:
-        """Append a record."""
-        self.records.append(record)
-
-    def as_list(self) -> list[dict[str, Any]]:
-        """Plain JSON-serialisable form."""
-        return [r.as_dict() for r in self.records]
-
-    def names(self) -> list[str]:
-        """Names of the built functions."""
-        return [r.name for r in self.records]
-
-    def __len__(self) -> int:
-        return len(self.records)
 
 
 # ----------------------------------------------------------------------------------------

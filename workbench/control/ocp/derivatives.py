@@ -109,6 +109,18 @@ def _scatter(rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]
     return sp, M
 
 
+def _dm(M: sps.spmatrix) -> ca.DM:
+    """A scipy sparse matrix as a casadi DM, through its compressed columns.
+
+    ``casadi.DM(scipy_matrix)`` converts entry by entry: 0.89 s for the 480k entries of
+    the double cart's N = 160 scatter, against 0.16 s from the CSC arrays.
+    """
+    M = sps.csc_matrix(M)
+    M.sum_duplicates()  # casadi wants each column's rows sorted and unique
+    sp = ca.Sparsity(M.shape[0], M.shape[1], M.indptr.tolist(), M.indices.tolist())
+    return ca.DM(sp, M.data)
+
+
 def structured_derivatives(layout: IntervalLayout, nlp: dict[str, Any], n_block: int,
                            g_rest: Any, f_rest: Any, n_params: int) -> dict[str, ca.Function]:
     """``jac_g`` and ``hess_lag`` options of ``casadi.nlpsol`` for a transcribed OCP.
@@ -156,9 +168,9 @@ def structured_derivatives(layout: IntervalLayout, nlp: dict[str, Any], n_block:
     keep = gr <= gc  # the symmetric local Hessian has both (r, c) and (c, r)
     sel = np.flatnonzero(keep.ravel())
     spH, MH = _scatter(gr.ravel()[sel], gc.ravel()[sel], (nw, nw))
-    MH = ca.DM(sps.csc_matrix(MH @ sps.csc_matrix(
-        (np.ones(len(sel)), (np.arange(len(sel)), sel)), shape=(len(sel), keep.size))))
-    MJ = ca.DM(MJ)
+    MH = _dm(MH @ sps.csc_matrix(
+        (np.ones(len(sel)), (np.arange(len(sel)), sel)), shape=(len(sel), keep.size)))
+    MJ = _dm(MJ)
 
     xs, ps = ca.MX.sym("x", nw), ca.MX.sym("p", P.numel())
     lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
