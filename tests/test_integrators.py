@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 
+import casadi as ca
 import numpy as np
 import pytest
 from conftest import assert_close
@@ -317,3 +318,20 @@ def test_jit_gives_the_same_steps(sphere):
     jit = simulate(sphere, x0, t, method="s2_variational", step=0.01, jit=True)
     assert_close(jit.x, vm.x, atol=1e-14, what="jit against the virtual machine")
     assert jit.options["jit"] is True
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="jit needs a C compiler")
+def test_jit_compiles_one_graph_once_per_process():
+    from workbench.simulation.integrators.common import compile_step
+
+    x = ca.SX.sym("x", 2)
+    a = ca.Function("jit_memo_a", [x], [ca.sin(x) * 3.0])
+    b = ca.Function("jit_memo_b", [x], [ca.cos(x) * 3.0])  # another graph: its own build
+    first = compile_step(a)
+    assert compile_step(ca.Function("jit_memo_a", [x], [ca.sin(x) * 3.0])) is first
+    other = compile_step(b)
+    assert other is not first
+    assert_close(np.asarray(first([0.3, -1.0])).ravel(), 3.0 * np.sin([0.3, -1.0]),
+                 atol=1e-15, what="compiled a")
+    assert_close(np.asarray(other([0.3, -1.0])).ravel(), 3.0 * np.cos([0.3, -1.0]),
+                 atol=1e-15, what="compiled b")
