@@ -178,3 +178,54 @@ def test_report_shows_progress_inside_a_problem_and_its_symbols(tmp_path, monkey
     assert "talkative after" in err.getvalue() and ": stage (1/3)" in err.getvalue()
     html = (tmp_path / "o" / "report-quick.html").read_text()
     assert "tilt of link 1" in html
+
+
+@pytest.mark.parametrize(("mathtext", "plain"), [
+    (r"$\mathdefault{10^{-3}}$", "10\u207b\u00b3"),
+    (r"$\mathdefault{10^{0}}$", "10\u2070"),
+    (r"$\mathdefault{2\times10^{4}}$", "2\u00d710\u2074"),
+    (r"$\mathdefault{-10^{12}}$", "\u221210\u00b9\u00b2"),
+    (r"$\mathdefault{1}$", "1"),
+    (r"$\mathdefault{-0.5}$", "\u22120.5"),
+    # anything else stays as it was: never a wrong label
+    (r"$\mathdefault{10^{-2.5}}$", r"$\mathdefault{10^{-2.5}}$"),
+    (r"$\omega^2$", r"$\omega^2$"),
+    ("", ""),
+])
+def test_plain_label_reads_like_the_mathtext_it_replaces(mathtext, plain):
+    from workbench.app.report.figures import plain_label
+
+    assert plain_label(mathtext) == plain
+    assert "$" not in plain or plain == mathtext
+
+
+def test_plain_log_labels_keep_every_tick_label_and_touch_only_log_axes():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from workbench.app.report.figures import plain_label, plain_log_labels
+
+    fig, (a, b) = plt.subplots(1, 2)
+    try:
+        a.loglog([3e-4, 5e-2], [1e-12, 1e2])   # decades on y, a short span on x
+        b.plot([0.0, 1.0], [0.0, 2.0])          # linear: left alone
+        fig.canvas.draw()
+
+        def labels() -> list[list[str]]:
+            return [[t.get_text() for t in ax.get_ticklabels(minor=minor)]
+                    for ax in (a.xaxis, a.yaxis, b.xaxis, b.yaxis) for minor in (False, True)]
+
+        before = labels()
+        linear = b.xaxis.get_major_formatter()
+        assert plain_log_labels(fig) == 4  # major and minor of a's two axes
+        assert plain_log_labels(fig) == 0  # already plain: not wrapped twice
+        fig.canvas.draw()
+        after = labels()
+        assert b.xaxis.get_major_formatter() is linear
+        assert after == [[plain_label(s) for s in row] for row in before]
+        assert any("\u207b" in s for row in after for s in row)  # 10^-k written plainly
+        assert not any("$" in s for row in after[:4] for s in row)
+    finally:
+        plt.close(fig)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any, TextIO
 
-from workbench.app.report.figures import FigureData, auto_caption, readable
+from workbench.app.report.figures import FigureData, auto_caption, plain_log_labels, readable
 from workbench.core._model import Model
 from workbench.core.status import StatusEnum, StatusResult
 from workbench.study._result import Result
@@ -161,6 +161,7 @@ def run_problem(name: str, *, quick: bool, catalogue: ModuleType) -> ProblemRun:
     for fname, fig in result.figures.items():
         try:
             own = str(getattr(result, "captions", {}).get(fname, "")).strip()
+            plain_log_labels(fig)
             size = readable(fig)
             run.figures[fname] = FigureData(fname, own or auto_caption(fname, fig),
                                             figure_svg(fig, salt=f"{name}/{fname}"),

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 __all__ = ["PRINT_WIDTH", "MAX_HEIGHT", "MIN_POINTS", "FigureData", "report_style", "warm_up",
-           "readable", "auto_caption"]
+           "readable", "plain_log_labels", "auto_caption"]
 
 PRINT_WIDTH = 7.0
 """Width of the PDF's text block [in] (A4 with 1.5 cm margins is 7.09 in)."""
@@ -107,6 +107,77 @@ def warm_up() -> None:
             fig.savefig(io.StringIO(), format="svg")
         finally:
             plt.close(fig)
+
+
+_MATHDEFAULT = re.compile(
+    r"\$\\mathdefault\{(-?)(?:([0-9.]+)\\times)?([0-9.]+)\^\{(-?[0-9]+)\}\}\$")
+_PLAIN_NUMBER = re.compile(r"\$\\mathdefault\{(-?[0-9.]+)\}\$")
+_TIMES, _MINUS = "\u00d7", "\u2212"  # as mathtext draws them
+_SUPERSCRIPT = str.maketrans("0123456789-", "\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077"
+                                            "\u2078\u2079\u207b")
+
+
+def plain_label(label: str) -> str:
+    r"""A log axis' mathtext tick label as plain text, or the label unchanged.
+
+    ``$\mathdefault{10^{-3}}$`` becomes ``10⁻³`` and ``$\mathdefault{2\times10^{4}}$``
+    ``2×10⁴`` (Unicode superscripts, drawn by the text engine without parsing); a plain
+    number loses its ``$\mathdefault{}$``; anything else is returned as it is.
+    """
+    m = _MATHDEFAULT.fullmatch(label)
+    if m:
+        sign, coeff, base, exponent = m.groups()
+        times = coeff + _TIMES if coeff else ""
+        return f"{_MINUS if sign else ''}{times}{base}{exponent.translate(_SUPERSCRIPT)}"
+    m = _PLAIN_NUMBER.fullmatch(label)
+    return m.group(1).replace("-", _MINUS) if m else label
+
+
+def plain_log_labels(fig: Any) -> int:
+    r"""Write the tick labels of a figure's log axes as plain text instead of mathtext.
+
+    Matplotlib labels log axes with mathtext (``$\mathdefault{10^{-3}}$``), which it
+    parses for every label at every draw: half the time to write the work-precision
+    figures as SVG (2.10 -> 0.99 s CPU, median of 5 interleaved rounds). The labels read
+    the same as Unicode text (:func:`plain_label`). Each log formatter is replaced by a
+    copy that converts its labels; other formatters are left alone.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+
+    Returns
+    -------
+    int
+        Number of formatters replaced.
+    """
+    from matplotlib.ticker import LogFormatterMathtext
+
+    n = 0
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            for get, put in ((axis.get_major_formatter, axis.set_major_formatter),
+                             (axis.get_minor_formatter, axis.set_minor_formatter)):
+                old = get()
+                if isinstance(old, LogFormatterMathtext) and not getattr(old, "_plain", False):
+                    put(_plain_copy(old))
+                    n += 1
+    return n
+
+
+def _plain_copy(old: Any) -> Any:
+    """A copy of a mathtext log formatter whose labels go through :func:`plain_label`."""
+    base = type(old)
+
+    class PlainLabels(base):  # type: ignore[valid-type, misc]
+        _plain = True
+
+        def __call__(self, x: float, pos: int | None = None) -> str:
+            return plain_label(super().__call__(x, pos))
+
+    new = PlainLabels.__new__(PlainLabels)
+    new.__dict__.update(old.__dict__)
+    return new
 
 
 def readable(fig: Any) -> dict[str, float]:
