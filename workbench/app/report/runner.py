@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import multiprocessing.connection
 import os
 import pickle
 import resource
@@ -503,7 +504,14 @@ def run_all(
                     job.started = time.monotonic()
                     running.append(job)
                     show.started(job.name)
-                time.sleep(POLL)
+                # wake when a child ends (its slot is refilled at once) or after POLL
+                # to sample memory and progress; a fixed sleep left each core idle for
+                # half a POLL on average per problem (26 problems: ~1.3 s of the report)
+                if running:
+                    multiprocessing.connection.wait([j.process.sentinel for j in running],
+                                                    timeout=POLL)
+                else:
+                    time.sleep(POLL)
                 sample = time.monotonic() - sampled_at >= MEMORY_POLL
                 if sample:
                     sampled_at = time.monotonic()
