@@ -279,3 +279,15 @@ def test_product_manifold(rng):
         ProductManifold([("a", S2()), ("a", S2())])
     with pytest.raises(ManifoldError, match="n >= 1"):
         Rn(0)
+
+
+def test_the_charts_cross_product_is_numpys_bit_for_bit():
+    from workbench.core.manifolds.factors import _cross
+
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        a = rng.standard_normal(3) * 10.0 ** rng.uniform(-150, 150, 3)
+        b = rng.standard_normal(3) * 10.0 ** rng.uniform(-150, 150, 3)
+        assert np.array_equal(_cross(a, b), np.cross(a, b))
+    with pytest.raises(ValueError):  # anything but two 3-vectors: numpy's own error
+        _cross(np.ones(4), np.ones(3))

@@ -24,6 +24,19 @@ from workbench.core.types import ArrayLike, Expr, Matrix, Vector
 __all__ = ["Rn", "S1", "S2", "TS2", "SO3"]
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` of two numeric 3-vectors, as ``np.cross`` computes it, without its overhead.
+
+    The same operations in the same order (bitwise the same result), about 10 times
+    faster on single 3-vectors, which the charts of a closed loop evaluate at every step.
+    Anything but two vectors of shape (3,) goes to ``np.cross`` (and its errors).
+    """
+    if a.shape != (3,) or b.shape != (3,):
+        return np.cross(a, b)
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
 @dataclass(frozen=True, repr=False)
 class Rn(Factor):
     """Euclidean space R^n (no constraint).
@@ -157,7 +170,7 @@ class S2(Factor):
         q = _vec(x)
         if _is_casadi(q):
             return ca.DM(B.T) @ ca.cross(ca.DM(qe), q)
-        return B.T @ np.cross(qe, q)
+        return B.T @ _cross(qe, q)
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
         q = _finite_array(x, "q (S2.project)", (3,))
@@ -202,8 +215,8 @@ class TS2(Factor):
         B = sphere_basis(q)
         N = np.zeros((6, 4))
         for k in range(2):
-            N[:3, k] = np.cross(B[:, k], q)
-            N[3:, k] = np.cross(B[:, k], w)
+            N[:3, k] = _cross(B[:, k], q)
+            N[3:, k] = _cross(B[:, k], w)
             N[3:, 2 + k] = B[:, k]
         return N
 
@@ -223,7 +236,7 @@ class TS2(Factor):
         if _is_casadi(xv):
             Bt = ca.DM(B.T)
             return ca.vertcat(Bt @ ca.cross(ca.DM(qe), q), Bt @ (w - ca.DM(we)))
-        return np.concatenate([B.T @ np.cross(qe, q), B.T @ (w - we)])
+        return np.concatenate([B.T @ _cross(qe, q), B.T @ (w - we)])
 
     def project(self, x: ArrayLike) -> Vector:  # noqa: D102
         xv = _finite_array(x, "x (TS2.project)", (6,))
