@@ -22,7 +22,6 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from scipy.stats import beta
 
 from workbench.control._certify import (
     Constraint,
@@ -78,6 +77,8 @@ def clopper_pearson(k: int, n: int, *, confidence: float = 0.95) -> tuple[float,
         raise ParameterError(f"confidence must lie in (0, 1); got {confidence!r}")
     if n < 1 or not (0 <= k <= n):
         raise ParameterError(f"need 0 <= k <= n and n >= 1; got k = {k}, n = {n}")
+    from scipy.stats import beta  # here: scipy.stats takes 0.7 s to import
+
     a = 1 - confidence
     lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
     hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
@@ -295,6 +296,8 @@ def check_convergence(
     n_conv = statuses.count("converged")
     n_fail = sum(s.startswith(("integrator", "left")) for s in statuses)
     n = len(X0)
+    from scipy.stats import beta  # here: scipy.stats takes 0.7 s to import
+
     bound = 1.0 if n_conv == 0 else float(beta.ppf(confidence, n - n_conv + 1, n_conv))
     return ConvergenceReport(n, n_conv, n_fail, dist, statuses, int(np.argmax(dist)),
                              float(horizon), float(tolerance), float(confidence), bound, X0,
