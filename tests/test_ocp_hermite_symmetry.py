@@ -237,3 +237,34 @@ def test_bad_gauge_workers_free_and_guess_shapes_are_rejected(cart):
     tr, _ = transcribe(cart, HermiteSimpson(N=4))
     with pytest.raises(ParameterError, match="rows"):
         tr.pack(lambda s: X0, np.zeros((4, 2)), 1.0)
+
+
+def test_multistart_refining_only_the_best_coarse_start_agrees_with_refining_all(cart):
+    # refine_best=1: the coarse starts all run, only the cheapest is refined (here, in
+    # the parent, also after forked workers); its refined cost is that start's own
+    # refined cost when every start is refined
+    kw = {"seeds": [0, 1, 2], "T_guesses": [1.5, 2.0], "max_iter": 200,
+          "refine_with": [HermiteSimpson(N=20)], "defect_tol": None}
+    every, r_all = multistart(cart, HermiteSimpson(N=10), **kw)
+    for workers in (1, 2):
+        one, r_one = multistart(cart, HermiteSimpson(N=10), refine_best=1, workers=workers,
+                                **kw)
+        coarse = [r["coarse_objective"] for r in r_one]
+        assert coarse == pytest.approx([r["coarse_objective"] for r in r_all], rel=1e-9)
+        refined = [i for i, r in enumerate(r_one) if r["refined"]]
+        ok = [i for i, r in enumerate(r_one) if r["status"] in ("SUCCESS", "ACCEPTABLE")]
+        assert len(refined) == 1 and refined[0] == min(ok, key=lambda i: coarse[i])
+        i = refined[0]
+        assert len(r_one[i]["iterations"]) == 2  # coarse, then N = 20
+        assert one.method.N == 20
+        assert one.objective == pytest.approx(r_all[i]["objective"], rel=1e-6)
+        assert one.objective >= every.objective - 1e-9  # refining fewer never finds more
+        assert [r["reached_best"] for r in r_one] == [j == i for j in range(3)]
+        for j in set(range(3)) - {i}:  # an unrefined start keeps its coarse record
+            assert r_one[j]["objective"] == pytest.approx(coarse[j], rel=1e-12)
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True, "1"])
+def test_multistart_refuses_a_refine_best_that_is_not_a_positive_integer(cart, bad):
+    with pytest.raises(ParameterError, match=r"refine_best must be None or an integer >= 1"):
+        multistart(cart, HermiteSimpson(N=4), seeds=[0], refine_best=bad)

@@ -46,6 +46,7 @@ def multistart(
     noise: float = 0.1,
     T_guesses: Sequence[float] | None = None,
     refine_with: Sequence[TranscriptionMethod] = (),
+    refine_best: int | None = None,
     describe: Callable[[OCPSolution], dict[str, Any]] | None = None,
     ipopt_variants: Sequence[dict[str, Any]] = ({},),
     workers: int = 1,
@@ -69,6 +70,12 @@ def multistart(
         Each converged start is refined through these transcriptions in turn (each
         warm-started by the previous one, see :func:`coarse_to_fine`); the best is chosen
         after refinement.
+    refine_best : int, optional
+        Refine only this many converged starts, those of least cost on the coarse
+        transcription (default: every converged start). A speed-for-robustness knob: a
+        coarse transcription can rank two minima the other way round from the fine one,
+        so the best refined minimum may be missed; each record says whether its start was
+        refined and keeps its coarse cost (``coarse_objective``) to measure the trade.
     describe : callable, optional
         ``describe(solution) -> dict`` of further fields for each converged start's record
         (e.g. a classification of the local minimum).
@@ -98,19 +105,28 @@ def multistart(
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
+    if refine_best is not None and (isinstance(refine_best, bool) or not isinstance(
+            refine_best, (int, np.integer)) or refine_best < 1):
+        raise ParameterError(f"refine_best must be None or an integer >= 1; got "
+                             f"{refine_best!r}")
+    later = list(refine_with) if refine_best is not None else []
     solve_options = dict(solve_options)
     solve_options.pop("raise_on_failure", None)
     solve_options.pop("guess", None)
     job = {"ocp": ocp, "method": method or Collocation(), "noise": noise, "seeds": list(seeds),
-           "T_guesses": T_guesses, "refine_with": list(refine_with), "describe": describe,
-           "variants": list(ipopt_variants), "options": solve_options}
+           "T_guesses": T_guesses, "describe": describe,
+           "refine_with": [] if later else list(refine_with),
+           "variants": list(ipopt_variants), "options": solve_options,
+           "refine_later": bool(later)}
     if workers == 1 or len(job["seeds"]) < 2:
         done = [_one_start(job, i) for i in range(len(job["seeds"]))]
     else:
         done = _parallel_starts(job, int(workers))
+    if later:  # refine the best refine_best coarse starts only, here
+        done = _refine_best(ocp, job, done, later, int(refine_best), solve_options)
     records = [d[0] for d in done]
     ok = [(r["objective"], i) for i, r in enumerate(records)
-          if r["status"] in ("SUCCESS", "ACCEPTABLE")]
+          if r["status"] in ("SUCCESS", "ACCEPTABLE") and r.get("refined", True)]
     if not ok:
         raise SolverError(f"OCP {ocp.name!r}: none of {len(records)} starts converged",
                           status=records[-1]["status"] if records else "")
@@ -122,9 +138,38 @@ def multistart(
                      raise_on_failure=False, **solve_options)
     best_cost = records[i_best]["objective"]
     for r in records:
-        r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE") and
-                                 abs(r["objective"] - best_cost) <= 1e-6 * max(1, best_cost))
+        r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE")
+                                 and r.get("refined", True)
+                                 and abs(r["objective"] - best_cost) <= 1e-6 * max(1, best_cost))
     return best, records
+
+
+def _refine_best(ocp: OCP, job: dict[str, Any], done: list[tuple], methods: list,
+                 k: int, options: dict[str, Any]) -> list[tuple]:
+    """Refine the ``k`` converged coarse starts of least cost; mark every record."""
+    ranked = sorted((r["objective"], i) for i, (r, _) in enumerate(done)
+                    if r["status"] in ("SUCCESS", "ACCEPTABLE"))
+    chosen = {i for _, i in ranked[:k]}
+    out = []
+    for i, (record, first) in enumerate(done):
+        record["refined"] = i in chosen
+        if i not in chosen:
+            out.append((record, first))
+            continue
+        if not isinstance(first, OCPSolution):  # a vector from a worker
+            m, w, lam_x, lam_g = first
+            first = _warm(ocp, m, w, lam_x, lam_g, options)
+        s, path = coarse_to_fine(ocp, methods, guess=first, raise_on_failure=False,
+                                 **options)
+        record.update({
+            "status": s.status.name, "objective": s.objective, "T": s.T,
+            "iterations": record["iterations"] + [p.cost["iterations"] for p in path],
+            "solve_seconds": record["solve_seconds"] + float(
+                sum(p.cost["solve_seconds"] for p in path))})
+        if job["describe"] is not None and s.status.ok:
+            record.update(job["describe"](s))
+        out.append((record, s))
+    return out
 
 
 _JOB: dict[str, Any] = {}
@@ -140,7 +185,8 @@ def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution
     variant = dict(job["variants"][i % len(job["variants"])]) if job["variants"] else {}
     options = job["options"]
     first_options = dict(options)
-    if job["refine_with"]:  # a coarse start is a means: judged after its refinement
+    if job["refine_with"] or job["refine_later"]:  # a coarse start is a means: judged
+        # after its refinement
         first_options.setdefault("defect_tol", None)
     if variant:
         first_options["ipopt_options"] = {**(options.get("ipopt_options") or {}), **variant}
