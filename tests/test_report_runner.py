@@ -363,3 +363,19 @@ def test_cores_reads_its_variable_and_refuses_anything_but_a_positive_integer(mo
         monkeypatch.setenv(CORES_ENV, bad)
         with pytest.raises(ParameterError, match=f"{CORES_ENV} must be a positive integer"):
             cores()
+
+
+def test_modules_the_problems_import_lazily_are_imported_once_before_the_fork(env, monkeypatch):
+    import sys
+
+    # a stand-in module on the path: imported by the report's process when two problems
+    # run (each child then inherits it), not when one does (it would be its only user)
+    (env / "preload_probe_mod.py").write_text("LOADED = True\n")
+    monkeypatch.syspath_prepend(str(env))
+    monkeypatch.setattr(runner, "PRELOAD", ("preload_probe_mod", "no_such_module_xyz"))
+    monkeypatch.delitem(sys.modules, "preload_probe_mod", raising=False)
+    report(env, ["small"], cache_dir=None)
+    assert "preload_probe_mod" not in sys.modules
+    rep, _ = report(env, ["small", "counted"], cache_dir=None)
+    assert "preload_probe_mod" in sys.modules and rep.ok  # a missing one is skipped
+    monkeypatch.delitem(sys.modules, "preload_probe_mod")
