@@ -12,7 +12,9 @@ from workbench.core.errors import ManifoldError
 from workbench.core.manifolds.base import DEFAULT_TOL, Factor
 from workbench.core.manifolds.lie import (  # noqa: F401
     _finite_array,
+    _hat_array,
     _is_casadi,
+    _so3_exp_array,
     _vec,
     hat,
     so3_exp,
@@ -35,6 +37,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.cross(a, b)
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                      a[0] * b[1] - a[1] * b[0]])
+
+
+def _exp(xi: np.ndarray) -> np.ndarray:
+    """``so3_exp(xi)`` of a rotation vector made from already checked numbers.
+
+    Bit for bit :func:`so3_exp`, without checking ``xi`` again unless it is not finite
+    (an overflow), so that the error is :func:`so3_exp`'s own.
+    """
+    return _so3_exp_array(xi) if np.all(np.isfinite(xi)) else so3_exp(xi)
 
 
 @dataclass(frozen=True, repr=False)
@@ -157,12 +168,13 @@ class S2(Factor):
 
     def tangent_basis(self, x: ArrayLike) -> Matrix:  # noqa: D102
         q = self._numeric(x)
-        return -hat(q) @ sphere_basis(q)  # columns b_k x q
+        B = sphere_basis(q)  # checks q
+        return -_hat_array(q) @ B  # columns b_k x q
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
         q = self._numeric(x)
         xi = sphere_basis(q) @ self._tangent(v)
-        return so3_exp(xi) @ q
+        return _exp(xi) @ q
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
         qe = self._numeric(x_e)
@@ -224,7 +236,7 @@ class TS2(Factor):
         xv, v = self._numeric(x), self._tangent(v)
         q, w = xv[:3], xv[3:]
         B = sphere_basis(q)
-        Q = so3_exp(B @ v[:2])
+        Q = _exp(B @ v[:2])
         return np.concatenate([Q @ q, Q @ (w + B @ v[2:])])
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
@@ -304,7 +316,7 @@ class SO3(Factor):
 
     def retract(self, x: ArrayLike, v: ArrayLike) -> Vector:  # noqa: D102
         R = self.matrix(self._numeric(x))
-        return self.flat(R @ so3_exp(self._tangent(v)))
+        return self.flat(R @ _exp(self._tangent(v)))
 
     def chart(self, x_e: ArrayLike, x: Expr) -> Expr:  # noqa: D102
         Re = self.matrix(self._numeric(x_e))

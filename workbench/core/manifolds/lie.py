@@ -60,7 +60,11 @@ def hat(v: Expr) -> Expr:
     """
     if _is_casadi(v):
         return ca.skew(v)
-    v = _finite_array(v, "v (hat)", (3,))
+    return _hat_array(_finite_array(v, "v (hat)", (3,)))
+
+
+def _hat_array(v: np.ndarray) -> np.ndarray:
+    """:func:`hat` of a float array of shape (3,), without checking it."""
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
@@ -118,15 +122,23 @@ def so3_exp(v: Expr) -> Expr:
         a, b = _exp_coefficients(ca.dot(v, v))
         k = hat(v)
         return ca.DM.eye(3) + a * k + b * (k @ k)
-    v = _finite_array(v, "v (so3_exp)", (3,))
+    return _so3_exp_array(_finite_array(v, "v (so3_exp)", (3,)))
+
+
+def _so3_exp_array(v: np.ndarray) -> np.ndarray:
+    """:func:`so3_exp` of a finite float array of shape (3,), without checking it.
+
+    For the retractions, whose rotation vector is made from already checked numbers; the
+    arithmetic is :func:`so3_exp`'s (bit for bit).
+    """
     theta2 = float(v @ v)
     if not np.isfinite(theta2):  # |v| > 1e154: the squares overflow; rotate about the axis
         big = float(np.max(np.abs(v)))
         theta = big * float(np.linalg.norm(v / big))
-        k = hat(v / theta)
+        k = _hat_array(v / theta)
         return np.eye(3) + np.sin(theta) * k + (1.0 - np.cos(theta)) * (k @ k)
     a, b = _exp_coefficients(theta2)
-    k = hat(v)
+    k = _hat_array(v)
     return np.eye(3) + a * k + b * (k @ k)
 
 
