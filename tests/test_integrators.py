@@ -335,3 +335,27 @@ def test_jit_compiles_one_graph_once_per_process():
                  atol=1e-15, what="compiled a")
     assert_close(np.asarray(other([0.3, -1.0])).ravel(), 3.0 * np.cos([0.3, -1.0]),
                  atol=1e-15, what="compiled b")
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="jit needs a C compiler")
+def test_jit_leaves_no_file_behind_even_in_a_child_that_skips_its_destructors(
+        tmp_path, monkeypatch):
+    import os
+    import tempfile
+
+    from workbench.simulation.integrators.common import compile_step
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    x = ca.SX.sym("x", 3)
+    pid = os.fork()
+    if pid == 0:  # like a report's problem: compile, use, leave through os._exit
+        code = 1
+        try:
+            f = compile_step(ca.Function("jit_litter_probe", [x], [ca.exp(x) - x]))
+            ok = abs(float(f([1.0, 0.0, 2.0])[2]) - (np.exp(2.0) - 2.0)) < 1e-12
+            code = 0 if ok else 2
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert list(tmp_path.iterdir()) == []

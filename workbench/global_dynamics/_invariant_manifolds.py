@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -73,6 +72,7 @@ from workbench.simulation.integrators.common import (
     NEWTON_TOL,
     DiscreteFlow,
     controller_key,
+    jit_function,
 )
 
 __all__ = [
@@ -164,14 +164,8 @@ def _interval(model: Model, step: ca.Function, key: str, n_sub: int, jit: bool
         if not step.is_a("SXFunction"):
             raise ModelError(f"jit=True compiles scalar (SX) steps; model {model.name!r} is "
                              f"built on MX; run it with jit=False")
-        opts = {"jit": True, "compiler": "shell", "jit_temp_suffix": True,
-                "jit_options": {"flags": ["-O2"], "directory": tempfile.gettempdir()}}
-        try:
-            return ca.Function("manifold_interval_jit", [x, p, h, xe, dmax], outs, opts)
-        except RuntimeError as exc:
-            raise SolverError(f"jit compilation of the manifold step failed: "
-                              f"{str(exc).strip().splitlines()[-1]}",
-                              status="compiler error") from exc
+        return jit_function("manifold_interval_jit", [x, p, h, xe, dmax], outs,
+                            what="the manifold step")
 
     return model._build(f"{key},n_sub={n_sub}{',jit' if jit else ''}", make)
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import shutil
 import tempfile
 import time
 from collections.abc import Callable
@@ -50,6 +51,8 @@ __all__ = [
     "newton",
     "integrate",
     "check_newton_options",
+    "compile_step",
+    "jit_function",
 ]
 
 NEWTON_TOL = 1e-13
@@ -279,29 +282,67 @@ def compile_step(fn: ca.Function) -> ca.Function:
     # the same graph (by its serialisation) is compiled once per process: a study that
     # simulates one model several times with jit (extremes: three lgvi runs) paid gcc
     # for each, 0.3-0.5 s
-    key = hashlib.sha256(fn.serialize().encode()).hexdigest()
-    hit = _COMPILED.get(key)
+    try:
+        key = hashlib.sha256(fn.serialize().encode()).hexdigest()
+    except RuntimeError:  # a function casadi cannot serialise: compiled, not remembered
+        key = None
+    hit = _COMPILED.get(key) if key else None
     if hit is not None:
         return hit
     ins = fn.sx_in()
-    outs = fn.call(ins)
-    opts = {
-        "jit": True,
-        "compiler": "shell",
-        "jit_options": {"flags": ["-O2"], "directory": tempfile.gettempdir()},
-        "jit_temp_suffix": True,
-    }
-    try:
-        out = ca.Function(f"{fn.name()}_jit", ins, outs, fn.name_in(), fn.name_out(), opts)
-    except RuntimeError as exc:
-        raise SolverError(
-            f"jit compilation of {fn.name()!r} failed: {str(exc).strip().splitlines()[-1]}",
-            status="compiler error",
-        ) from exc
+    out = jit_function(f"{fn.name()}_jit", ins, fn.call(ins), fn.name_in(), fn.name_out(),
+                       what=repr(fn.name()))
+    if key is None:
+        return out
     if len(_COMPILED) >= _COMPILED_MAX:
         _COMPILED.pop(next(iter(_COMPILED)))
     _COMPILED[key] = out
     return out
+
+
+def jit_function(name: str, ins: list, outs: list, names_in: list[str] | None = None,
+                 names_out: list[str] | None = None, *, what: str = "") -> ca.Function:
+    """A casadi function compiled to C (``gcc -O2`` through casadi's shell compiler).
+
+    The C source, object and shared library go to a private temporary directory that is
+    removed as soon as the library is loaded: nothing is left behind, however the process
+    ends (forked children exit without running destructors, which left casadi's own
+    temporary files in the system's temporary directory).
+
+    Parameters
+    ----------
+    name : str
+        Name of the function.
+    ins, outs : list of casadi.SX
+        Its inputs and outputs.
+    names_in, names_out : list of str, optional
+        Their names.
+    what : str
+        What is compiled, for the error message (default: ``name``).
+
+    Returns
+    -------
+    casadi.Function
+
+    Raises
+    ------
+    SolverError
+        If the compiler fails (its message is included).
+    """
+    work = tempfile.mkdtemp(prefix="workbench-jit-")
+    opts = {"jit": True, "compiler": "shell", "jit_name": "jit", "jit_temp_suffix": False,
+            "jit_cleanup": False,  # the directory is removed below, not by casadi
+            "jit_options": {"flags": ["-O2"], "directory": work, "cleanup": False}}
+    try:
+        if names_in is None:
+            return ca.Function(name, ins, outs, opts)
+        return ca.Function(name, ins, outs, names_in, names_out, opts)
+    except RuntimeError as exc:
+        raise SolverError(
+            f"jit compilation of {what or name!r} failed: "
+            f"{str(exc).strip().splitlines()[-1]}", status="compiler error") from exc
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
 
 
 _COMPILED: dict[str, ca.Function] = {}
