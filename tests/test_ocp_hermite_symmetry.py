@@ -268,3 +268,20 @@ def test_multistart_refining_only_the_best_coarse_start_agrees_with_refining_all
 def test_multistart_refuses_a_refine_best_that_is_not_a_positive_integer(cart, bad):
     with pytest.raises(ParameterError, match=r"refine_best must be None or an integer >= 1"):
         multistart(cart, HermiteSimpson(N=4), seeds=[0], refine_best=bad)
+
+
+def test_multistart_names_the_refined_starts_failure_not_a_coarse_success(cart):
+    # the coarse starts converge (their own iteration limit), the one refined start
+    # cannot (2 iterations): the error is about the refinement, with its status
+    from workbench.core.errors import SolverError
+
+    with pytest.raises(SolverError, match="none of the 1 refined starts") as err:
+        multistart(cart, HermiteSimpson(N=10), seeds=[0, 1], T_guesses=[1.5], max_iter=2,
+                   ipopt_variants=({"max_iter": 200},), refine_with=[HermiteSimpson(N=20)],
+                   refine_best=1, defect_tol=None)
+    assert err.value.status not in ("SUCCESS", "ACCEPTABLE")
+
+
+def test_multistart_refuses_refine_best_without_refine_with(cart):
+    with pytest.raises(ParameterError, match="got refine_best without refine_with"):
+        multistart(cart, HermiteSimpson(N=4), seeds=[0], refine_best=1)

@@ -248,8 +248,11 @@ class Model:
     spd_solves : bool
         True declares that every linear solve in ``vector_field``'s graph has a symmetric
         positive definite matrix (a mass matrix; :mod:`workbench.mechanics` declares it).
-        Scalar (SX) versions of the graph then write those solves as L D L^T
-        (:func:`solve_spd`) instead of QR: the same function, fewer operations.
+        When an OCP replays an MX graph on SX
+        (:func:`workbench.control.ocp.expand.sx_function`), those solves are then written
+        as L D L^T (:func:`workbench.core.solve_spd`) instead of QR: the same function,
+        fewer operations. (An SX model writes its own solves; the mechanics models write
+        L D L^T.)
     """
 
     def __init__(

@@ -20,9 +20,13 @@ def solve_spd(A: ca.SX, b: ca.SX) -> ca.SX:
     Parameters
     ----------
     A : casadi.SX, shape=(n, n)
-        Symmetric positive definite: the caller's guarantee (a mass matrix). An indefinite
-        ``A`` may break the factorisation down (zero or tiny pivots) where QR would not.
+        Symmetric positive definite: the caller's guarantee (a mass matrix). Only its
+        upper triangle is read (``casadi.ldl``), so a non-symmetric ``A`` would be solved
+        as its symmetric completion; an indefinite one may break the factorisation down
+        (zero or tiny pivots) where QR would not. Nothing here can check either on a
+        symbolic matrix.
     b : casadi.SX, shape=(n, k)
+        Right-hand sides.
 
     Returns
     -------

@@ -123,6 +123,15 @@ def plain_label(label: str) -> str:
     ``$\mathdefault{10^{-3}}$`` becomes ``10⁻³`` and ``$\mathdefault{2\times10^{4}}$``
     ``2×10⁴`` (Unicode superscripts, drawn by the text engine without parsing); a plain
     number loses its ``$\mathdefault{}$``; anything else is returned as it is.
+
+    Parameters
+    ----------
+    label : str
+        A tick label as matplotlib's log formatters write it.
+
+    Returns
+    -------
+    str
     """
     m = _MATHDEFAULT.fullmatch(label)
     if m:

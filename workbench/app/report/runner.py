@@ -495,7 +495,7 @@ def run_all(
         warm_up()
     if len(todo) > 1:  # and the modules they would each import (one problem: its own)
         for module in PRELOAD:
-            with contextlib.suppress(ImportError):  # a problem needing it reports the error
+            with contextlib.suppress(Exception):  # a problem needing it reports the error
                 importlib.import_module(module)
     running: list[_Job] = []
     peak_total = pss_mb(os.getpid())

@@ -328,7 +328,8 @@ def transcribe(ocp: OCP, method: TranscriptionMethod, *,
         The transcription and whether it was built by this call.
     """
     check_method(method)
-    key = (method, handling, graph, bool(ocp.gauge and ocp.symmetry is not None))
+    key = (method, handling, graph, bool(ocp.gauge and ocp.symmetry is not None),
+           ocp.model.spd_solves)  # how the SX replay writes the model's solves
     if key in ocp._cache:
         return ocp._cache[key], False
     tr = Transcription(ocp, method, handling, graph, ipopt or _ipopt_options(1e-8, 1000, 0, None))

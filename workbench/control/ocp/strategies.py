@@ -88,20 +88,24 @@ def multistart(
         are built here first and inherited by forked workers (no rebuild, nothing
         pickled but numbers); each worker returns its records and the primal-dual vector
         of its end point, and the best is re-solved here from that vector (a warm start
-        of the same transcription: a few iterations) to give a complete solution.
+        of the same transcription: a few iterations) to give a complete solution. With
+        ``refine_best`` the refinements run here, one after the other.
     **solve_options
         Passed to :func:`solve` (``raise_on_failure`` is forced off for the starts).
 
     Returns
     -------
     (OCPSolution, list of dict)
-        The converged solution of least cost, and one record per start (seed, status,
-        objective, T, iterations, solve seconds, including the refinements).
+        The converged solution of least cost, and one record per start: ``seed``,
+        ``status``, ``objective``, ``T``, ``iterations`` (one entry per solve),
+        ``solve_seconds`` (all its solves), ``coarse_objective``, ``ipopt_variant``,
+        ``refined`` (whether it went through ``refine_with``), ``reached_best``, and the
+        fields of ``describe``.
 
     Raises
     ------
     SolverError
-        If no start converged.
+        If no start converged (with ``refine_best``: if no refined start converged).
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
@@ -109,6 +113,9 @@ def multistart(
             refine_best, (int, np.integer)) or refine_best < 1):
         raise ParameterError(f"refine_best must be None or an integer >= 1; got "
                              f"{refine_best!r}")
+    if refine_best is not None and not refine_with:
+        raise ParameterError("refine_best chooses which starts go through refine_with; "
+                             "got refine_best without refine_with")
     later = list(refine_with) if refine_best is not None else []
     solve_options = dict(solve_options)
     solve_options.pop("raise_on_failure", None)
@@ -125,11 +132,15 @@ def multistart(
     if later:  # refine the best refine_best coarse starts only, here
         done = _refine_best(ocp, job, done, later, int(refine_best), solve_options)
     records = [d[0] for d in done]
-    ok = [(r["objective"], i) for i, r in enumerate(records)
-          if r["status"] in ("SUCCESS", "ACCEPTABLE") and r.get("refined", True)]
+    counted = [i for i, r in enumerate(records) if r["refined"] or not refine_with]
+    ok = [(records[i]["objective"], i) for i in counted
+          if records[i]["status"] in ("SUCCESS", "ACCEPTABLE")]
     if not ok:
-        raise SolverError(f"OCP {ocp.name!r}: none of {len(records)} starts converged",
-                          status=records[-1]["status"] if records else "")
+        what = (f"none of the {len(counted)} refined starts (the cheapest of the "
+                f"converged coarse ones) converged" if later and counted else
+                f"none of {len(records)} starts converged")
+        raise SolverError(f"OCP {ocp.name!r}: {what}", status=records[
+            counted[-1] if counted else -1]["status"] if records else "")
     i_best = min(ok)[1]
     best = done[i_best][1]
     if not isinstance(best, OCPSolution):  # a vector from a worker: complete it here
@@ -139,7 +150,7 @@ def multistart(
     best_cost = records[i_best]["objective"]
     for r in records:
         r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE")
-                                 and r.get("refined", True)
+                                 and (r["refined"] or not refine_with)
                                  and abs(r["objective"] - best_cost) <= 1e-6 * max(1, best_cost))
     return best, records
 
@@ -161,6 +172,9 @@ def _refine_best(ocp: OCP, job: dict[str, Any], done: list[tuple], methods: list
             first = _warm(ocp, m, w, lam_x, lam_g, options)
         s, path = coarse_to_fine(ocp, methods, guess=first, raise_on_failure=False,
                                  **options)
+        if job["describe"] is not None and not s.status.ok:  # the coarse minimum's fields
+            for field in job["describe"](first):                # do not describe a failure
+                record.pop(field, None)
         record.update({
             "status": s.status.name, "objective": s.objective, "T": s.T,
             "iterations": record["iterations"] + [p.cost["iterations"] for p in path],
@@ -202,6 +216,7 @@ def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution
         "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
         "coarse_objective": path[0].objective,
         "ipopt_variant": variant,
+        "refined": bool(job["refine_with"]) and first.status.ok,
     }
     if job["describe"] is not None and s.status.ok:
         record.update(job["describe"](s))
