@@ -229,3 +229,32 @@ def test_plain_log_labels_keep_every_tick_label_and_touch_only_log_axes():
         assert not any("$" in s for row in after[:4] for s in row)
     finally:
         plt.close(fig)
+
+
+def test_readable_lays_out_again_a_figure_that_was_laid_out_once_at_another_size():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from workbench.app.report.figures import PRINT_WIDTH, readable
+
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))  # as the work-precision diagram
+    try:
+        for ax in axes:
+            ax.loglog([1e-4, 1e-2], [1e-12, 1e-1])
+            ax.set_xlabel("wall time [s]")
+            ax.set_ylabel("max |E - E0| / |E0|")
+        fig.tight_layout()  # once, at 14 in: leaves a placeholder layout engine
+        assert readable(fig)["width"] == PRINT_WIDTH
+        fig.canvas.draw()
+        box = fig.bbox
+        for ax in axes:  # every axis label on the figure, none over another panel
+            for label in (ax.xaxis.label, ax.yaxis.label):
+                e = label.get_window_extent()
+                assert box.x0 <= e.x0 and e.x1 <= box.x1 and box.y0 <= e.y0 and e.y1 <= box.y1
+        for left, right in zip(axes[:-1], axes[1:]):
+            assert (left.get_tightbbox().x1
+                    <= right.yaxis.label.get_window_extent().x0 + 1.0)
+    finally:
+        plt.close(fig)

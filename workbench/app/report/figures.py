@@ -214,8 +214,13 @@ def readable(fig: Any) -> dict[str, float]:
             text.set_fontsize(MIN_POINTS)
             raised += 1
     if scale < 1.0 or raised:
-        engine = fig.get_layout_engine() if hasattr(fig, "get_layout_engine") else None
-        if engine is None:
+        from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+        engine = fig.get_layout_engine()
+        # a figure laid out once by fig.tight_layout() keeps a placeholder engine, which
+        # lays nothing out: it must be laid out again at its new size (it was not: the
+        # work-precision figure lost its axis labels at half size)
+        if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 with contextlib.suppress(Exception):
