@@ -18,16 +18,15 @@ Usage: python benchmarks/bench_spd_solve.py [--quick] [--repeat K]
 from __future__ import annotations
 
 import os
-import statistics
 import sys
-import time
+from collections.abc import Callable
 from pathlib import Path
 
 import casadi as ca
 
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parent.parent))
-from _timing import quick_repeat_arguments, table  # noqa: E402
+from _timing import interleaved_cpu, quick_repeat_arguments, table  # noqa: E402
 
 from models.chain_cart import chain_cart  # noqa: E402
 from problems import swingup_double_spherical_cart as dc  # noqa: E402
@@ -73,22 +72,23 @@ def main(argv: list[str]) -> None:
     if not a.quick:
         guess = solve_ocp(ldl_ocp, Collocation(N=40), guess=guess, handling=lie,
                           max_iter=300, defect_tol=None)
-    samples: dict[str, list[float]] = {"QR": [], "L D L^T": []}
+    ocps = {"QR": qr_ocp, "L D L^T": ldl_ocp}
+    for ocp in ocps.values():  # build the transcriptions outside the timing
+        solve_ocp(ocp, Collocation(N=N), guess=guess, handling=lie, max_iter=1,
+                  raise_on_failure=False, defect_tol=None)
     last: dict[str, object] = {}
-    for _ in range(a.repeat):
-        for name, ocp in (("QR", qr_ocp), ("L D L^T", ldl_ocp)):
-            solve_ocp(ocp, Collocation(N=N), guess=guess, handling=lie, max_iter=1,
-                      raise_on_failure=False, defect_tol=None)  # build outside the timing
-            t0 = time.process_time()
-            s = solve_ocp(ocp, Collocation(N=N), guess=guess, handling=lie, max_iter=300,
-                          defect_tol=None)
-            samples[name].append(time.process_time() - t0)
-            last[name] = s
-    base = statistics.median(samples["QR"])
-    rows = [{"solve": k, "N": N, "CPU median [s]": f"{statistics.median(v):.2f}",
-             "ratio": f"{statistics.median(v) / base:.2f}",
+
+    def timed(name: str) -> Callable[[], None]:
+        def run() -> None:
+            last[name] = solve_ocp(ocps[name], Collocation(N=N), guess=guess, handling=lie,
+                                   max_iter=300, defect_tol=None)
+        return run
+
+    medians = interleaved_cpu({k: timed(k) for k in ocps}, rounds=a.repeat)
+    base = medians["QR"]
+    rows = [{"solve": k, "N": N, "CPU median [s]": f"{v:.2f}", "ratio": f"{v / base:.2f}",
              "iterations": last[k].cost["iterations"], "cost": f"{last[k].objective:.8f}",
-             "status": last[k].status.name} for k, v in samples.items()]
+             "status": last[k].status.name} for k, v in medians.items()]
     print(table(rows, ["solve", "N", "CPU median [s]", "ratio", "iterations", "cost",
                        "status"]))
     print(f"rounds {a.repeat}, load average {os.getloadavg()[0]:.2f}")

@@ -15,7 +15,7 @@ def solve_spd(A: ca.SX, b: ca.SX) -> ca.SX:
     writes for SX, and no square roots. On the double spherical pendulum on a cart (an 8x8
     mass matrix) the accelerations are 729 instead of 1638 instructions and the Hessian of
     ``lambda . nu-dot`` 18k instead of 65k: what an OCP's exact Hessian evaluates at every
-    collocation point (``benchmarks/bench_ocp.py``).
+    collocation point (``benchmarks/bench_spd_solve.py``).
 
     Parameters
     ----------

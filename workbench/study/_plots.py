@@ -166,6 +166,8 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
 
     colour_run = validate.count("colour_run", colour_run)
     colour_tol = validate.nonnegative("colour_tol", colour_tol)
+    if vmin is not None and vmax is not None and vmax < vmin:
+        raise ParameterError(f"vmax must not be below vmin; got vmin={vmin!r}, vmax={vmax!r}")
     cs, vs = _curve_list(curves, values)
     total = sum(max(len(c) - 1, 0) for c in cs)
     per = max(2, int(max_segments // max(len(cs), 1)) + 1) if total > max_segments else None
@@ -178,8 +180,6 @@ def sphere_curves(ax: Any, curves: Sequence[ArrayLike], values: Sequence[ArrayLi
     lo = float(np.min(mids)) if vmin is None and mids.size else (vmin or 0.0)
     hi = float(np.max(mids)) if vmax is None and mids.size else (
         vmax if vmax is not None else 1.0)
-    if vmin is not None and vmax is not None and vmax < vmin:
-        raise ParameterError(f"vmax must not be below vmin; got vmin={vmin!r}, vmax={vmax!r}")
     hi = hi if hi > lo else lo + 1
     limit = colour_tol * (hi - lo)
     seg: list[np.ndarray] = []

@@ -164,23 +164,21 @@ def _refine_best(ocp: OCP, job: dict[str, Any], done: list[tuple], methods: list
     out = []
     for i, (record, first) in enumerate(done):
         record["refined"] = i in chosen
-        if i not in chosen:
-            out.append((record, first))
-            continue
-        if not isinstance(first, OCPSolution):  # a vector from a worker
+        ok = record["status"] in ("SUCCESS", "ACCEPTABLE")
+        if ok and not isinstance(first, OCPSolution):  # a vector from a worker
             m, w, lam_x, lam_g = first
             first = _warm(ocp, m, w, lam_x, lam_g, options)
-        s, path = coarse_to_fine(ocp, methods, guess=first, raise_on_failure=False,
-                                 **options)
-        if job["describe"] is not None and not s.status.ok:  # the coarse minimum's fields
-            for field in job["describe"](first):                # do not describe a failure
-                record.pop(field, None)
-        record.update({
-            "status": s.status.name, "objective": s.objective, "T": s.T,
-            "iterations": record["iterations"] + [p.cost["iterations"] for p in path],
-            "solve_seconds": record["solve_seconds"] + float(
-                sum(p.cost["solve_seconds"] for p in path))})
-        if job["describe"] is not None and s.status.ok:
+        s = first
+        if i in chosen:
+            s, path = coarse_to_fine(ocp, methods, guess=first, raise_on_failure=False,
+                                     **options)
+            record.update({
+                "status": s.status.name, "objective": s.objective, "T": s.T,
+                "iterations": record["iterations"] + [p.cost["iterations"] for p in path],
+                "solve_seconds": record["solve_seconds"] + float(
+                    sum(p.cost["solve_seconds"] for p in path))})
+            ok = s.status.ok
+        if job["describe"] is not None and ok:  # a converged minimum, refined or coarse
             record.update(job["describe"](s))
         out.append((record, s))
     return out
@@ -218,8 +216,8 @@ def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution
         "ipopt_variant": variant,
         "refined": bool(job["refine_with"]) and first.status.ok,
     }
-    if job["describe"] is not None and s.status.ok:
-        record.update(job["describe"](s))
+    if job["describe"] is not None and s.status.ok and not job["refine_later"]:
+        record.update(job["describe"](s))  # refined later: described by _refine_best
     return record, s
 
 
