@@ -221,5 +221,6 @@ def poincare_figure(orbits: list[PoincareOrbit], cs: list[float], ftles: list[fl
         ax.scatter(g[:, 0], g[:, 1], g[:, 2], s=1.5, c="C3")
         ax.set_title(f"({'abcde'[k]}) c = {c:g}, E = {orb.diagnostics['invariant_initial']:.2f}"
                      f"\nFTLE {ftle:.3f}/s", fontsize=9)
-    fig.tight_layout(rect=(0, 0, 1, 0.92))  # room for the two-line titles of 3D axes
+    # laid out when drawn; room at the top for the two-line titles of 3D axes
+    fig.set_layout_engine("tight", rect=(0, 0, 1, 0.92))
     return fig

@@ -56,10 +56,14 @@ def relative_equilibria_figure(atlas: RelativeEquilibria, names: list[str],
 
     Jd = np.diag(J)
     cmap = plt.get_cmap("jet")
-    fig = plt.figure(figsize=(14, 5))
+    # drawn at its printed size: the two views side by side, the momentum below them
+    # (three panels in a row, shrunk to the page, had titles running into each other)
+    fig = plt.figure(figsize=(7.0, 5.2), layout="constrained")
+    grid = fig.add_gridspec(2, 2, height_ratios=(1.15, 1.0))
     u, v = np.mgrid[0:2 * np.pi:36j, 0:np.pi:18j]
-    for panel, (elev, azim) in enumerate(((25, 35), (-25, 125))):
-        ax = fig.add_subplot(1, 3, panel + 1, projection="3d")
+    views = (("seen from above", 25, 35), ("seen from below", -25, 125))
+    for panel, (view, elev, azim) in enumerate(views):
+        ax = fig.add_subplot(grid[0, panel], projection="3d")
         ax.plot_wireframe(np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v),
                           color="0.88", lw=0.3)
         for b in atlas.branches:
@@ -79,18 +83,24 @@ def relative_equilibria_figure(atlas: RelativeEquilibria, names: list[str],
         ax.set_box_aspect((1, 1, 1))
         ax.view_init(elev=elev, azim=azim)
         ax.invert_zaxis()
-        ax.set_xlabel("Gamma_1", fontsize=7)
-        ax.set_ylabel("Gamma_2", fontsize=7)
-        ax.set_zlabel("Gamma_3 (down)", fontsize=7)
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
             axis.set_ticks([-1.0, 0.0, 1.0])
-        ax.tick_params(labelsize=6)
-        handles, labels = ax.get_legend_handles_labels()
-        keep = dict(zip(labels, handles))
-        ax.legend(keep.values(), keep.keys(), fontsize=7, loc="upper left")
-        ax.set_title("Gamma_e of the families, colour = alpha: -inf blue .. 0 .. 1/J1 "
-                     "cyan\n.. 1/J2 green .. 1/J3 orange .. +inf red (Fig. 4.1)", fontsize=8)
-    ax2 = fig.add_subplot(1, 3, 3)
+        if panel == 0:  # the view from below shares them (its labels would crowd the title)
+            ax.set_xlabel("Gamma_1", fontsize=7)
+            ax.set_ylabel("Gamma_2", fontsize=7)
+            ax.set_zlabel("Gamma_3 (down)", fontsize=7)
+            ax.tick_params(labelsize=7)
+            handles, labels = ax.get_legend_handles_labels()
+            keep = dict(zip(labels, handles))
+            fig.legend(keep.values(), keep.keys(), fontsize=7, loc="upper right",
+                       bbox_to_anchor=(1.0, 0.86))
+        else:
+            for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+                axis.set_ticklabels([])
+        ax.set_title(view, fontsize=8)
+    fig.suptitle("Gamma_e of the families (Fig. 4.1), colour = alpha: -inf blue .. 0 .. "
+                 "1/J1 cyan\n.. 1/J2 green .. 1/J3 orange .. +inf red", fontsize=8)
+    ax2 = fig.add_subplot(grid[1, :])
     for b, name in zip(atlas.branches, names):
         x = _colour(alpha(b.monitors["k"], b.monitors["k1"]), Jd)
         jump = np.r_[False, np.abs(np.diff(x)) > 0.3]
@@ -104,8 +114,7 @@ def relative_equilibria_figure(atlas: RelativeEquilibria, names: list[str],
     ax2.set_xticklabels(["-10", "0", "1/J1", "1/J2", "1/J3"])
     ax2.set_xlabel("alpha (compressed scale)")
     ax2.set_ylabel("mu (5.22)")
-    ax2.set_title("momentum along the families\nsolid: spectrally stable, dotted: unstable",
+    ax2.set_title("momentum along the families; solid: spectrally stable, dotted: unstable",
                   fontsize=8)
-    ax2.legend(fontsize=6, ncol=2)
-    fig.tight_layout()
+    ax2.legend(fontsize=7, ncol=4)
     return fig

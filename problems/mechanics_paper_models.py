@@ -94,7 +94,7 @@ def solve(*, quick: bool = False) -> Result:
     ax.set_xlabel("log10 max |f_derived - f_printed| at one state")
     ax.set_ylabel("states")
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     res.figure("deviations", fig, caption=(
         "Histogram of the largest deviation between the vector field derived from the "
         "Lagrangian and the paper's printed one at each random state, per model; rounding "

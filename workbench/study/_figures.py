@@ -222,7 +222,7 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
         ax.grid(True, alpha=0.3)
         if len(p.curves) > 1:
             ax.legend(fontsize=8)
-    fig.tight_layout()
+    fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig
 
 
@@ -288,5 +288,5 @@ def spectrum_figure(spectra: Mapping[str, tuple[ArrayLike, ArrayLike | None]], *
         ax.set(title=head, xlabel="Re lambda", ylabel="Im lambda")
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=8, loc="best")
-    fig.tight_layout()
+    fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig

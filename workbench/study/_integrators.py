@@ -259,5 +259,5 @@ def orders_figure(*wps: WorkPrecision) -> Any:
         ax.set_ylabel("error at final time")
         ax.set_title(f"{wp.model}, T = {wp.horizon:g} s (circled: points fitted)")
         ax.legend(fontsize=7)
-    fig.tight_layout()
+    fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig

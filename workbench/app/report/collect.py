@@ -12,6 +12,7 @@ import io
 import sys
 import time
 import traceback
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -93,6 +94,10 @@ def models_of(result: Result) -> list[Model]:
     return out
 
 
+_TIGHT_LAYOUT_WARNINGS = ("Tight layout not applied", "This figure includes Axes that are not "
+                          "compatible with tight_layout")
+
+
 def figure_svg(fig: Any, *, salt: str) -> str:
     """A matplotlib figure as self-contained SVG text (text as paths, no date, stable ids).
 
@@ -111,7 +116,12 @@ def figure_svg(fig: Any, *, salt: str) -> str:
     import matplotlib
 
     buf = io.StringIO()
-    with matplotlib.rc_context({"svg.fonttype": "path", "svg.hashsalt": salt}):
+    with matplotlib.rc_context({"svg.fonttype": "path", "svg.hashsalt": salt}), \
+            warnings.catch_warnings():
+        # a tight layout engine lays the figure out while it is drawn here; what it cannot
+        # fit (3D axes, crowded panels) it leaves as drawn, as fig.tight_layout() did
+        for message in _TIGHT_LAYOUT_WARNINGS:
+            warnings.filterwarnings("ignore", message=message, category=UserWarning)
         fig.savefig(buf, format="svg", metadata={"Date": None})
     text = buf.getvalue()
     return text[text.index("<svg"):]

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import re
-import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -219,12 +218,13 @@ def readable(fig: Any) -> dict[str, float]:
         engine = fig.get_layout_engine()
         # a figure laid out once by fig.tight_layout() keeps a placeholder engine, which
         # lays nothing out: it must be laid out again at its new size (it was not: the
-        # work-precision figure lost its axis labels at half size)
+        # work-precision figure lost its axis labels at half size). A tight engine lays
+        # it out when it is drawn, once, at its final size: the workbench's own figures
+        # set one instead of calling fig.tight_layout(), which laid each out twice
+        # (the quick report: 7.8 s CPU of tight layouts, 2.2 s in work_precision alone)
         if engine is None or isinstance(engine, PlaceHolderLayoutEngine):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                with contextlib.suppress(Exception):
-                    fig.tight_layout()
+            with contextlib.suppress(Exception):
+                fig.set_layout_engine("tight")
     w2, h2 = (float(v) for v in fig.get_size_inches())
     return {"scale": scale, "raised": raised, "width": w2, "height": h2}
 

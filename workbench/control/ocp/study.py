@@ -311,7 +311,7 @@ def plot_swingup(sol: OCPSolution, sphere_parts: Sequence[tuple[str, Callable]],
     ax.set_title("optimal control", fontsize=9)
     ax.legend(fontsize=8)
     fig.suptitle(title or sol.describe(), fontsize=9)
-    fig.tight_layout()
+    fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig
 
 

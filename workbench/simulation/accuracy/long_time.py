@@ -169,7 +169,7 @@ class LongTime:
             a.set_xlabel(f"t [{unit_name}]")
         ax[0].legend(fontsize=7)
         fig.suptitle(title or f"long-time behaviour, {self.model}, T = {self.horizon:g}")
-        fig.tight_layout()
+        fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
         return fig
 
 

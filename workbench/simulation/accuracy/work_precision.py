@@ -270,7 +270,7 @@ class WorkPrecision:
         ax[2].set_ylabel("max |E - E0| / |E0|")
         ax[0].legend(fontsize=7)
         fig.suptitle(title or f"work-precision, {self.model}, T = {self.horizon:g}")
-        fig.tight_layout()
+        fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
         return fig
 
 
