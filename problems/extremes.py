@@ -57,8 +57,9 @@ def solve(*, quick: bool = False) -> Result:
     principal moments beside Prop. 9 case 7(a); fast and slow motion (spin 1e3 rad/s
     against the sleeping top's closed form, periods near the separatrix, horizons of 10^5 s
     for the geometric integrators); continuation near the singular values alpha = 0 and
-    1/J_i of Prop. 9; large chains (n = 20, and n = 50 when not quick), each in a fresh
-    process so that the peak resident memory is per case; the swing-up optimisation at
+    1/J_i of Prop. 9; large chains (n = 20, and n = 50 when not quick), each in a forked
+    process whose peak resident memory is reset at its start, so that the memory a case
+    adds is its own; the swing-up optimisation at
     nearly infeasible bounds and very short and very long horizons (Ipopt's status, and
     the transcription's local defect against CVODES); a sample of bad inputs.
     """

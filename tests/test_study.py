@@ -306,3 +306,27 @@ def test_compare_lyapunov_on_a_damped_oscillator():
         "max relative rise of V (energy) along the run",
         "max V-dot (energy) along the run, from the graph"]
     assert all(c.ok for c in res.comparisons) and mono.relative_increase <= 1e-8
+
+
+def _child_has_module(name):
+    import sys
+
+    return name in sys.modules
+
+
+def test_run_isolated_forks_when_not_fresh():
+    import os
+    import sys
+    import types
+
+    from workbench.study import run_isolated
+
+    pid, _, doubled = run_isolated(_child_facts, 4, fresh=False)
+    assert pid != os.getpid() and doubled == 8
+    # a module that exists only in this process: a forked child has it, a spawned one not
+    sys.modules["_workbench_test_marker"] = types.ModuleType("_workbench_test_marker")
+    try:
+        assert run_isolated(_child_has_module, "_workbench_test_marker", fresh=False)
+        assert not run_isolated(_child_has_module, "_workbench_test_marker")
+    finally:
+        del sys.modules["_workbench_test_marker"]
