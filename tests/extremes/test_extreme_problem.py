@@ -102,7 +102,7 @@ def test_near_balanced_and_ill_conditioned_numbers_meet_the_closed_forms(quick):
 def test_large_chain_reports_time_memory_and_finite_results(quick):
     (row,) = [r for g, r in _rows(quick) if g == "large_chains"]
     assert row["outcome"] == CORRECT
-    assert 100 < row["peak RSS [MB]"] < 4000
+    assert 10 < row["memory added [MB]"] < 4000  # the case's own, measured in its process
     assert "dim 84" in row["did"] and "all finite" in row["did"]
 
 
