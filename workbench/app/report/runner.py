@@ -82,8 +82,8 @@ process's proportional set size walks its page tables: about 15 ms for a 400 MB 
 
 PRELOAD = ("control", "scipy.stats", "PIL.Image")
 """Modules the problems import lazily (python-control for LQR, scipy.stats for the
-attraction estimates, PIL for figures with images): imported once here before forking, so
-that the children inherit them. Each child imported its own copy: python-control took
+attraction estimates, PIL for figures with images): imported once here, after the first
+problem started and before the others, so that they inherit them. Each child imported its own copy: python-control took
 0.8 s CPU in each of the 4 quick problems that design an LQR, scipy.stats 0.6 s in 3."""
 
 
@@ -392,6 +392,14 @@ def _next_job(todo: list[_Job], running: list[_Job], peaks: dict[str, float],
     return None
 
 
+def _warm_up_for_children() -> None:
+    """Load matplotlib's fonts and parser and :data:`PRELOAD` here, for the children."""
+    warm_up()
+    for module in PRELOAD:
+        with contextlib.suppress(Exception):  # a problem needing it reports the error
+            importlib.import_module(module)
+
+
 def _check_rerun(rerun: Collection[str] | str | None, names: Sequence[str]) -> frozenset[str]:
     if rerun is None:
         return frozenset()
@@ -491,12 +499,12 @@ def run_all(
     ctx = multiprocessing.get_context("fork")
     # cores of each problem's own pools: the cores over the problems that run at once
     share = max(1, (os.cpu_count() or 1) // max(1, min(jobs, len(todo))))
-    if todo:  # the forked children inherit matplotlib's loaded fonts and parser
-        warm_up()
-    if len(todo) > 1:  # and the modules they would each import (one problem: its own)
-        for module in PRELOAD:
-            with contextlib.suppress(Exception):  # a problem needing it reports the error
-                importlib.import_module(module)
+    # the forked children inherit matplotlib's loaded fonts and parser, and the modules
+    # they would each import (one problem alone: its own). The first (longest) problem
+    # starts before: it loads what it needs itself while this process loads them for the
+    # others, instead of both cores waiting for these 1.2 s (the double cart, first in
+    # either mode, needs none of PRELOAD)
+    warm = len(todo) > 1
     running: list[_Job] = []
     peak_total = pss_mb(os.getpid())
     sampled_at = time.monotonic()
@@ -516,6 +524,9 @@ def run_all(
                     job.started = time.monotonic()
                     running.append(job)
                     show.started(job.name)
+                    if warm:
+                        warm = False
+                        _warm_up_for_children()
                 # wake when a child ends (its slot is refilled at once) or after POLL
                 # to sample memory and progress; a fixed sleep left each core idle for
                 # half a POLL on average per problem (26 problems: ~1.3 s of the report)
