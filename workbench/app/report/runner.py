@@ -83,8 +83,9 @@ process's proportional set size walks its page tables: about 15 ms for a 400 MB 
 PRELOAD = ("control", "scipy.stats", "PIL.Image")
 """Modules the problems import lazily (python-control for LQR, scipy.stats for the
 attraction estimates, PIL for figures with images): imported once here, after the first
-problem started and before the others, so that they inherit them. Each child imported its own copy: python-control took
-0.8 s CPU in each of the 4 quick problems that design an LQR, scipy.stats 0.6 s in 3."""
+problem started and before the others, so that they inherit them. Each child imported its
+own copy: python-control took 0.8 s CPU in each of the 4 quick problems that design an
+LQR, scipy.stats 0.6 s in 7."""
 
 
 @dataclass
