@@ -18,6 +18,7 @@ from workbench.simulation.accuracy import (
     Run,
     RunStatus,
     WorkPrecision,
+    default_reference,
     long_time,
     work_precision,
 )
@@ -46,6 +47,25 @@ def wp(sphere, x0):
 def test_reference_is_accurate_and_checked(wp):
     assert wp.reference.error_estimate < 1e-12
     assert wp.reference.labels[0].startswith("reference")
+
+
+def test_reference_error_estimate_falls_as_the_fourth_power_of_its_step(sphere, x0):
+    # RK4's Richardson estimate |x(h) - x(2h)| ~ (2^4 - 1) C h^4: two halvings fewer,
+    # 4^4 = 256 times larger
+    est = {}
+    for k in (9, 11):
+        refs = default_reference(2.0, halvings=k)
+        assert [r.values for r in refs] == [(2.0 / 2**k,), (2.0 / 2**(k - 1),)]
+        assert refs[0].label == f"reference rk h=T/2^{k}"
+        est[k] = work_precision(sphere, x0, 2.0, [AccuracySweep(Method.RK, [0.05])],
+                                reference=refs, n_samples=5).reference.error_estimate
+    assert 150 < est[9] / est[11] < 400
+
+
+@pytest.mark.parametrize("bad", [3, 0, 15.0, True, "16"])
+def test_reference_halvings_must_be_an_integer_of_at_least_four(bad):
+    with pytest.raises(ParameterError, match=r"halvings must be an integer >= 4; got"):
+        default_reference(1.0, halvings=bad)
 
 
 def test_errors_fall_with_the_knob_and_orders_match_theory(wp):
