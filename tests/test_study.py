@@ -330,3 +330,6 @@ def test_run_isolated_forks_when_not_fresh():
         assert not run_isolated(_child_has_module, "_workbench_test_marker")
     finally:
         del sys.modules["_workbench_test_marker"]
+    wanted = r"fresh must be True \(spawn\) or False \(fork\); got 'no'"
+    with pytest.raises(ParameterError, match=wanted):
+        run_isolated(_child_facts, 1, fresh="no")

@@ -11,8 +11,8 @@ the tolerance it is held to) or raises. :class:`Cases` runs cases and keeps one 
 * :data:`DEFECT` -- anything else: an undocumented exception, an error above its tolerance
   or not finite, or a result where a clear failure was expected.
 
-:func:`run_isolated` runs a function in another process (one BLAS thread), fresh or
-forked, for cases whose peak memory is measured per case.
+:func:`run_isolated` runs a function in another process, spawned (one BLAS thread) or
+forked, for cases whose memory is measured per case.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from multiprocessing import get_context
 from typing import Any
 
-from workbench.core.errors import SolverError, WorkbenchError
+from workbench.core.errors import ParameterError, SolverError, WorkbenchError
 
 __all__ = ["CLEAR", "CORRECT", "DEFECT", "Cases", "Check", "run_isolated"]
 
@@ -183,10 +183,14 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = 3600.0,
 
     Raises
     ------
+    ParameterError
+        If ``fresh`` is not a bool.
     SolverError
         If the process dies without a result or times out; an exception raised by ``fn``
         itself is raised again here.
     """
+    if not isinstance(fresh, bool):
+        raise ParameterError(f"fresh must be True (spawn) or False (fork); got {fresh!r}")
     ctx = get_context("spawn" if fresh else "fork")
     receive, send = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child, args=(send, fn, args), daemon=True)
