@@ -30,10 +30,11 @@ def _reset_peak() -> float:
 def chain_case(n: int, horizon: float) -> dict[str, Any]:
     """Build, linearise, PBH, LQR and simulate the n-link chain; times and memory.
 
-    Runs in the calling process; :func:`large_chains` runs it in a forked process
-    (:func:`workbench.study.run_isolated`), whose peak RSS is reset at the start, so
-    ``added_rss_mb`` (peak minus start) is what this case needed beyond what the process
-    had loaded (nan where Linux's ``/proc`` cannot reset the peak).
+    It resets the peak RSS of the process it runs in, so ``added_rss_mb`` (peak minus
+    start) is what this case needed beyond what the process had loaded (nan where
+    Linux's ``/proc`` cannot reset the peak): run it in a process of its own, as
+    :func:`large_chains` does (a forked one, :func:`workbench.study.run_isolated`), or
+    the caller's own peak is lost.
     """
     try:
         rss0 = _reset_peak()
