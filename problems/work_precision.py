@@ -81,10 +81,11 @@ def solve(*, quick: bool = False) -> Result:
        from the folded equilibrium s = (-1, 1, -1)), over 0.5 s.
 
     Measured for every run: the error at the final time against a high-accuracy reference
-    (RK4 at T / 2^16, its error estimated from RK4 at T / 2^15 and checked against cvodes at
-    1e-13), the energy error and the constraint residual, against wall time and vector-field
-    evaluations; the fastest method for a given accuracy; convergence orders fitted from
-    error against step size, beside the theoretical orders. Then the long-time behaviour:
+    (RK4 at T / 2^16, or T / 2^15 in quick mode, its error estimated from RK4 at twice the
+    step and checked against cvodes at 1e-13), the energy error and the constraint
+    residual, against wall time and vector-field evaluations; the fastest method for a
+    given accuracy; convergence orders fitted from error against step size, beside the
+    theoretical orders. Then the long-time behaviour:
     energy error and constraint residual of each method over 10^4 periods (10^2 in quick
     mode) of the pendulum's slowest small oscillation, and likewise for the spherical
     pendulum with the variational integrator on S^2.

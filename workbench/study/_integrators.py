@@ -99,7 +99,7 @@ def check_work_precision(res: Result, wp: WorkPrecision, model: Model, x0: np.nd
     """
     tr = simulate(model, x0, np.linspace(0, wp.horizon, 11), rtol=1e-13, atol=1e-13)
     dev = float(np.max(np.abs(tr.final - wp.reference.x_final)))
-    res.compare(f"{scene}: reference (RK4, T/2^16) vs cvodes rtol 1e-13", 0.0, dev,
+    res.compare(f"{scene}: {wp.reference.labels[0]} vs cvodes rtol 1e-13", 0.0, dev,
                 tolerance=reference_tolerance, source="independent methods agree")
     orders = wp.orders()
     for lab, o in orders.items():

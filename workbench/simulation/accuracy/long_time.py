@@ -164,12 +164,17 @@ class LongTime:
                 ax[0].loglog(tt, np.maximum(r.energy_error[1:], 1e-17), lw=0.7, label=lab)
             ax[1].loglog(tt, np.maximum(r.constraint[1:], 1e-17), lw=0.7, label=lab)
         ax[0].set_ylabel("|E - E0| / |E0|")
-        ax[1].set_ylabel("constraint residual (max over factors)")
+        # on two lines: on one it was taller than the panel at the printed size
+        ax[1].set_ylabel("constraint residual\n(max over factors)")
         for a in ax:
             a.set_xlabel(f"t [{unit_name}]")
-        ax[0].legend(fontsize=7)
+        # one legend in a row below the panels (inside the first it covered the curves)
+        handles, labels = ax[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="lower center", ncol=max(1, len(handles)),
+                   fontsize=7, frameon=False)
         fig.suptitle(title or f"long-time behaviour, {self.model}, T = {self.horizon:g}")
-        fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
+        # laid out when drawn, once, at its final size; the bottom strip for the legend
+        fig.set_layout_engine("tight", rect=(0, 0.08, 1, 1))
         return fig
 
 
