@@ -109,7 +109,7 @@ def _figure(cases: Cases):  # noqa: ANN202
         Panel("error / tolerance of each correct case", ratio, xlabel="case",
               yscale="log", marker="o", linestyle=""),
         Panel("cost of each case", cost, xlabel="case", ylabel="wall time [s]",
-              yscale="log", marker="o", linestyle="")])
+              yscale="log", marker="o", linestyle="")], legend="below")
 
 
 if __name__ == "__main__":

@@ -149,6 +149,14 @@ def test_result_figure_keeps_caption_and_figures_mapping():
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["k", "l"]
     with pytest.raises(ParameterError, match="caption"):
         res.figure("bad", fig, caption="  ")
+    # one legend under the panels: every label once, in first-seen order, none in a panel
+    below = line_figure([Panel("a", {"k": ([0, 1], [1, 2]), "l": ([0, 1], [2, 1])}),
+                         Panel("b", {"l": ([0, 1], [1, 1]), "m": ([0, 1], [0, 1])})],
+                        legend="below")
+    assert all(a.get_legend() is None for a in below.axes)
+    assert [t.get_text() for t in below.legends[0].get_texts()] == ["k", "l", "m"]
+    with pytest.raises(ParameterError, match="legend must be 'panels' or 'below'; got 'top'"):
+        line_figure([Panel("a", {"k": ([0, 1], [1, 2])})], legend="top")
     spec = spectrum_figure({"hanging": ([1j, -1j], [1j, -1j]), "alone": ([-1.0], None)})
     assert len(spec.axes) == 2  # two panels on one row of at most three
     assert np.allclose(spec.axes[0].lines[2].get_ydata(), [1.0, -1.0])  # Im of computed

@@ -190,7 +190,7 @@ def _grid(n: int, ncols: int, size: tuple[float, float]) -> tuple[Any, list[Any]
 
 def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
                 size: tuple[float, float] = (4.6, 3.3),
-                labels: Mapping[str, str] | None = None) -> Any:
+                labels: Mapping[str, str] | None = None, legend: str = "panels") -> Any:
     """Curves in panels, laid out ``ncols`` to a row.
 
     Parameters
@@ -204,11 +204,22 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
     labels : mapping of str to str, optional
         Words for curve labels and axis labels that are codes (``{"q1": "tilt of link
         1"}``): the legend shows ``"tilt of link 1 (q1)"``.
+    legend : str
+        ``"panels"``: a legend in each panel with more than one curve; ``"below"``: one
+        legend for every label of every panel, in rows under the panels (for scattered
+        points that leave a panel no free corner).
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    ParameterError
+        If ``legend`` is neither.
     """
+    if legend not in ("panels", "below"):
+        raise ParameterError(f"legend must be 'panels' or 'below'; got {legend!r}")
     fig, axes = _grid(len(panels), ncols, size)
     for ax, p in zip(axes, panels):
         for label, (x, y) in p.curves.items():
@@ -220,8 +231,19 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
         ax.set(title=p.title, xlabel=labelled(p.xlabel, labels),
                ylabel=labelled(p.ylabel, labels), xscale=p.xscale, yscale=p.yscale)
         ax.grid(True, alpha=0.3)
-        if len(p.curves) > 1:
+        if len(p.curves) > 1 and legend == "panels":
             ax.legend(fontsize=8)
+    if legend == "below":
+        entries: dict[str, Any] = {}
+        for ax in axes:
+            for handle, text in zip(*ax.get_legend_handles_labels()):
+                entries.setdefault(text, handle)
+        # constrained layout makes room for a legend "outside" the axes, at draw time
+        fig.set_layout_engine("constrained")
+        if entries:
+            fig.legend(list(entries.values()), list(entries), loc="outside lower center",
+                       ncol=min(4, len(entries)), fontsize=8, frameon=False)
+        return fig
     fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig
 
