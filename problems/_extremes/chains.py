@@ -7,24 +7,9 @@ from typing import Any
 
 import numpy as np
 
+from workbench.core._proc import proc_status_mb, reset_peak_rss
 from workbench.core.errors import SolverError
 from workbench.study import Cases, Check, Result, run_isolated
-
-
-def _status_mb(field: str) -> float:
-    """``VmRSS`` or ``VmHWM`` (peak) of this process from ``/proc/self/status`` [MB]."""
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith(field + ":"):
-                return float(line.split()[1]) / 1024
-    raise OSError(f"/proc/self/status has no {field}")
-
-
-def _reset_peak() -> float:
-    """Reset this process's peak RSS to its current RSS (Linux >= 4.0); the RSS [MB]."""
-    with open("/proc/self/clear_refs", "w") as fh:
-        fh.write("5")
-    return _status_mb("VmRSS")
 
 
 def chain_case(n: int, horizon: float) -> dict[str, Any]:
@@ -37,7 +22,7 @@ def chain_case(n: int, horizon: float) -> dict[str, Any]:
     the caller's own peak is lost.
     """
     try:
-        rss0 = _reset_peak()
+        rss0 = reset_peak_rss()
     except OSError:
         rss0 = float("nan")
     from models.chain_cart import chain_cart
@@ -79,7 +64,7 @@ def chain_case(n: int, horizon: float) -> dict[str, Any]:
             "energy_drift": tr.diagnostics["invariant_drift"]["energy"]["max_rel"],
             "constraint": max(tr.diagnostics["constraint_residual"].values()),
             "steps": tr.cost["steps"], "finite": finite,
-            "added_rss_mb": _status_mb("VmHWM") - rss0 if np.isfinite(rss0) else rss0}
+            "added_rss_mb": proc_status_mb("VmHWM") - rss0 if np.isfinite(rss0) else rss0}
 
 
 def large_chains(cases: Cases, res: Result, *, quick: bool) -> None:

@@ -34,6 +34,7 @@ import numpy as np
 from workbench.codegen.build import Optimization, build_cached
 from workbench.codegen.lanes import lanes_source
 from workbench.core._evaluator import Evaluator
+from workbench.core._solve import solve_spd
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
@@ -240,27 +241,13 @@ def _targets(outputs: list[ca.MX]) -> tuple[list[ca.MX], list[ca.MX]]:
 
 
 def _dense_ldl_solve(n: int, m: int) -> ca.Function:
-    """``(A, B) -> A^{-1} B`` by LDL^T without pivoting, in scalar operations (SX)."""
+    """``(A, B) -> A^{-1} B`` by L D L^T without pivoting, in scalar operations (SX).
+
+    The symbolic solve is :func:`workbench.core.solve_spd`, the one the SX replay of a
+    model with symmetric positive definite solves writes (``sx_function(spd=True)``).
+    """
     A, B = ca.SX.sym("A", n, n), ca.SX.sym("B", n, m)
-    L = [[None] * n for _ in range(n)]
-    d = [None] * n
-    for j in range(n):
-        v = [L[j][k] * d[k] for k in range(j)]
-        d[j] = A[j, j] - sum((L[j][k] * v[k] for k in range(j)), ca.SX(0))
-        inv = 1 / d[j]
-        for i in range(j + 1, n):
-            L[i][j] = (A[i, j] - sum((L[i][k] * v[k] for k in range(j)), ca.SX(0))) * inv
-    X = ca.SX(B)
-    for c in range(m):
-        y = [None] * n
-        for i in range(n):
-            y[i] = X[i, c] - sum((L[i][k] * y[k] for k in range(i)), ca.SX(0))
-        z = [y[i] / d[i] for i in range(n)]
-        for i in reversed(range(n)):
-            z[i] = z[i] - sum((L[k][i] * z[k] for k in range(i + 1, n)), ca.SX(0))
-        for i in range(n):
-            X[i, c] = z[i]
-    return ca.Function(f"dense_ldl_solve_{n}x{m}", [A, B], [X])
+    return ca.Function(f"dense_ldl_solve_{n}x{m}", [A, B], [solve_spd(A, B)])
 
 
 def _replacement(solver: LinearSolver, n: int, m: int) -> ca.Function:

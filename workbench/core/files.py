@@ -23,6 +23,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from workbench.core._proc import proc_status
 from workbench.core.errors import OutputError, WorkbenchError
 from workbench.core.validate import output_path
 
@@ -37,10 +38,7 @@ def umask() -> int:
     int
     """
     try:
-        with open("/proc/self/status", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
+        return int(proc_status("Umask"), 8)
     except (OSError, ValueError):
         pass
     old = os.umask(0o022)

@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 import casadi as ca
 
 from workbench.mechanics._bodies import kinetic_energy_of_bodies
-from workbench.mechanics._engine import solve_spd
 from workbench.mechanics._forces import load_covector
 
 __all__ = ["Derivation", "Ingredients", "SPARSE_JACOBIAN_MAX", "FORWARD_BATCH"]
@@ -281,10 +280,6 @@ class Derivation:
             ["x", "u", "p", "out_acc"], ["jac_acc_x", "jac_acc_u", "jac_acc_p"])
         return ca.Function(f"{self.name}_acc", [x, u, p], [acc], ["x", "u", "p"], ["acc"],
                            {"custom_jacobian": jac, "jac_penalty": 0}), jac
-
-    def accelerations_sx(self) -> ca.SX:
-        """``nu-dot`` as an SX expression (symbolic L D L^T solve; small systems)."""
-        return solve_spd(self.A, self.b)
 
     def energy(self) -> ca.Function:
         """``(x, p) -> T + V``."""

@@ -22,7 +22,7 @@ import os
 import time
 import traceback
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from multiprocessing import get_context
 from typing import Any
@@ -156,12 +156,12 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = 3600.0,
                  fresh: bool = True) -> Any:
     """Call ``fn(*args)`` in another process; return its value.
 
-    A fresh (spawned) process starts from nothing, so its peak resident memory
-    (``resource.getrusage`` read inside ``fn``) is that of this call and of the imports
-    it needs. A forked one (``fresh=False``) inherits this process's modules and memory
-    and starts in milliseconds instead of the 2-3 s of imports a spawned one pays (the
-    extremes' 20-link chain: 3.1-3.8 s CPU spawned, 0.6-0.7 s forked); what ``fn``
-    itself adds to the memory is then measured inside it, against its start. A spawned
+    A fresh (spawned) process starts from nothing, so its peak resident memory (read
+    inside ``fn``) is that of this call and of the imports it needs. A forked one
+    (``fresh=False``) inherits this process's modules and memory and starts in
+    milliseconds instead of the 2-3 s of imports a spawned one pays (the extremes'
+    20-link chain: 3.1-3.8 s CPU spawned, 0.6-0.7 s forked); what ``fn`` itself adds to
+    the memory is then measured inside it, against its start. A spawned
     process runs one BLAS thread; a forked one keeps this process's BLAS set-up.
 
     Parameters
@@ -194,7 +194,8 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = 3600.0,
     ctx = get_context("spawn" if fresh else "fork")
     receive, send = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child, args=(send, fn, args), daemon=True)
-    with _environment(_ONE_THREAD):
+    # the variables reach a spawned process's BLAS; a forked one has its BLAS loaded
+    with _environment(_ONE_THREAD) if fresh else nullcontext():
         proc.start()
     send.close()
     try:

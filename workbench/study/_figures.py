@@ -27,6 +27,7 @@ import numpy as np
 
 from workbench.core.errors import ParameterError
 from workbench.core.types import ArrayLike
+from workbench.simulation.accuracy._legend import legend_below
 
 __all__ = ["Panel", "line_figure", "spectrum_figure", "mode_counts", "equilibrium_class",
            "labelled"]
@@ -234,15 +235,7 @@ def line_figure(panels: Sequence[Panel], *, ncols: int = 2,
         if len(p.curves) > 1 and legend == "panels":
             ax.legend(fontsize=8)
     if legend == "below":
-        entries: dict[str, Any] = {}
-        for ax in axes:
-            for handle, text in zip(*ax.get_legend_handles_labels()):
-                entries.setdefault(text, handle)
-        # constrained layout makes room for a legend "outside" the axes, at draw time
-        fig.set_layout_engine("constrained")
-        if entries:
-            fig.legend(list(entries.values()), list(entries), loc="outside lower center",
-                       ncol=min(4, len(entries)), fontsize=8, frameon=False)
+        legend_below(fig, axes, fontsize=8, max_columns=4)
         return fig
     fig.set_layout_engine("tight")  # laid out when drawn, once, at its final size
     return fig

@@ -8,6 +8,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, TextIO
 
+from workbench.core._proc import proc_status_mb
+
 __all__ = ["Progress", "RunStats", "rss_mb", "pss_mb", "cpu_seconds_of", "process_age", "clock"]
 
 _TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
@@ -16,13 +18,9 @@ _TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 def rss_mb(pid: int) -> float:
     """Resident memory of a process [MB] from ``/proc`` (0 when it cannot be read)."""
     try:
-        with open(f"/proc/{pid}/status") as fh:
-            for line in fh:
-                if line.startswith("VmRSS:"):
-                    return int(line.split()[1]) / 1024.0
-    except (OSError, ValueError, IndexError):
-        pass
-    return 0.0
+        return proc_status_mb("VmRSS", pid)
+    except OSError:
+        return 0.0
 
 
 def pss_mb(pid: int) -> float:

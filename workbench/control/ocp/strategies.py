@@ -132,6 +132,7 @@ def multistart(
     if later:  # refine the best refine_best coarse starts only, here
         done = _refine_best(ocp, job, done, later, int(refine_best), solve_options)
     records = [d[0] for d in done]
+    # the starts that are judged: refined ones (every start without refine_with)
     counted = [i for i, r in enumerate(records) if r["refined"] or not refine_with]
     ok = [(records[i]["objective"], i) for i in counted
           if records[i]["status"] in ("SUCCESS", "ACCEPTABLE")]
@@ -148,9 +149,9 @@ def multistart(
         best = solve(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
                      raise_on_failure=False, **solve_options)
     best_cost = records[i_best]["objective"]
-    for r in records:
-        r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE")
-                                 and (r["refined"] or not refine_with)
+    judged = set(counted)
+    for i, r in enumerate(records):
+        r["reached_best"] = bool(r["status"] in ("SUCCESS", "ACCEPTABLE") and i in judged
                                  and abs(r["objective"] - best_cost) <= 1e-6 * max(1, best_cost))
     return best, records
 

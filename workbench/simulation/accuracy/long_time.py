@@ -20,6 +20,7 @@ from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.status import StatusResult
 from workbench.core.types import ArrayLike
+from workbench.simulation.accuracy._legend import legend_below
 from workbench.simulation.accuracy.sweep import (
     AccuracySweep,
     RunStatus,
@@ -155,26 +156,22 @@ class LongTime:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-        for r in self.runs:
+        for k, r in enumerate(self.runs):
             if not r.ok:
                 continue
             tt = r.t[1:] / time_unit
             lab = f"{r.label} ({'rtol' if r.method == 'cvodes' else 'h'} = {r.value:g})"
+            style = {"lw": 0.7, "label": lab, "color": f"C{k % 10}"}  # same in both panels
             if r.energy_error is not None:
-                ax[0].loglog(tt, np.maximum(r.energy_error[1:], 1e-17), lw=0.7, label=lab)
-            ax[1].loglog(tt, np.maximum(r.constraint[1:], 1e-17), lw=0.7, label=lab)
+                ax[0].loglog(tt, np.maximum(r.energy_error[1:], 1e-17), **style)
+            ax[1].loglog(tt, np.maximum(r.constraint[1:], 1e-17), **style)
         ax[0].set_ylabel("|E - E0| / |E0|")
         # on two lines: on one it was taller than the panel at the printed size
         ax[1].set_ylabel("constraint residual\n(max over factors)")
         for a in ax:
             a.set_xlabel(f"t [{unit_name}]")
-        # one legend in a row below the panels (inside the first it covered the curves)
-        handles, labels = ax[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="lower center", ncol=max(1, len(handles)),
-                   fontsize=7, frameon=False)
+        legend_below(fig, ax)  # one legend for both panels, in a row below them
         fig.suptitle(title or f"long-time behaviour, {self.model}, T = {self.horizon:g}")
-        # laid out when drawn, once, at its final size; the bottom strip for the legend
-        fig.set_layout_engine("tight", rect=(0, 0.08, 1, 1))
         return fig
 
 

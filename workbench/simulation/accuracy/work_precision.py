@@ -24,6 +24,7 @@ from workbench.core.status import StatusResult
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._simulate import Method, simulate
+from workbench.simulation.accuracy._legend import legend_below
 from workbench.simulation.accuracy.sweep import (
     AccuracySweep,
     RunStatus,
@@ -280,18 +281,12 @@ class WorkPrecision:
         ax[1].set_xlabel("vector-field evaluations")
         ax[2].set_xlabel("wall time [s]")
         ax[2].set_ylabel("max |E - E0| / |E0|")
-        # one legend for the three panels, in a row below them (inside the first panel
-        # it covered points at the printed size)
-        handles, labels = ax[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="lower center", ncol=len(handles), fontsize=7,
-                   frameon=False)
+        legend_below(fig, ax)  # one legend for the three panels, in a row below them
         for a in ax:  # minor ticks labelled only on spans under half a decade: the
             # evaluations' panel had five labels such as 2x10^3 run into each other
             a.xaxis.set_minor_formatter(LogFormatterSciNotation(
                 labelOnlyBase=False, minor_thresholds=(0.5, 0.2)))
         fig.suptitle(title or f"work-precision, {self.model}, T = {self.horizon:g}")
-        # laid out when drawn, once, at its final size; the bottom strip for the legend
-        fig.set_layout_engine("tight", rect=(0, 0.1, 1, 1))
         return fig
 
 

@@ -253,6 +253,10 @@ def newton(
 # compiling
 
 
+_COMPILED: dict[str, ca.Function] = {}
+_COMPILED_MAX = 32  # compiled step functions kept, by the sha256 of their serialisation
+
+
 def compile_step(fn: ca.Function) -> ca.Function:
     """Just-in-time compile a step function to C (``gcc -O2`` through casadi's shell).
 
@@ -313,7 +317,7 @@ def jit_function(name: str, ins: list, outs: list, names_in: list[str] | None = 
     ----------
     name : str
         Name of the function.
-    ins, outs : list of casadi.SX
+    ins, outs : list of casadi.SX or list of casadi.MX
         Its inputs and outputs.
     names_in, names_out : list of str, optional
         Their names.
@@ -343,10 +347,6 @@ def jit_function(name: str, ins: list, outs: list, names_in: list[str] | None = 
             f"{str(exc).strip().splitlines()[-1]}", status="compiler error") from exc
     finally:
         shutil.rmtree(work, ignore_errors=True)
-
-
-_COMPILED: dict[str, ca.Function] = {}
-_COMPILED_MAX = 32  # compiled step functions kept, by the sha256 of their serialisation
 
 
 # ----------------------------------------------------------------------------------------
