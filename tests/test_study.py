@@ -341,3 +341,20 @@ def test_run_isolated_forks_when_not_fresh():
     wanted = r"fresh must be True \(spawn\) or False \(fork\); got 'no'"
     with pytest.raises(ParameterError, match=wanted):
         run_isolated(_child_facts, 1, fresh="no")
+
+
+def _child_adds_memory(mb):
+    import numpy as np
+
+    from workbench.study import peak_memory_mb, reset_peak_memory
+
+    start = reset_peak_memory()
+    block = np.ones(int(mb * 2**20 / 8))  # touched pages: resident
+    return start, peak_memory_mb(), float(block[-1])
+
+
+def test_peak_memory_after_a_reset_counts_what_the_work_adds():
+    from workbench.study import run_isolated
+
+    start, peak, _ = run_isolated(_child_adds_memory, 64, fresh=False)
+    assert 60 < peak - start < 120  # the 64 MB block, and little else

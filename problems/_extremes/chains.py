@@ -7,9 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from workbench.core._proc import proc_status_mb, reset_peak_rss
 from workbench.core.errors import SolverError
-from workbench.study import Cases, Check, Result, run_isolated
+from workbench.study import Cases, Check, Result, peak_memory_mb, reset_peak_memory, run_isolated
 
 
 def chain_case(n: int, horizon: float) -> dict[str, Any]:
@@ -22,7 +21,7 @@ def chain_case(n: int, horizon: float) -> dict[str, Any]:
     the caller's own peak is lost.
     """
     try:
-        rss0 = reset_peak_rss()
+        rss0 = reset_peak_memory()
     except OSError:
         rss0 = float("nan")
     from models.chain_cart import chain_cart
@@ -64,7 +63,7 @@ def chain_case(n: int, horizon: float) -> dict[str, Any]:
             "energy_drift": tr.diagnostics["invariant_drift"]["energy"]["max_rel"],
             "constraint": max(tr.diagnostics["constraint_residual"].values()),
             "steps": tr.cost["steps"], "finite": finite,
-            "added_rss_mb": proc_status_mb("VmHWM") - rss0 if np.isfinite(rss0) else rss0}
+            "added_rss_mb": peak_memory_mb() - rss0 if np.isfinite(rss0) else rss0}
 
 
 def large_chains(cases: Cases, res: Result, *, quick: bool) -> None:

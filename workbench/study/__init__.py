@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-from workbench.study._cases import CLEAR, CORRECT, DEFECT, Cases, Check, run_isolated
+from workbench.study._cases import (
+    CLEAR,
+    CORRECT,
+    DEFECT,
+    Cases,
+    Check,
+    peak_memory_mb,
+    reset_peak_memory,
+    run_isolated,
+)
 from workbench.study._compare import (
     SpectrumMatch,
     compare_counts,
@@ -65,6 +74,8 @@ __all__ = [
     "Cases",
     "Check",
     "run_isolated",
+    "reset_peak_memory",
+    "peak_memory_mb",
     "Panel",
     "SpectrumMatch",
     "compare_counts",

@@ -27,9 +27,11 @@ from dataclasses import dataclass
 from multiprocessing import get_context
 from typing import Any
 
+from workbench.core._proc import proc_status_mb, reset_peak_rss
 from workbench.core.errors import ParameterError, SolverError, WorkbenchError
 
-__all__ = ["CLEAR", "CORRECT", "DEFECT", "Cases", "Check", "run_isolated"]
+__all__ = ["CLEAR", "CORRECT", "DEFECT", "Cases", "Check", "run_isolated", "reset_peak_memory",
+           "peak_memory_mb"]
 
 CORRECT, CLEAR, DEFECT = "correct", "clear failure", "DEFECT"
 
@@ -150,6 +152,32 @@ def _child(conn: Any, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
         conn.send((False, exc))
     finally:
         conn.close()
+
+
+def reset_peak_memory() -> float:
+    """Reset this process's peak resident memory to its current one; return that [MB].
+
+    With :func:`peak_memory_mb` at the end, the memory a piece of work adds beyond what
+    the process had loaded. Linux only (``/proc``). It changes the process's own peak
+    from then on: call it in a process of its own, such as ``run_isolated(fresh=False)``.
+
+    Raises
+    ------
+    OSError
+        Where ``/proc`` cannot do it.
+    """
+    return reset_peak_rss()
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory (``VmHWM``) of this process [MB], since its last reset if any.
+
+    Raises
+    ------
+    OSError
+        Where ``/proc`` cannot be read.
+    """
+    return proc_status_mb("VmHWM")
 
 
 def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = 3600.0,
