@@ -9,7 +9,7 @@ problem in a process forked from its own, after loading what the problems would 
   writes to each object's header, so the child copies every page it touches);
 - the preload of ``sympy.tensor.tensor`` (imported by sympy at its first sum of certain
   terms, which every model sheet makes), ``sympy.physics.mechanics`` (the Kane references
-  of 5 problems) and ``workbench.mechanics``, besides python-control, scipy.stats and PIL.
+  of 4 problems) and ``workbench.mechanics``, besides python-control, scipy.stats and PIL.
 
 The baseline is the runner without the freeze and with the previous preload (python-control,
 scipy.stats, PIL). Each variant runs as a fresh command (what it preloads stays loaded), in

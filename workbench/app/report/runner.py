@@ -89,7 +89,8 @@ references, workbench.mechanics for the derived models; sympy imports sympy.tens
 at its first sum of certain terms, which every model sheet makes): imported once here,
 after the first problem started and before the others, so that they inherit them. Each
 child imported its own copy: python-control took 0.8 s CPU in each of the 4 quick problems
-that design an LQR, scipy.stats 0.6 s in 7, sympy.physics.mechanics 0.44 s in 5."""
+that design an LQR, scipy.stats 0.6 s in 7, sympy.physics.mechanics 0.44 s in 3 (and
+part of it in a fourth)."""
 
 
 @dataclass
@@ -525,10 +526,11 @@ def run_all(
                     job.process = ctx.Process(
                         target=_child, name=f"report:{job.name}",
                         args=(job.name, quick, catalogue, str(job.path), share))
-                    # what the child inherits is never garbage for it: frozen, its
-                    # collector does not walk it (one full collection of the ~170k
-                    # inherited objects cost a child 0.12-0.4 s CPU and copied every page
-                    # it touched; a small problem 0.72 -> 0.52 s CPU, measured)
+                    # what the child inherits (modules, fonts: ~170k objects) lives as
+                    # long as the child: frozen, its collector does not walk it. Unfrozen,
+                    # one full collection cost a child 0.12-0.4 s CPU and copied every
+                    # page it touched (benchmarks/bench_report_fork.py: the 13 small
+                    # problems' processes 5% less CPU with this and PRELOAD)
                     gc.freeze()
                     job.process.start()
                     job.started = time.monotonic()
