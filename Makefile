@@ -61,7 +61,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check workbench models problems tests benchmarks
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/run_all.py
+	$(BIN)/workbench bench
 
 clean:
 	rm -rf $(VENV) build *.egg-info reports/out

@@ -50,7 +50,7 @@ def quick_repeat_arguments(doc: str, quick_help: str, argv: list[str], *,
     """``--quick`` and ``--repeat K`` (an integer >= 1) of a benchmark script.
 
     ``doc``'s first line is the description; ``argv`` is ``sys.argv[1:]`` when the script
-    runs as ``__main__`` and ``[]`` otherwise (the defaults, when ``run_all`` imports it).
+    runs as ``__main__`` and ``[]`` otherwise (the defaults, when ``workbench bench`` imports it).
     """
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help=quick_help)

@@ -53,8 +53,9 @@ def graph_sizes(n: int) -> list[dict]:
     return rows
 
 
-def main(argv: list[str]) -> None:
+def main(argv: list[str] | None = None) -> None:
     """Print the graph sizes and the interleaved solve times."""
+    argv = sys.argv[1:] if argv is None else argv
     a = quick_repeat_arguments(__doc__, "N = 40 from the surrogate instead of N = 80",
                                argv, repeat=3)
     print(table([r for n in (1, 2, 3) for r in graph_sizes(n)],
