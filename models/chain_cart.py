@@ -8,7 +8,7 @@ down, along gravity), angular velocity ``omega_i`` with ``q_i . omega_i = 0`` an
 Nothing is hand-derived: the model declares the cart and the bobs as point masses at
 ``C x`` and ``C x + sum_{a <= i} l_a q_a``, gravity and the cart force, and
 :mod:`workbench.mechanics` derives the Euler-Lagrange equations (equivalent to (12) with
-the erratum of papers/README.md). The accelerations are one numeric linear solve in an MX
+the erratum of docs/science.md). The accelerations are one numeric linear solve in an MX
 graph (its size grows like n^2); the Jacobian comes from the implicit-function theorem on
 the residual, cheap at an equilibrium. The printed (12)-(13) are kept, as an independent
 check, in :func:`models.paper_forms.chain_cart_printed`.

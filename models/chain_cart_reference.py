@@ -22,7 +22,7 @@ DEG = np.pi / 180
 
 def paper_matrices(n: int, s: tuple[float, ...], *, m: float, masses: ArrayLike,
                    lengths: ArrayLike, g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """M, G, B of paper 003 (16) (with the errata of papers/README.md), typed from the paper.
+    """M, G, B of paper 003 (16) (with the errata of docs/science.md), typed from the paper.
 
     ``M_xq = [-s_i M_0i hat(e3) C]``, ``M_qq = [s_i s_j M_ij I2]`` (``M_ii I2`` on the
     diagonal), ``G_qq = diag(s_i sum_{a >= i} m_a g l_i I2)``, ``B = [I2; 0]``. The

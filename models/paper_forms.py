@@ -4,7 +4,7 @@ The models of :mod:`models.pendulum3d` (``full``), :mod:`models.spherical` and
 :mod:`models.chain_cart` are defined by their Lagrangians through
 :mod:`workbench.mechanics`; the equations here are the ones the papers print, typed in by
 hand (paper 000 (3.1)-(3.2); paper 002 Section II; paper 003 (12)-(13) with the erratum of
-papers/README.md). They are what the derived vector fields are checked against
+docs/science.md). They are what the derived vector fields are checked against
 (``problems/mechanics_paper_models.py`` and the mechanics tests) and are never used by the
 models themselves. Same state layout, parameters and invariants as the derived models.
 """

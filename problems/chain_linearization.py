@@ -178,7 +178,7 @@ def solve(*, quick: bool = False) -> Result:
                 "far from zero; every equilibrium is controllable (paper 003 Prop. 3).")
     res.values = values
     res.notes.append(
-        "References are paper 003's (16) as corrected in papers/README.md (last block of G_qq "
+        "References are paper 003's (16) as corrected in docs/science.md (last block of G_qq "
         "s_n m_n g l_n; Appendix (39) lacks the factors s_i). The Kalman rank is a cross-check "
         "only: its matrix is too ill-conditioned from n = 3 on (see kalman_condition_max), "
         "where it reports rank deficiency that the PBH tests (well conditioned, margins "

@@ -127,7 +127,7 @@ def solve(*, quick: bool = False) -> Result:
         "Figs. 3 (top) and 4 (bottom): the attitude and angular-velocity errors e_q and "
         "e_omega decay exponentially (left, logarithmic) and the force on the cart (right)."))
     res.notes.append(
-        "Section 5 writes e_q = sum |q_i - s_i e_i|; s_i e3 is meant (papers/README.md). "
+        "Section 5 writes e_q = sum |q_i - s_i e_i|; s_i e3 is meant (docs/science.md). "
         "The printed q2(0) = q3(0) = -[0; sin 4; 0; cos 4] has four entries; it is read as "
         "-[0; sin 4 deg; cos 4 deg]. The gains themselves are not printed in the paper; "
         "they are computed here from the printed Q and R."

@@ -99,7 +99,7 @@ def solve(*, quick: bool = False) -> Result:
         "Histogram of the largest deviation between the vector field derived from the "
         "Lagrangian and the paper's printed one at each random state, per model; rounding "
         "level, far below the 1e-11 tolerance (dashed)."))
-    res.notes.append("The chain's printed form includes the erratum of papers/README.md "
+    res.notes.append("The chain's printed form includes the erratum of docs/science.md "
                      "(paper 003 (12), cart row: sum_j M_0j |omega_j|^2 C^T q_j).")
     return res.finish()
 

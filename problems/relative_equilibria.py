@@ -71,7 +71,7 @@ def solve(*, quick: bool = False) -> Result:
     linearisation of the reduced model, with the changes located.
 
     References (closed forms, used only as the reference column): Prop. 9 with the erratum
-    of papers/README.md (Gamma_e = -n_a/|n_a| for every alpha, n_a = (J - I/alpha)^-1 rho;
+    of docs/science.md (Gamma_e = -n_a/|n_a| for every alpha, n_a = (J - I/alpha)^-1 rho;
     omega_e = +-sqrt(mg/|n_a|) n_a), mu = omega_e.Gamma_e (Gamma_e^T J Gamma_e) (5.22), the
     limits alpha -> 0+ (hanging), 0- (inverted), +-infinity ((4.10)), 1/J_i (principal axes)
     of Section 4.3. The degenerate cases 6 (a zero component of rho) and 7 (J1 = J2) of
@@ -136,7 +136,7 @@ def solve(*, quick: bool = False) -> Result:
         "balanced_error": balanced_msg,
     }
     res.notes += [
-        "Erratum applied (papers/README.md): Gamma_e = -n_a/|n_a| for every alpha; the "
+        "Erratum applied (docs/science.md): Gamma_e = -n_a/|n_a| for every alpha; the "
         "hanging end is alpha -> 0+, the inverted end alpha -> 0-. The signs of alpha next "
         "to the static ends are measured above.",
         "(5.18) as printed pairs +-sgn(alpha) with the sign error of (4.11); the set "

@@ -105,7 +105,7 @@ def solve(*, quick: bool = False) -> Result:
                        "(rings); 0, 3, 2 and 1 of them in the right half plane.")
     res.notes.append(
         "The printed eigenvalues carry four decimals, hence tolerances of 5e-5 on them and of "
-        "1e-3 rad on the subspace built from them. Errata applied (papers/README.md): in "
+        "1e-3 rad on the subspace built from them. Errata applied (docs/science.md): in "
         "(19) v6 = e3 + lambda6 e6; in E^s_loc(exp(pi e3^)) the Omega-component is "
         "+lambda5 alpha5 e3 (the angle with the printed sign is reported as a value)."
     )

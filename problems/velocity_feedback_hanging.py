@@ -121,7 +121,7 @@ def solve(*, quick: bool = False) -> Result:
                           rtol=tol, atol=tol, tol=1e-5)
     raw_acos = float(np.degrees(np.arccos(np.clip(tr_raw.part("R")[-1][2, 2], -1, 1))))
     res.compare("Theta(T) = acos(e3^T R e3) from the unprojected printed R(0) [deg]", 0.06,
-                raw_acos, tolerance=0.01, source="papers/README.md errata, paper 001")
+                raw_acos, tolerance=0.01, source="docs/science.md errata, paper 001")
 
     # Theorem 1: samples from N converge; Theorem 2: samples over S^2 x R^3 converge
     dist = hanging_distance(red)

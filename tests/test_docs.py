@@ -2,8 +2,10 @@
 
 Links: every Markdown link ``[text](target)`` of README.md and docs/*.md whose target is
 not a URL must name a file or directory of the repository (``#anchors`` are checked
-against the target's headings). Code: every fenced ``python`` block of docs/*.md runs as
-it stands in a fresh interpreter (they import only from ``workbench`` and ``models``).
+against the target's headings). Code: every fenced ``python`` block of README.md and
+docs/*.md runs as it stands in a fresh interpreter (they import only from ``workbench`` and
+``models``). The Markdown files that the code names (in notes and sources the report
+shows, e.g. ``docs/science.md`` for the errata) exist.
 """
 
 from __future__ import annotations
@@ -40,6 +42,22 @@ def links(page: Path) -> list[str]:
     return LINK.findall(text)
 
 
+SOURCES = [p for d in ("workbench", "problems", "models", "tests")
+           for p in sorted((ROOT / d).rglob("*.py"))]
+MD_PATH = re.compile(r"(?<![\w/.])((?:[\w-]+/)*[\w-]+\.md)\b")
+
+
+def test_markdown_files_named_in_the_code_exist():
+    """A note such as "errata applied (docs/science.md)" must point at a file of a clone."""
+    bad = []
+    for src in SOURCES:
+        for m in MD_PATH.finditer(src.read_text(encoding="utf-8")):
+            path = m.group(1)
+            if "/" in path and not (ROOT / path).exists():
+                bad.append(f"{src.relative_to(ROOT)}: {path}")
+    assert not bad, f"Markdown files named but missing: {bad}"
+
+
 def test_docs_exist_and_are_indexed():
     names = {p.name for p in DOCS}
     assert {"README.md", "conventions.md", "user-guide.md", "science.md"} <= names
@@ -68,7 +86,7 @@ def test_relative_links_resolve(page):
     assert not bad, f"{page.relative_to(ROOT)}: broken links {bad}"
 
 
-BLOCKS = [(page, i, code) for page in DOCS for i, code in enumerate(FENCE.findall(
+BLOCKS = [(page, i, code) for page in PAGES for i, code in enumerate(FENCE.findall(
     page.read_text(encoding="utf-8")))]
 
 

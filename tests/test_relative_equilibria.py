@@ -1,6 +1,6 @@
 """Relative equilibria of the 3D pendulum from the graph, checked against paper 000 Prop. 9.
 
-The closed forms below (Prop. 9 and (5.22) with the erratum of papers/README.md:
+The closed forms below (Prop. 9 and (5.22) with the erratum of docs/science.md:
 Gamma_e = -n_a/|n_a| for every alpha) exist only here, as independent checks.
 """
 

@@ -234,7 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
                                 parser_class=_Parser)
     p_list = sub.add_parser("list", help="list the problems with one-line descriptions")
     p_list.add_argument("--markdown", action="store_true",
-                        help="print the list as the README's Markdown table")
+                        help="print the list as a Markdown table of names and one-line "
+                             "descriptions")
     p_list.set_defaults(func=_list)
     p_run = sub.add_parser("run", help="run one problem (or 'all') and print its results")
     p_run.add_argument("name", help="problem name (see 'workbench list'), or 'all'")
