@@ -109,7 +109,9 @@ def test_positions_and_potentials_must_not_depend_on_velocities_or_inputs():
     (lambda s, c, k: s.momentum("px", translate={k: [1.0, 0.0, 0.0]}), "R\\^k factors"),
     (lambda s, c, k: s.momentum("energy", translate={c: [1.0, 0.0]}), "already used"),
     (lambda s, c, k: s.rn("x", 2), "already used"),
-    (lambda s, c, k: s.rn("z", 0), "integer >= 1"),
+    (lambda s, c, k: s.rn("z", 0), r"integer in \[1, 100000\]; got 0"),
+        (lambda s, c, k: s.rn("z", 10**9), r"integer in \[1, 100000\]; got 1000000000"),
+        (lambda s, c, k: s.rn("z", 1, velocity="z"), "need different names"),
 ])
 def test_unknown_names_and_misused_factors(call, fragment):
     s, cart, link, m, _ = _cart_pendulum()
@@ -122,7 +124,7 @@ def test_unknown_names_and_misused_factors(call, fragment):
     (lambda s, c, k, m: s.force(c, [1.0, 2.0, 3.0]), r"force must have shape \(2, 1\)"),
     (lambda s, c, k, m: s.moment(k, [1.0, 2.0]), r"moment must have shape \(3, 1\)"),
     (lambda s, c, k, m: s.kinetic(c.v), r"kinetic energy T must have shape \(1, 1\)"),
-    (lambda s, c, k, m: s.momentum("p", translate={c: [1.0]}), r"shape \(2, 1\)"),
+    (lambda s, c, k, m: s.momentum("px", translate={c: [1.0]}), r"shape \(2, 1\)"),
     (lambda s, c, k, m: s.rigid_body(m, np.eye(3), k.q), r"attitude must have shape"),
 ])
 def test_wrong_shapes(call, fragment):
@@ -161,3 +163,148 @@ def test_bad_model_options():
         s.model(linear_solver="gauss")
     with pytest.raises(ModelError, match="no factors"):
         mechanics.System("empty").model()
+
+
+def test_new_parameter_values_get_the_build_checks():
+    """with_parameters (and find_equilibrium(params=...)) re-run the physics checks."""
+    s, *_ = _cart_pendulum()
+    model = s.model()
+    with pytest.raises(ModelError, match="kinetic energy is not positive definite"):
+        model.with_parameters(m=-1.0)
+    with pytest.raises(ModelError, match="kinetic energy is singular"):
+        model.with_parameters(l=0.0)
+    assert model.with_parameters(m=2.0).values["m"] == 2.0  # a physical value passes
+    from workbench import find_equilibrium
+
+    with pytest.raises(ModelError, match="not positive definite"):
+        find_equilibrium(model, model.manifold.random_point(np.random.default_rng(0)),
+                         params={"m": -0.5})
+
+
+def test_inertia_made_of_parameters_is_checked_with_their_values():
+    s = mechanics.System("b")
+    body = s.so3("R")
+    J = s.parameter("J", np.diag([1.0, 2.0, 2.5]))  # declared with the default check only
+    s.rigid_body(1.0, J, body)
+    model = s.model()
+    bad = np.diag([1.0, 2.0, 2.5])
+    bad[0, 1] = 0.3  # Omega^T J Omega would use (J + J^T)/2 without a word
+    with pytest.raises(ModelError, match="'body1'.*must be symmetric"):
+        model.with_parameters(J=bad)
+    with pytest.raises(ModelError, match="'body1'.*positive definite"):
+        model.with_parameters(J=np.diag([1.0, -2.0, 2.5]))
+
+
+def test_attitude_expression_must_be_a_rotation():
+    def hoop(A):
+        s = mechanics.System("hoop")
+        th = s.rn("th", 1)
+        c, sn = ca.cos(th.x[0]), ca.sin(th.x[0])
+        Rz = ca.vertcat(ca.horzcat(c, -sn, 0), ca.horzcat(sn, c, 0), ca.horzcat(0, 0, 1))
+        s.rigid_body(1.0, np.diag([1.0, 1.0, 1.5]), ca.DM(A) @ Rz, name="disc")
+        return s.model()
+
+    assert hoop(np.eye(3)).n_params == 0
+    with pytest.raises(ModelError, match="'disc'.*must be a rotation.*det R = 8"):
+        hoop(2.0 * np.eye(3))
+    with pytest.raises(ModelError, match="'disc'.*must be a rotation.*det R = -1"):
+        hoop(np.diag([1.0, 1.0, -1.0]))
+
+
+def test_gravity_once_and_unit_with_parameter_values():
+    s, cart, link, m, _ = _cart_pendulum()
+    s.gravity(9.81)
+    with pytest.raises(ModelError, match="gravity is declared once"):
+        s.gravity(9.81)
+    s, cart, link, m, _ = _cart_pendulum()
+    d = s.parameter("d", [0.0, 0.0, 1.0])
+    s.gravity(9.81, d)
+    model = s.model()
+    with pytest.raises(ModelError, match="direction must be a unit vector.*norm 2"):
+        model.with_parameters(d=[0.0, 0.0, 2.0])
+    s, cart, link, m, _ = _cart_pendulum()
+    with pytest.raises(ModelError, match="direction"):
+        s.gravity(9.81, ca.vertcat(cart.x, 1.0))  # not a function of parameters
+
+
+def test_dissipation_must_take_energy_out():
+    s, cart, link, m, _ = _cart_pendulum()
+    c = s.parameter("c", 0.3)
+    s.dissipation(0.5 * c * ca.dot(cart.v, cart.v))
+    model = s.model()
+    with pytest.raises(ModelError, match="dissipation function must be >= 0"):
+        model.with_parameters(c=-0.3)
+    s, cart, link, m, _ = _cart_pendulum()
+    s.dissipation(-0.5 * ca.dot(cart.v, cart.v))
+    with pytest.raises(ModelError, match="dissipation function must be >= 0"):
+        s.model()
+
+
+def test_momentum_check_is_relative_at_small_scales():
+    """A spring of 1e-15 N/m breaks the cart's momentum just as much, relatively."""
+    s = mechanics.System("tiny")
+    cart = s.rn("x", 1)
+    M, k = s.parameter("M", 1e-15), s.parameter("k", 1e-15)
+    s.point_mass(M, cart.x)
+    s.potential(0.5 * k * cart.x[0] ** 2)
+    s.momentum("px", translate={cart: [1.0]})
+    with pytest.raises(ModelError, match="'px' is not conserved"):
+        s.model()
+
+
+@pytest.mark.parametrize("name", ["p", "x", "u", "f"])
+def test_momentum_names_must_not_shadow_function_inputs(name):
+    s, cart, link, m, _ = _cart_pendulum()
+    with pytest.raises(ModelError, match="momentum name must not be one of"):
+        s.momentum(name, translate={cart: [1.0, 0.0]})
+
+
+@pytest.mark.parametrize("call, error, fragment", [
+    (lambda s, c: s.momentum("L", rotate=[0.0, 0.0, 0.0]), ModelError, "generator is zero"),
+    (lambda s, c: s.parameter("k", 1.0, check=3), ModelError, "must be callable"),
+    (lambda s, c: s.parameter("k", 1.0, shape="x"), ModelError, "tuple of integers"),
+    (lambda s, c: s.parameter("k", []), ParameterError, "at least one entry"),
+    (lambda s, c: s.model(check="no"), ModelError, "True or False"),
+    (lambda s, c: s.model(name="a\nb"), ModelError, "model name must be an identifier"),
+])
+def test_bad_declarations_named(call, error, fragment):
+    s, cart, *_ = _cart_pendulum()
+    with pytest.raises(error, match=fragment):
+        call(s, cart)
+
+
+def test_input_count_is_bounded():
+    s, *_ = _cart_pendulum()
+    with pytest.raises(ModelError, match=r"integer in \[1, 100000\]; got 100000000"):
+        s.input(10**8)
+
+
+def test_a_symbol_of_another_system_is_foreign_even_with_the_same_name():
+    other = mechanics.System("other")
+    k_other = other.parameter("k", 2.0)
+    x_other = other.rn("x", 2)
+    s, cart, link, m, _ = _cart_pendulum()
+    s.parameter("k", 1.0)
+    with pytest.raises(ModelError, match="did not create.*another System"):
+        s.potential(0.5 * k_other * ca.dot(cart.x, cart.x))
+    with pytest.raises(ModelError, match="did not create"):
+        s.point_mass(1.0, ca.vertcat(x_other.x, 0))
+
+
+@pytest.mark.parametrize("M, m, length", [(1.0, 1.0, 1e-12), (1e11, 1.0, 0.3),
+                                           (1.0, 1e-9, 0.3)])
+def test_positive_definite_test_does_not_depend_on_units(M, m, length):
+    """Valid systems of very different scales build: the test scales the mass matrix to a
+    unit diagonal (singular ones are still refused, tests above)."""
+    s = mechanics.System("cart_pendulum")
+    cart, link = s.rn("x", 1), s.s2("q")
+    pivot = ca.vertcat(cart.x, 0, 0)
+    s.point_mass(M, pivot)
+    s.point_mass(m, pivot + length * link.q)
+    model = s.model()
+    assert model.manifold.dim == 6
+    s = mechanics.System("rotor")
+    body = s.so3("R")
+    s.rigid_body(1.0, np.diag([1.0, 1e14, 1e14]), body)
+    s.model()
+

@@ -201,7 +201,8 @@ Builder = Callable[[Context], Any]
 # the model
 
 
-_RESERVED = frozenset({"f", "f_x", "f_u", "residual", "invariants"})
+_RESERVED = frozenset({"f", "f_x", "f_u", "residual", "invariants", "x", "u", "p"})
+"""Names an invariant cannot take: the model's own functions and their inputs."""
 
 
 class _Graphs:
@@ -253,6 +254,13 @@ class Model:
         as L D L^T (:func:`workbench.core.solve_spd`) instead of QR: the same function,
         fewer operations. (An SX model writes its own solves; the mechanics models write
         L D L^T.)
+    value_check : callable, optional
+        ``value_check(model)`` raises (a :class:`ModelError` or :class:`ParameterError`
+        naming what is wrong) when the model's parameter values are not physical as a
+        whole, e.g. a mass matrix that is not positive definite. :meth:`with_parameters`
+        calls it on every model it makes (the constructor does not: whoever builds the
+        model checks its first values). :mod:`workbench.mechanics` supplies its build
+        checks here.
     """
 
     def __init__(
@@ -271,6 +279,7 @@ class Model:
         input_description: str = "",
         jacobian: Callable[[Context, str], Any] | None = None,
         spd_solves: bool = False,
+        value_check: Callable[[Model], None] | None = None,
     ) -> None:
         symbolic = choice(Symbolic, symbolic, "symbolic", error=ModelError)
         validate.count("n_inputs", n_inputs, minimum=0, maximum=validate.MAX_DIM,
@@ -298,6 +307,9 @@ class Model:
         if not isinstance(spd_solves, bool):
             raise ModelError(f"spd_solves must be a bool; got {spd_solves!r}")
         self.spd_solves = spd_solves
+        if value_check is not None and not callable(value_check):
+            raise ModelError(f"value_check must be callable or None; got {value_check!r}")
+        self._value_check = value_check
         self._invariants: dict[str, Builder] = dict(invariants or {})
         self.parameter_slices: dict[str, slice] = {}
         k = 0
@@ -351,6 +363,14 @@ class Model:
         -------
         Model
             A new model; its build log is the same object as this one's.
+
+        Raises
+        ------
+        ParameterError
+            An unknown name, or a value refused by its parameter's check.
+        ModelError
+            Values refused by the model's ``value_check`` (a mechanics model re-runs its
+            build checks: mass matrix positive definite, inertias, dissipation, ...).
         """
         merged = dict(self.values)
         unknown = [k for k in values if k not in merged]
@@ -362,6 +382,8 @@ class Model:
         clone = object.__new__(Model)
         clone.__dict__.update(self.__dict__)
         clone.values = self._validate_values(merged)
+        if clone._value_check is not None:
+            clone._value_check(clone)
         return clone
 
     # symbols ------------------------------------------------------------------------------

@@ -16,7 +16,8 @@ import numpy as np
 
 from workbench.mechanics._engine import ModelError, ParameterError
 
-__all__ = ["as_number_array", "as_expr", "inertia", "check_inertia_value", "shape_of"]
+__all__ = ["as_number_array", "as_expr", "inertia", "check_inertia_value", "shape_of",
+           "parameter_value"]
 
 
 def _describe(value: Any) -> str:
@@ -144,4 +145,45 @@ def check_inertia_value(value: Any, name: str) -> np.ndarray:
     msg = inertia(arr)
     if msg:
         raise ParameterError(f"{name} {msg}")
+    return arr
+
+
+def parameter_value(name: str, value: Any, description: str, *, check: Any,
+                    shape: tuple[int, ...] | None) -> np.ndarray:
+    """A parameter's declared value, checked with its declaration's ``check`` and ``shape``.
+
+    Parameters
+    ----------
+    name, description : str
+        The parameter's name and description, for the messages.
+    value : array-like
+        Real, finite, at least one entry, at most two dimensions.
+    check : callable or None
+        ``check(value) -> message or None`` (validated as callable here; applied by
+        :class:`~workbench.core.Parameter`).
+    shape : tuple of int or None
+        The shape ``value`` must have.
+
+    Returns
+    -------
+    ndarray
+    """
+    if check is not None and not callable(check):
+        raise ModelError(f"check of parameter {name!r} must be callable (value -> message "
+                         f"or None) or None; got {check!r}")
+    if shape is not None and (not isinstance(shape, tuple) or not all(
+            isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1
+            for n in shape)):
+        raise ModelError(f"shape of parameter {name!r} must be a tuple of integers >= 1; "
+                         f"got {shape!r}")
+    arr = as_number_array(value, f"parameter {name!r}")
+    if arr.size == 0:
+        raise ParameterError(f"parameter {name!r} must have at least one entry; got "
+                             f"{_describe(value)}")
+    if arr.ndim > 2:
+        raise ParameterError(f"parameter {name!r} must be a scalar, vector or matrix; got "
+                             f"shape {arr.shape}")
+    if shape is not None and arr.shape != tuple(shape):
+        raise ParameterError(f"parameter {name!r} ({description or name}) must have shape "
+                             f"{tuple(shape)}; got shape {arr.shape}")
     return arr

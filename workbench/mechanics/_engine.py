@@ -25,8 +25,10 @@ from workbench.core import (
     sphere_basis,
     vee,
 )
+from workbench.core.validate import MAX_DIM
 
 __all__ = [
+    "MAX_DIM",
     "Context",
     "Model",
     "ModelError",

@@ -281,10 +281,27 @@ class Derivation:
         return ca.Function(f"{self.name}_acc", [x, u, p], [acc], ["x", "u", "p"], ["acc"],
                            {"custom_jacobian": jac, "jac_penalty": 0}), jac
 
+    @property
+    def homogeneous(self) -> bool:
+        """True when ``T`` is a quadratic form in the velocities.
+
+        No terms of degree 0 or 1 and a mass matrix free of velocities: then
+        ``Pi . nu = 2 T``.
+        """
+        zero = ca.SX.zeros(self.n_nu)
+        return (self.quadratic and ca.substitute(self.T, self.nu, zero).is_zero()
+                and not ca.depends_on(self.M, self.nu))
+
     def energy(self) -> ca.Function:
-        """``(x, p) -> T + V``."""
-        return ca.Function(f"{self.name}_energy", [self.x, self.ing.p], [self.T + self.V],
-                           ["x", "p"], ["E"])
+        """``(x, p) -> E``, conserved when ``u = 0`` and there is no dissipation or load.
+
+        ``E = T + V`` when ``T`` is quadratic in the velocities; otherwise (a rotating
+        frame, a magnetic term, ``T`` with terms of degree 0, 1 or above 2 in the
+        velocities) the Jacobi integral ``E = Pi . nu - T + V``, which is then the
+        conserved quantity (``T + V`` is not).
+        """
+        E = self.T + self.V if self.homogeneous else ca.dot(self.Pi, self.nu) - self.T + self.V
+        return ca.Function(f"{self.name}_energy", [self.x, self.ing.p], [E], ["x", "p"], ["E"])
 
     def momentum(self, generators: dict[int, ca.SX]) -> ca.Function:
         """``(x, p) -> sum_f Pi_f . eta_f`` for a symmetry's generator ``eta``."""

@@ -2,8 +2,17 @@
 
 The derivation (:mod:`._equations`) is done once, when the model is made; the model's
 casadi functions (``f``, its Jacobians, the invariants) are built lazily by the Model and
-logged as usual. Invariants: ``energy`` (``T + V``) and one Noether momentum per declared
-symmetry.
+logged as usual. Invariants: ``energy`` (``T + V``, or the Jacobi integral
+``Pi . nu - T + V`` when ``T`` is not quadratic in the velocities) and one Noether momentum
+per declared symmetry.
+
+Build checks (``check=True``), at a random state of the manifold and the parameter values:
+the mass matrix is positive definite on the tangent velocities, every rigid body's inertia
+(as given, about its centre of mass or origin, also when made of parameters) is symmetric
+and positive definite, every attitude
+expression is a rotation, the dissipation function is a positive semi-definite form,
+gravity's direction is a unit vector, and every declared momentum is conserved. The same
+checks run again on every :meth:`Model.with_parameters`.
 """
 
 from __future__ import annotations
@@ -13,6 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.mechanics._bodies import RigidBody
 from workbench.mechanics._engine import (
     Context,
     Model,
@@ -29,10 +39,22 @@ MAX_SX_VELOCITIES = 9
 """``symbolic="auto"`` takes SX (a symbolic solve) up to this many velocity coordinates."""
 
 PD_RTOL = 1e-10
-"""A tangent mass-matrix eigenvalue below ``PD_RTOL * max eigenvalue`` counts as singular."""
+"""The tangent mass matrix, scaled to a unit diagonal (``D^-1/2 K D^-1/2``, so that the test
+does not depend on units: kg against kg m^2, a 1e11 kg cart against a 1 kg bob), counts as
+singular when its smallest eigenvalue is below ``PD_RTOL``."""
 
 MOMENTUM_RTOL = 1e-8
 """Declared momenta must have ``|dJ/dt| <= MOMENTUM_RTOL |grad J| |f|`` at the check state."""
+
+ROTATION_TOL = 1e-10
+"""An attitude expression must have ``max |R^T R - I| <= ROTATION_TOL`` and ``det R > 0``."""
+
+DIRECTION_TOL = 1e-12
+"""Gravity's direction must have ``| |d| - 1 | <= DIRECTION_TOL``."""
+
+PSD_RTOL = 1e-12
+"""The dissipation's Hessian in the velocities may have eigenvalues down to
+``-PSD_RTOL * max |eigenvalue|`` (rounding), no lower."""
 
 
 def _flat(x: np.ndarray) -> str:
@@ -100,37 +122,131 @@ def check_kinetic_energy(der: Derivation, factors: list, x: np.ndarray, p: np.nd
     K = N.T @ M @ N
     if not np.all(np.isfinite(K)):
         raise ModelError(f"the kinetic energy's mass matrix is not finite at x = {xs.tolist()}")
-    eig, vec = np.linalg.eigh(0.5 * (K + K.T))
-    scale = max(float(np.max(np.abs(eig))), 1e-300)
-    if eig[0] > PD_RTOL * scale:
-        return
-    v = vec[:, 0]
+    K = 0.5 * (K + K.T)
+    d = np.diag(K).copy()
+    eig_k = np.linalg.eigvalsh(K)
+    if np.all(d > 0):
+        w = 1.0 / np.sqrt(d)
+        eig, vec = np.linalg.eigh(K * np.outer(w, w))  # unit diagonal: eigenvalues in (0, n)
+        if eig[0] > PD_RTOL:
+            return
+        v = w * vec[:, 0]
+        kind = "singular" if eig[0] >= -PD_RTOL else "not positive definite"
+        scaled = f"; scaled to a unit diagonal, {eig[0]:.3g}"
+    else:  # a velocity with no inertia (a zero diagonal entry), or a negative one
+        v = (d <= 0).astype(float)
+        small = PD_RTOL * max(float(np.max(np.abs(eig_k))), 1e-300)
+        kind = "not positive definite" if eig_k[0] < -small else "singular"
+        scaled = ""
     worst = max(spans, key=lambda s: float(np.linalg.norm(v[s[1] : s[2]])))
-    kind = "singular" if abs(eig[0]) <= PD_RTOL * scale else "not positive definite"
     raise ModelError(
         f"the kinetic energy is {kind} at the state x = {_flat(xs)}: "
-        f"smallest eigenvalue {eig[0]:.3g} of the mass matrix on the tangent velocities "
-        f"(largest {eig[-1]:.3g}); its direction lies mostly in factor {worst[0].name!r} "
-        f"({worst[0].velocity_names})")
+        f"smallest eigenvalue {eig_k[0]:.3g} of the mass matrix on the tangent velocities "
+        f"(largest {eig_k[-1]:.3g}{scaled}); its direction lies mostly in factor "
+        f"{worst[0].name!r} ({worst[0].velocity_names})")
 
 
-def _check_momenta(model: Model, der: Derivation, x: np.ndarray) -> None:
+def _check_momenta(model: Model, der: Derivation, x: np.ndarray, cache: dict) -> None:
     if not der.ing.momenta:
         return
-    # a throw-away graph: the check must not build (and log) the model's own f
-    f = model._make_f()  # noqa: SLF001 - the builder, without the model's cache and log
-    xdot = np.asarray(f(x, np.zeros(model.n_inputs), model.p), dtype=float).ravel()
-    for name, gens in der.ing.momenta.items():
-        J = der.momentum(gens)
-        grad = np.asarray(ca.Function("g", [der.x, der.ing.p],
-                                      [ca.gradient(J(der.x, der.ing.p), der.x)])(x, model.p))
-        rate = float(grad.ravel() @ xdot)
+    if "f" not in cache:
+        # a throw-away graph: the check must not build (and log) the model's own f
+        cache["f"] = model._make_f()  # noqa: SLF001 - the builder, without cache and log
+        cache["grad"] = {
+            name: ca.Function("g", [der.x, der.ing.p],
+                              [ca.gradient(der.momentum(gens)(der.x, der.ing.p), der.x)])
+            for name, gens in der.ing.momenta.items()}
+    xdot = np.asarray(cache["f"](x, np.zeros(model.n_inputs), model.p), dtype=float).ravel()
+    for name, grad_fn in cache["grad"].items():
+        grad = np.asarray(grad_fn(x, model.p), dtype=float).ravel()
+        rate = float(grad @ xdot)
         scale = float(np.linalg.norm(grad) * np.linalg.norm(xdot))
-        if abs(rate) > MOMENTUM_RTOL * max(scale, 1e-300) and abs(rate) > 1e-14:
+        # relative only: an absolute floor would pass any momentum of a small enough system
+        if abs(rate) > MOMENTUM_RTOL * scale:
             raise ModelError(
-                f"declared momentum {name!r} is not conserved: dJ/dt = {rate:.3g} at the "
-                f"state x = {_flat(x)} with u = 0; the Lagrangian or "
-                "the loads are not invariant under its generator")
+                f"declared momentum {name!r} is not conserved: dJ/dt = {rate:.3g} "
+                f"(|grad J| |f| = {scale:.3g}) at the state x = {_flat(x)} with u = 0; the "
+                "Lagrangian or the loads are not invariant under its generator")
+
+
+def _inertia_message(J: np.ndarray) -> str | None:
+    """Symmetric (to ``1e-12`` relative) and positive definite, or what is wrong.
+
+    The triangle inequality is left to ``check=mechanics.inertia`` (and to literal
+    inertias): the equations are right for any SPD inertia, which models with independent
+    ``J``, ``m`` and ``rho`` parameters use; a non-symmetric one would be symmetrised by
+    ``Omega^T J Omega`` without a word, an indefinite one has no motion.
+    """
+    scale = max(float(np.max(np.abs(J))), 1e-300)
+    asym = float(np.max(np.abs(J - J.T)))
+    if asym > 1e-12 * scale:
+        return f"must be symmetric; got max |J - J^T| = {asym:.3g} in {J.tolist()}"
+    eig = np.linalg.eigvalsh(0.5 * (J + J.T))
+    if not eig[0] > 0:
+        return f"must be positive definite; got principal moments {eig.tolist()}"
+    return None
+
+
+def _value_checks(system: Any, der: Derivation) -> Any:
+    """The build checks that depend on parameter values, as ``check(model, x)``.
+
+    Each numeric function is made once here; ``check`` evaluates them at the state ``x``
+    and the model's values, and raises ModelError naming the body, factor or term.
+    """
+    x, p = der.x, der.ing.p
+    rigid = [b for b in system.bodies if isinstance(b, RigidBody)]
+    given = [b.inertia_origin if b.inertia_origin is not None else b.inertia for b in rigid]
+    inertias = ca.Function("J", [p], [ca.horzcat(*given)]) if rigid else None
+    free = [b for b in rigid if b.factor is None]  # attitudes written as expressions
+    attitudes = ca.Function("R", [x, p], [ca.horzcat(*[b.attitude for b in free])]) \
+        if free else None
+    directions = [ca.Function("d", [p], [d]) for _, d in system._gravity]  # noqa: SLF001
+    dissipation = None
+    if not der.D.is_zero():
+        dissipation = ca.Function("D", [x, p], [der.D, ca.hessian(der.D, der.nu)[0]])
+    cache: dict[str, Any] = {}
+
+    def check(model: Model, xs: np.ndarray) -> None:
+        pv = model.p
+        if inertias is not None:  # before the mass matrix: the message names the body
+            Js = np.asarray(inertias(pv), dtype=float)
+            for k, b in enumerate(rigid):
+                msg = _inertia_message(Js[:, 3 * k: 3 * k + 3])
+                if msg:
+                    about = "origin" if b.inertia_origin is not None else "centre of mass"
+                    raise ModelError(f"rigid body {b.name!r}: its inertia about its {about}, "
+                                     f"with the parameter values, {msg}")
+        if attitudes is not None:
+            Rs = np.asarray(attitudes(xs, pv), dtype=float)
+            for k, b in enumerate(free):
+                R = Rs[:, 3 * k: 3 * k + 3]
+                err = float(np.max(np.abs(R.T @ R - np.eye(3))))
+                det = float(np.linalg.det(R))
+                if not err <= ROTATION_TOL or not det > 0:
+                    raise ModelError(
+                        f"rigid body {b.name!r}: its attitude must be a rotation (R^T R = I, "
+                        f"det R = +1); at the state x = {_flat(xs)} it has max |R^T R - I| = "
+                        f"{err:.3g} and det R = {det:.6g}")
+        for fn in directions:
+            d = np.asarray(fn(pv), dtype=float).ravel()
+            if not abs(float(np.linalg.norm(d)) - 1.0) <= DIRECTION_TOL:
+                raise ModelError(f"gravity's direction must be a unit vector; with the "
+                                 f"parameter values it is {d.tolist()} (norm "
+                                 f"{np.linalg.norm(d):.12g})")
+        check_kinetic_energy(der, system.factors, xs, pv)
+        if dissipation is not None:
+            Dv, H = (np.asarray(v, dtype=float) for v in dissipation(xs, pv))
+            eig = np.linalg.eigvalsh(0.5 * (H + H.T))
+            floor = -PSD_RTOL * max(float(np.max(np.abs(eig))), 1e-300)
+            if not float(Dv.ravel()[0]) >= floor or not eig[0] >= floor:
+                raise ModelError(
+                    f"the dissipation function must be >= 0, a positive semi-definite form in "
+                    f"the velocities (it takes energy out); at the state x = {_flat(xs)} it "
+                    f"is {float(Dv.ravel()[0]):.3g} with Hessian eigenvalues "
+                    f"{np.array2string(eig, precision=3)}")
+        _check_momenta(model, der, xs, cache)
+
+    return check
 
 
 def _describe(system: Any) -> str:
@@ -180,6 +296,14 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
     for mname, gens in system.momenta.items():
         invariants[mname] = (lambda fn: lambda ctx: fn(ctx.x, ctx.p))(der.momentum(gens))
     manifold = ProductManifold([s for f in system.factors for s in f.storage()])
+    checks: Any = None
+    if check:
+        x0 = manifold.random_point(np.random.default_rng(0))
+        at = _value_checks(system, der)
+
+        def checks(model: Model) -> None:
+            at(model, x0)
+
     model = Model(
         name=name, manifold=manifold, n_inputs=int(der.ing.u.shape[0]),
         parameters=system.parameters, values=system.values, vector_field=field,
@@ -189,10 +313,9 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
             r" = K(c)^T \frac{\partial L}{\partial c} + Q"
             r"\quad\text{(Lagrange-d'Alembert on each factor, derived by AD)}",),
         input_description=input_description or "; ".join(system.input_descriptions()),
-        jacobian=jacobian if sym == "MX" else None, spd_solves=True)
+        jacobian=jacobian if sym == "MX" else None, spd_solves=True,
+        value_check=checks)
     model.mechanics = der  # the derivation, for inspection (mass matrix, residual)
     if check:
-        x0 = manifold.random_point(np.random.default_rng(0))
-        check_kinetic_energy(der, system.factors, x0, model.p)
-        _check_momenta(model, der, x0)
+        checks(model)
     return model

@@ -18,16 +18,21 @@ CONFIG, VELOCITY, INPUT, PARAMETER = "configuration", "velocity", "input", "para
 
 
 class SymbolTable:
-    """Registry of the SX symbols of one system, by the names casadi gives their elements."""
+    """Registry of the SX symbols of one system, by identity.
+
+    Not by name: another System's ``k`` has the same name and is not this one's.
+    """
 
     def __init__(self) -> None:
-        self._kind: dict[str, tuple[str, str]] = {}
+        self._kind: dict[int, tuple[str, str]] = {}
+        self._symbols: list[ca.SX] = []  # kept alive: the keys are their elements' addresses
 
     def new(self, prefix: str, n: int, kind: str, label: str) -> ca.SX:
         """A fresh column of ``n`` symbols named ``prefix_0 ..`` of the given kind."""
         sym = ca.SX.sym(prefix, n)
+        self._symbols.append(sym)
         for el in ca.symvar(sym):
-            self._kind[el.name()] = (kind, label)
+            self._kind[el.element_hash()] = (kind, label)
         return sym
 
     def kinds(self, expr: ca.SX, what: str) -> dict[str, set[str]]:
@@ -35,7 +40,7 @@ class SymbolTable:
         out: dict[str, set[str]] = {}
         foreign = []
         for el in ca.symvar(ca.SX(expr)):
-            entry = self._kind.get(el.name())
+            entry = self._kind.get(el.element_hash())
             if entry is None:
                 foreign.append(el.name())
                 continue
@@ -43,7 +48,8 @@ class SymbolTable:
         if foreign:
             raise ModelError(
                 f"{what} uses symbols this System did not create: {sorted(foreign)[:6]}; build "
-                "expressions from the System's factors, parameters and inputs"
+                "expressions from the System's factors, parameters and inputs (a symbol of "
+                "another System is not this one's, even with the same name)"
             )
         return out
 

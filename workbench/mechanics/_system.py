@@ -28,8 +28,13 @@ import numpy as np
 
 from workbench.mechanics import _forces as F
 from workbench.mechanics._bodies import PointMass, RigidBody
-from workbench.mechanics._checks import as_expr, as_number_array, check_inertia_value
-from workbench.mechanics._engine import ModelError, Parameter, ParameterError, finite
+from workbench.mechanics._checks import (
+    as_expr,
+    as_number_array,
+    check_inertia_value,
+    parameter_value,
+)
+from workbench.mechanics._engine import MAX_DIM, ModelError, Parameter, ParameterError, finite
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
 from workbench.mechanics._model import _ingredients, build_model
@@ -42,6 +47,9 @@ E3 = np.array([0.0, 0.0, 1.0])
 """The vertical, pointing *down* along gravity (the workbench's convention)."""
 
 _Check = Callable[[np.ndarray], "str | None"]
+
+_NOT_INVARIANT_NAMES = frozenset({"f", "f_x", "f_u", "residual", "invariants", "x", "u", "p"})
+"""Names a momentum cannot take (the Model's functions and their inputs)."""
 
 
 def _name(value: Any, what: str) -> str:
@@ -84,6 +92,9 @@ class System:
 
     # factors ------------------------------------------------------------------------------
     def _claim(self, *names: str) -> None:
+        if len(set(names)) != len(names):
+            raise ModelError(f"a factor's position and velocity need different names; got "
+                             f"{list(names)}")
         for n in names:
             _name(n, "factor name")
             if n in self._storage:
@@ -107,9 +118,9 @@ class System:
         RnFactor
             With symbols ``.x`` and ``.v``, shape=(k, 1).
         """
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
-            raise ModelError(f"k (dimension of R^k factor {name!r}) must be an integer >= 1; "
-                             f"got {k!r}")
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= MAX_DIM:
+            raise ModelError(f"k (dimension of R^k factor {name!r}) must be an integer in "
+                             f"[1, {MAX_DIM}]; got {k!r}")
         vname = velocity if velocity is not None else f"{name}_dot"
         self._claim(name, vname)
         f = RnFactor(name, self.symbols.new(f"{name}#c", int(k), CONFIG, name),
@@ -194,13 +205,7 @@ class System:
         _name(name, "parameter name")
         if name in self.values:
             raise ModelError(f"parameter {name!r} is declared twice in system {self.name!r}")
-        arr = as_number_array(value, f"parameter {name!r}")
-        if arr.ndim > 2:
-            raise ParameterError(f"parameter {name!r} must be a scalar, vector or matrix; got "
-                                 f"shape {arr.shape}")
-        if shape is not None and arr.shape != tuple(shape):
-            raise ParameterError(f"parameter {name!r} ({description or name}) must have shape "
-                                 f"{tuple(shape)}; got shape {arr.shape}")
+        arr = parameter_value(name, value, description, check=check, shape=shape)
         par = Parameter(name, tuple(arr.shape), description or name, check)
         self.values[name] = par.validate(arr)
         self.parameters.append(par)
@@ -220,8 +225,9 @@ class System:
 
     def input(self, n: int, description: str = "") -> ca.SX:
         """Declare ``n`` more inputs (appended to ``u``, in call order); their symbols."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ModelError(f"n (number of inputs) must be an integer >= 1; got {n!r}")
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_DIM:
+            raise ModelError(f"n (number of inputs) must be an integer in [1, {MAX_DIM}]; got "
+                             f"{n!r}")
         k = sum(s.shape[0] for s in self._u)
         sym = self.symbols.new(f"u#{k}", int(n), INPUT, description or f"u[{k}:{k + n}]")
         self._u.append(sym)
@@ -339,21 +345,36 @@ class System:
     def gravity(self, g: Any, direction: Any = E3) -> None:
         """Uniform gravity ``g`` along ``direction`` on every body (declared before or after).
 
+        Declared once per system (a second call is refused rather than adding a second
+        field).
+
         Parameters
         ----------
         g : float or casadi.SX
             Gravitational acceleration [m/s^2].
-        direction : array-like, shape=(d,)
+        direction : array-like or casadi.SX of parameters, shape=(d,)
             Unit vector along which gravity pulls (default ``e3``: e3 points down); its
-            length must match the bodies' positions.
+            length must match the bodies' positions. An expression of parameters is checked
+            for unit length with the parameter values when the model is built (and by
+            ``Model.with_parameters``).
         """
+        if self._gravity:
+            raise ModelError(f"gravity is declared once per system; system {self.name!r} has "
+                             "it already (a second call would add a second field; write other "
+                             "uniform fields with potential())")
         gg = self._scalar(g, "g", (PARAMETER,))
         if not isinstance(direction, (ca.SX, ca.MX)):
             d = as_number_array(direction, "direction").ravel()
             if d.size not in (1, 2, 3) or abs(np.linalg.norm(d) - 1) > 1e-12:
                 raise ParameterError(f"direction must be a unit vector of 1 to 3 entries; got "
                                      f"{direction!r}")
-        self._gravity.append((gg, as_expr(direction, "direction")))
+        dexpr = as_expr(direction, "direction")
+        if dexpr.shape[1] != 1 or dexpr.shape[0] not in (1, 2, 3):
+            raise ModelError(f"direction must be a vector of 1 to 3 entries; got shape "
+                             f"{dexpr.shape}")
+        # an expression of parameters: its length is checked with the values, at build
+        self.symbols.require(dexpr, "direction", (PARAMETER,))
+        self._gravity.append((gg, dexpr))
 
     # loads ---------------------------------------------------------------------------------
     def _load_value(self, value: Any, what: str, n: int) -> ca.SX:
@@ -433,6 +454,9 @@ class System:
             coordinates turn under a rotation about the vertical); override the above.
         """
         _name(name, "momentum name")
+        if name in _NOT_INVARIANT_NAMES:
+            raise ModelError(f"momentum name must not be one of {sorted(_NOT_INVARIANT_NAMES)} "
+                             f"(the model's own functions and their inputs); got {name!r}")
         if name == "energy" or name in self.momenta:
             raise ModelError(f"invariant name {name!r} is already used")
         gens: dict[int, ca.SX] = {}
@@ -453,6 +477,9 @@ class System:
             gens[id(f)] = gen
         if not gens:
             raise ModelError(f"momentum {name!r} needs translate=, rotate= or generators=")
+        if all(ca.SX(g).is_zero() for g in gens.values()):
+            raise ModelError(f"momentum {name!r}: its generator is zero (a zero axis or "
+                             "translation); it would declare the constant 0")
         self.momenta[name] = gens
 
     def detect_momenta(self, *, rtol: float = 1e-9, n_states: int = 3,
@@ -524,6 +551,10 @@ class System:
             configuration (velocities zero: exact at states at rest), used by
             :func:`workbench.linear.symmetry_directions`.
         """
+        if name is not None:
+            _name(name, "model name")
+        if not isinstance(check, bool):
+            raise ModelError(f"check must be True or False; got {check!r}")
         model = build_model(self, name or self.name, symbolic=symbolic,
                             linear_solver=linear_solver, check=check, description=description,
                             equations=equations, input_description=input_description)
