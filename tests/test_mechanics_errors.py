@@ -308,3 +308,24 @@ def test_positive_definite_test_does_not_depend_on_units(M, m, length):
     s.rigid_body(1.0, np.diag([1.0, 1e14, 1e14]), body)
     s.model()
 
+
+
+def test_mass_matrix_singular_at_one_state_is_reported_not_a_numpy_error():
+    """A massless cart with the link hanging straight down: M is singular there only."""
+    from workbench import find_equilibrium, linearize
+    from workbench.core.errors import SolverError
+
+    s = mechanics.System("massless_cart")
+    cart, link = s.rn("x", 1, velocity="v"), s.s2("q")
+    pivot = ca.vertcat(cart.x, 0, 0)
+    s.point_mass(s.parameter("M", 0.0), pivot, name="cart")
+    s.point_mass(0.5, pivot + 0.8 * link.q, name="bob")
+    s.gravity(9.81)
+    model = s.model()  # positive definite at the (random) check state
+    x = model.state(x=[0.0], v=[0.0], q=[0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ModelError, match="not finite.*singular solve"):
+        model.rhs(x)
+    with pytest.raises(ModelError, match="Jacobian is not finite at x_e.*singular solve"):
+        linearize(model, x)
+    with pytest.raises(SolverError, match="not finite at the start.*status: diverged"):
+        find_equilibrium(model, x)

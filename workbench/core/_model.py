@@ -575,8 +575,9 @@ class Model:
         if not np.all(np.isfinite(out)):
             raise ModelError(
                 f"the vector field of {self.name!r} is not finite at x = {xv.tolist()}, "
-                f"u = {uv.tolist()} with parameters {self.p.tolist()}: the values overflow "
-                f"(f = {out.tolist()})")
+                f"u = {uv.tolist()} with parameters {self.p.tolist()}: an overflow, or a "
+                f"singular solve inside the field there (e.g. a mass matrix singular at that "
+                f"state) (f = {out.tolist()})")
         return out
 
     def invariants(self, x: ArrayLike) -> dict[str, float]:

@@ -354,8 +354,10 @@ def newton_on_manifold(
     history = [r]
     status, message = RootStatus.MAX_ITERATIONS, ""
     it = 0
-    if not np.all(np.isfinite(F)):
-        status, message = RootStatus.DIVERGED, "the residual is not finite at the start"
+    if not np.all(np.isfinite(F)) or not np.all(np.isfinite(A)):
+        status, message = RootStatus.DIVERGED, (
+            "the residual or its Jacobian is not finite at the start (e.g. a singular solve "
+            "inside the field there, such as a mass matrix singular at that state)")
     elif r <= tol:
         status = RootStatus.CONVERGED
     else:
@@ -412,9 +414,12 @@ def newton_on_manifold(
         if r > tol:
             message += f" (step below step_tol {step_tol:.1e}: roundoff level)"
     n = A.shape[1] if A.ndim == 2 else 0
-    if diagnostics:
+    if diagnostics and np.all(np.isfinite(A)):
         s = np.linalg.svd(A, compute_uv=False) if A.size else np.zeros(0)
         rank = _rank(s, rank_rtol)
+        cres = float(max(manifold.residual_norms(y).values(), default=0.0))
+    elif diagnostics:  # a non-finite Jacobian (e.g. a mass matrix singular at y): no rank
+        s, rank = np.full(min(A.shape) if A.ndim == 2 else 0, np.nan), -1
         cres = float(max(manifold.residual_norms(y).values(), default=0.0))
     else:
         s, rank, cres = np.zeros(0), -1, float("nan")

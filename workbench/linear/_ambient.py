@@ -154,6 +154,12 @@ def _equilibrium_jacobians(model: Model, x_e: Vector, u_e: Vector,
     jac = _jacobians(model, controller)
     f0, Jx, Ju = (np.asarray(v, dtype=float) for v in jac(x_e, u_e, model.p))
     f0 = f0.ravel()
+    if not (np.all(np.isfinite(f0)) and np.all(np.isfinite(Jx)) and np.all(np.isfinite(Ju))):
+        raise ModelError(
+            f"the field of {model.name!r} or its Jacobian is not finite at x_e = "
+            f"{x_e.tolist()}, u_e = {np.asarray(u_e).tolist()} (f = {f0.tolist()}): an "
+            "overflow, or a singular solve inside the field there (e.g. a mass matrix "
+            "singular at that state)")
     res = float(np.max(np.abs(f0))) if f0.size else 0.0
     # relative to the size of the field's terms near x_e: |df/dx| |x_e| (rounding of x_e);
     # the limit is at least tol, so the spectral norm (an SVD) is needed only above tol
