@@ -329,3 +329,14 @@ def test_mass_matrix_singular_at_one_state_is_reported_not_a_numpy_error():
         linearize(model, x)
     with pytest.raises(SolverError, match="not finite at the start.*status: diverged"):
         find_equilibrium(model, x)
+
+
+def test_detect_momenta_seed_and_body_force_point_are_checked():
+    s, cart, link, m, _ = _cart_pendulum()
+    with pytest.raises(ModelError, match="seed must be an integer >= 0; got 'a'"):
+        s.detect_momenta(seed="a")
+    s = mechanics.System("b")
+    body = s.so3("R")
+    rb = s.rigid_body(1.0, np.eye(3), body)
+    with pytest.raises(ModelError, match="needs a 3-vector point"):
+        s.force_at(ca.DM([0.0, 1.0]), [1.0, 0.0], body=rb)

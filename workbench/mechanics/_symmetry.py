@@ -197,12 +197,14 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states
     return accepted
 
 
-def check_options(rtol: Any, n_states: Any) -> None:
-    """Refuse a non-positive tolerance or state count (both are inputs, never adjusted)."""
+def check_options(rtol: Any, n_states: Any, seed: Any = 0) -> None:
+    """Refuse a bad tolerance, state count or seed (inputs, never adjusted)."""
     if isinstance(rtol, bool) or not isinstance(rtol, (int, float)) or not 0 < rtol < 1:
         raise ModelError(f"rtol must be a number in (0, 1); got {rtol!r}")
     if isinstance(n_states, bool) or not isinstance(n_states, int) or n_states < 1:
         raise ModelError(f"n_states must be an integer >= 1; got {n_states!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ModelError(f"seed must be an integer >= 0; got {seed!r}")
 
 
 def configuration_action(der: Derivation, name: str, generators: dict) -> ca.Function:

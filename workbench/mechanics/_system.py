@@ -407,6 +407,9 @@ class System:
         R = None
         if body is not None:
             R = self._rigid(body).attitude
+            if p.shape[0] != 3:
+                raise ModelError(f"force_at with body= needs a 3-vector point (the body frame "
+                                 f"is 3-D); got a point of {p.shape[0]} entries")
         self.loads.append(F.force_at("force", p, self._load_value(value, "force", p.shape[0]),
                                      R))
 
@@ -509,7 +512,7 @@ class System:
         dict of str to str
             The momenta declared by this call: name -> what the symmetry does.
         """
-        check_options(rtol, n_states)
+        check_options(rtol, n_states, seed)
         if not self.factors:
             raise ModelError(f"system {self.name!r} has no factors; add rn(...), s2(...) or "
                              "so3(...)")
