@@ -249,7 +249,8 @@ def test_export_writes_a_self_contained_project_that_builds(tmp_path, cache):
     out = tmp_path / "s2"
     res = codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
     names = sorted(p.name for p in res.files)
-    assert names == sorted(["s2_pd.c", "s2_pd.h", "main.c", "bench.c", "Makefile"])
+    assert names == sorted(["s2_pd.c", "s2_pd.h", "main.c", "bench.c", "Makefile",
+                            ".workbench-export.json"])
     assert sorted(os.listdir(tmp_path)) == ["s2"]   # no temporary left behind
     header = (out / "s2_pd.h").read_text()
     for needle in ("S2_PD_NX 6", "S2_PD_NP 0", "S2_PD_NU 3", "[N m]", "[rad/s]",
@@ -265,7 +266,7 @@ def test_export_writes_a_self_contained_project_that_builds(tmp_path, cache):
             == u.tolist()
     # exporting again into the existing directory replaces the files
     again = codegen.export_c(controller("s2_pd"), out, binding=Binding.PARAMETERS, cache_dir=cache)
-    assert "S2_PD_NP 3" in (out / "s2_pd.h").read_text() and len(again.files) == 5
+    assert "S2_PD_NP 3" in (out / "s2_pd.h").read_text() and len(again.files) == 6
 
 
 def test_cache_is_reused_and_keyed_by_flags(cache):
@@ -448,3 +449,36 @@ def test_swingup_tvlqr_compiled_agrees_with_casadi_and_workbench_tvlqr(cache):
     assert np.all(np.isfinite(compiled.run_example()))
     with pytest.raises(ModelError):
         c.function_for(Binding.PARAMETERS)
+
+
+def test_export_never_replaces_files_it_did_not_write(tmp_path, cache):
+    """A user's Makefile or main.c (or a file its Makefile's clean would remove) stops the
+    export before anything is written; a re-export replaces its own unedited files."""
+    from workbench.codegen.build import MANIFEST, ExportError
+
+    out = tmp_path / "proj"
+    out.mkdir()
+    (out / "Makefile").write_text("all:\n\techo mine\n")
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(ExportError, match=r"holds files this export did not write.*Makefile"):
+        codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+    assert sorted(os.listdir(out)) == ["Makefile", "notes.txt"]  # nothing written
+    assert (out / "Makefile").read_text() == "all:\n\techo mine\n"
+    (out / "Makefile").unlink()
+    (out / "bench").write_text("a user's file that 'make clean' would remove")
+    with pytest.raises(ExportError, match=r"\['bench'\]"):
+        codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+    (out / "bench").unlink()
+    first = codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+    assert (out / MANIFEST).exists() and (out / "notes.txt").read_text() == "mine"
+    (out / "bench").write_text("built by the export's Makefile")  # a product: replaceable
+    again = codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+    assert [p.name for p in again.files] == [p.name for p in first.files]
+    (out / "main.c").write_text("/* edited by the user */")
+    with pytest.raises(ExportError, match=r"edited since.*main\.c"):
+        codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)
+    assert (out / "main.c").read_text() == "/* edited by the user */"
+    (out / "main.c").unlink()
+    (out / "main.c").mkdir()
+    with pytest.raises(ExportError, match=r"main\.c \(a directory\)"):
+        codegen.export_c(controller("s2_pd"), out, binding=Binding.FROZEN, cache_dir=cache)

@@ -25,7 +25,7 @@ def test_exported_lqr_law_agrees_with_casadi(cart_lqr, tmp_path):
     out = codegen.export_feedback(cart, k, tmp_path / "c", name="cart_lqr",
                                   title="LQR of the cart pendulum */ #define X", example_state=x_up)
     assert {p.name for p in out.files} == {"cart_lqr.c", "cart_lqr.h", "main.c", "bench.c",
-                                          "Makefile"}
+                                          "Makefile", ".workbench-export.json"}
     states = out.controller.sample_states(300, seed=3)
     assert np.allclose(states[0], x_up)  # the example state is among the test states
     gap = codegen.agreement(out.controller, out.compiled, states, binding=codegen.Binding.FROZEN)

@@ -66,6 +66,11 @@ class CSources:
         Whether ``jac_NAME`` (the Jacobian, for implicit integrators) is included.
     digest : str
         SHA-256 of all files: the hash of the exported function and its wrapper.
+
+    Notes
+    -----
+    :attr:`products` are the files the generated Makefile builds (and ``make clean``
+    removes).
     """
 
     name: str
@@ -91,6 +96,12 @@ class CSources:
         from html import escape
 
         return f"<pre>{escape(str(self))}</pre>"
+
+    @property
+    def products(self) -> tuple[str, ...]:
+        """What the generated Makefile builds and ``make clean`` removes."""
+        N = self.name
+        return (f"{N}.o", f"lib{N}.a", f"lib{N}.so", "example", "bench")
 
 
 def void_unused_parameters(code: str) -> str:
