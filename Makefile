@@ -64,4 +64,4 @@ bench: $(STAMP)
 	$(BIN)/workbench bench
 
 clean:
-	rm -rf $(VENV) build *.egg-info reports/out
+	rm -rf $(VENV) geometric_pendulum_workbench.egg-info reports/out

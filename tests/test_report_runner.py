@@ -379,3 +379,34 @@ def test_modules_the_problems_import_lazily_are_imported_once_before_the_fork(en
     rep, _ = report(env, ["small", "counted"], cache_dir=None)
     assert "preload_probe_mod" in sys.modules and rep.ok  # a missing one is skipped
     monkeypatch.delitem(sys.modules, "preload_probe_mod")
+
+
+def test_the_cache_folder_must_be_the_reports_own(env):
+    """The cache writes timings.json and removes entries by name: it refuses a folder of
+    the user's, marks its own, and checks --cache before --out is created."""
+    user = env / "mine"
+    user.mkdir()
+    (user / "timings.json").write_text('{"my": "data"}')
+    (user / "counted-quick-0123456789abcdef.pkl").write_text("a user's file")
+    with pytest.raises(ReportInputError, match=r"--cache: .*holds files the report did not "
+                                               r"write \(counted-quick-.*timings\.json\)"):
+        report(env, ["counted"], cache_dir=user)
+    assert not (env / "out").exists()  # nothing created before the refusal
+    assert (user / "timings.json").read_text() == '{"my": "data"}'
+    afile = env / "afile"
+    afile.write_text("x")
+    with pytest.raises(ReportInputError, match=r"^--cache: .*afile' exists and is not a dir"):
+        report(env, ["counted"], cache_dir=afile)
+    empty = env / "empty"
+    empty.mkdir()
+    report(env, ["counted"], cache_dir=empty)  # an empty folder becomes the cache
+    assert (empty / report_cache.MARKER).is_file() and (empty / "timings.json").is_file()
+    report(env, ["counted"], cache_dir=empty)  # and is the report's own from then on
+    entry = next(empty.glob("counted-quick-*.pkl"))
+    assert entry.stat().st_mode & 0o777 == 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

@@ -21,6 +21,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import TextIO
 
+from workbench.app.report import cache as report_cache
 from workbench.app.report.collect import Status
 from workbench.app.report.errors import ReportInputError
 from workbench.app.report.frontpage import Document, document
@@ -108,29 +109,41 @@ class Report:
                 + ", ".join(f"{n} {k}" for k, n in counts.items()) + f"): {files}")
 
 
-def check_out_dir(out_dir: str | Path) -> Path:
+def _not_a_file(option: str, out_dir: str | Path) -> Path:
+    path = output_path(option, out_dir, error=ReportInputError)
+    if path.exists() and not path.is_dir():
+        raise ReportInputError(f"{option}: {str(path)!r} exists and is not a directory")
+    return path
+
+
+def check_out_dir(out_dir: str | Path, *, option: str = "--out") -> Path:
     """Create ``out_dir`` if needed and check that files can be written in it.
+
+    Parameters
+    ----------
+    out_dir : path-like
+        The directory.
+    option : str
+        The option that named it, for the messages (``--out``, ``--cache``).
 
     Raises
     ------
     ReportInputError
         If it is a file, cannot be created, or is not writable.
     """
-    path = output_path("--out", out_dir, error=ReportInputError)
-    if path.exists() and not path.is_dir():
-        raise ReportInputError(f"--out: {str(path)!r} exists and is not a directory")
+    path = _not_a_file(option, out_dir)
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ReportInputError(
-            f"--out: cannot create directory {str(path)!r} ({exc.strerror})") from exc
+            f"{option}: cannot create directory {str(path)!r} ({exc.strerror})") from exc
     try:
         fd, probe = tempfile.mkstemp(prefix=".write-probe-", dir=path)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
         raise ReportInputError(
-            f"--out: cannot write to directory {str(path)!r} ({exc.strerror})") from exc
+            f"{option}: cannot write to directory {str(path)!r} ({exc.strerror})") from exc
     return path
 
 
@@ -254,8 +267,14 @@ def build_report(
                                       and not isinstance(memory_mb, bool)
                                       and 0 < memory_mb < float("inf")):
         raise ReportInputError(f"--memory must be a positive number of MB; got {memory_mb!r}")
+    _not_a_file("--out", out_dir)  # both checked before either is created
+    if cache_dir is not None:
+        report_cache.check_foreign(_not_a_file("--cache", cache_dir), default=DEFAULT_CACHE)
     out = check_out_dir(out_dir)
-    cache = None if cache_dir is None else check_out_dir(cache_dir)
+    cache = None
+    if cache_dir is not None:
+        cache = check_out_dir(cache_dir, option="--cache")
+        report_cache.claim(cache)
     stem = stem or ("report-quick" if quick else "report")
     stream = stream or sys.stderr
     seconds: dict[str, float] = {}

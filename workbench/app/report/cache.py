@@ -16,6 +16,11 @@ A problem without a source file (a catalogue built at run time) is never cached.
 are written under a unique temporary name in the cache folder and renamed into place; an
 entry of the same problem and mode with another key is removed when the new one is
 written (only files of this cache's own naming pattern are ever removed).
+
+A cache folder is the report's own: one it created, an empty one, or the default
+``reports/out/cache/``; it is marked with :data:`MARKER`. A folder that holds other files
+and no marker is refused (the report would write ``timings.json`` into it, remove files
+that look like its entries, and unpickle what it finds there).
 """
 
 from __future__ import annotations
@@ -31,8 +36,13 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-__all__ = ["STYLE_VERSION", "PARENT_ONLY", "problem_key", "engine_digest", "versions", "load",
-           "store", "entry_path"]
+from workbench.core.files import apply_umask
+
+__all__ = ["STYLE_VERSION", "PARENT_ONLY", "MARKER", "problem_key", "engine_digest",
+           "versions", "load", "store", "entry_path", "check_foreign", "claim"]
+
+MARKER = ".workbench-report-cache"
+"""The file that marks a folder as the report's cache."""
 
 STYLE_VERSION = "report-style-2"
 """Changes whenever the figure style of the report changes (invalidates every entry)."""
@@ -135,6 +145,48 @@ def _versions() -> dict[str, str]:
     return _VERSIONS
 
 
+def check_foreign(cache_dir: Path, *, default: Path | None = None) -> None:
+    """Refuse a ``--cache`` folder that holds files and is not the report's own cache.
+
+    Parameters
+    ----------
+    cache_dir : Path
+        The folder (it may not exist yet).
+    default : Path, optional
+        The default cache folder, the report's own even without a marker (made by
+        versions before the marker).
+
+    Raises
+    ------
+    ReportInputError
+        The folder holds files and neither carries :data:`MARKER` nor is ``default``.
+    """
+    from workbench.app.report.errors import ReportInputError
+
+    path = Path(cache_dir)
+    if not path.is_dir() or (path / MARKER).is_file():
+        return
+    if default is not None and path.resolve() == Path(default).resolve():
+        return
+    others = sorted(p.name for p in path.iterdir())
+    if others:
+        raise ReportInputError(
+            f"--cache: {str(path)!r} holds files the report did not write "
+            f"({', '.join(others[:5])}{', ...' if len(others) > 5 else ''}) and is not a "
+            f"report cache (no {MARKER}); the cache writes and removes files in its folder: "
+            "give a new or empty folder")
+
+
+def claim(cache_dir: Path) -> None:
+    """Mark an existing folder (checked by :func:`check_foreign`) as the report's cache."""
+    marker = Path(cache_dir) / MARKER
+    if not marker.is_file():
+        from workbench.core.files import write_atomic
+
+        write_atomic(marker, "workbench report cache: its entries are written and removed by "
+                             "'workbench report'\n", name="--cache")
+
+
 def entry_path(cache_dir: Path, name: str, *, quick: bool, key: str) -> Path:
     """Where the outcome of ``name`` with ``key`` is stored."""
     return Path(cache_dir) / f"{name}-{'quick' if quick else 'full'}-{key[:16]}.pkl"
@@ -161,6 +213,7 @@ def store(cache_dir: Path, name: str, outcome: Any, *, quick: bool, key: str) ->
     try:
         with os.fdopen(fd, "wb") as fh:
             pickle.dump((key, outcome), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        apply_umask(tmp)  # mkstemp made it 0600
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

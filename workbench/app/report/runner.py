@@ -51,6 +51,7 @@ from workbench.app.report.progress import (
     pss_mb,
     rss_mb,
 )
+from workbench.core.files import write_atomic
 from workbench.study._result import CORES_ENV, PROGRESS_ENV
 
 __all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB"]
@@ -284,10 +285,9 @@ def _write_timings(cache_dir: Path | None, timings: dict[str, float]) -> None:
         return
     cache_dir = Path(cache_dir)
     cache_dir.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".timings.", suffix=".partial", dir=cache_dir)
-    with os.fdopen(fd, "w") as fh:
-        json.dump(timings, fh, indent=1, sort_keys=True)
-    os.replace(tmp, cache_dir / "timings.json")
+    # atomic, umask respected, nothing left behind and one clear line if it cannot be written
+    write_atomic(cache_dir / "timings.json", json.dumps(timings, indent=1, sort_keys=True),
+                 name="--cache timings.json", error=ReportInputError)
 
 
 def _over(job: _Job, timeout: float) -> str:
@@ -581,7 +581,10 @@ def run_all(
             for job in running:
                 _kill_group(job.process)
             gc.unfreeze()  # this process's own objects are collected again
-    _write_timings(cache_dir, measured)
+    try:
+        _write_timings(cache_dir, measured)
+    except ReportInputError as exc:  # only the next run's estimates: the results stand
+        print(f"warning: the problems' timings were not saved: {exc}", file=stream)
     outcomes = [done[n] for n in names]
     stats = RunStats(
         seconds=time.monotonic() - t0, jobs=jobs,
