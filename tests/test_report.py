@@ -457,3 +457,22 @@ def test_full_report_of_every_problem(tmp_path):
     for run in rep.runs:
         assert run.name in text
         assert re.sub(r"\s+", " ", run.title) in text
+
+
+def test_figure_links_other_than_http_or_anchors_are_dropped():
+    """The report has no scripts: a javascript: link an artist carries is not kept; the
+    SVG's own references (glyphs, embedded rasters) and web links are."""
+    import matplotlib.pyplot as plt
+
+    from workbench.app.report.collect import figure_svg
+
+    fig, ax = plt.subplots()
+    (line,) = ax.plot([0, 1], [0, 1])
+    line.set_url("javascript:alert(1)")
+    ax.text(0.5, 0.5, "x").set_url("https://example.org/a?b=1&c=2")
+    ax.imshow([[0, 1], [1, 0]], extent=(0, 1, 0, 1))
+    svg = figure_svg(fig, salt="t")
+    plt.close(fig)
+    assert "javascript" not in svg
+    assert "https://example.org/a?b=1&amp;c=2" in svg or "https://example.org/a?b=1&c=2" in svg
+    assert "data:image/png" in svg and 'xlink:href="#' in svg

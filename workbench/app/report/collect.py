@@ -8,7 +8,9 @@ not hold every matplotlib figure in memory.
 
 from __future__ import annotations
 
+import html
 import io
+import re
 import sys
 import time
 import traceback
@@ -111,7 +113,9 @@ def figure_svg(fig: Any, *, salt: str) -> str:
     Returns
     -------
     str
-        The ``<svg>`` element, without the XML prolog.
+        The ``<svg>`` element, without the XML prolog. Links an artist carries
+        (``set_url``) are kept only to ``http(s)://`` or ``#`` targets: the report is a
+        page without scripts, and a ``javascript:`` link would be one.
     """
     import matplotlib
 
@@ -124,7 +128,26 @@ def figure_svg(fig: Any, *, salt: str) -> str:
             warnings.filterwarnings("ignore", message=message, category=UserWarning)
         fig.savefig(buf, format="svg", metadata={"Date": None})
     text = buf.getvalue()
-    return text[text.index("<svg"):]
+    return _SVG_ANCHOR.sub(_safe_anchor, text[text.index("<svg"):])
+
+
+_SVG_ANCHOR = re.compile(r"<a\b[^>]*>")
+_HREF = re.compile(r'((?:xlink:)?href)="([^"]*)"')
+
+
+def _safe_anchor(m: re.Match) -> str:
+    """An ``<a>`` start tag with any link but ``http(s)://`` or ``#`` replaced by ``#``.
+
+    Only links (``<a>``) are touched: ``<use>`` and ``<image>`` refer to the SVG's own
+    glyphs and embedded rasters (``#id``, ``data:image/png``).
+    """
+    def one(h: re.Match) -> str:
+        target = html.unescape(h.group(2)).strip()
+        if target.startswith("#") or re.match(r"https?://", target, re.I):
+            return h.group(0)
+        return f'{h.group(1)}="#"'  # javascript:, data:, file: ... are dropped
+
+    return _HREF.sub(one, m.group(0))
 
 
 def _close(fig: Any) -> None:
