@@ -206,3 +206,19 @@ def test_simulate_collocation_degree_defaults_to_four(planar):
     b = simulate(planar, x0, [0.0, 1.0], method="collocation", step=0.1, degree=4)
     assert a.options["degree"] == b.options["degree"] == 4
     assert_close(a.final, b.final, atol=0.0, what="same method")
+
+
+@pytest.mark.parametrize("method", ["collocation", "rk", "cvodes"])
+def test_a_field_that_turns_nan_is_an_error_for_every_method(method):
+    """casadi's collocation step keeps the last state when the field is NaN, without an
+    error: the trajectory 'stopped' and looked like a result. Every method raises now."""
+    from workbench.core.errors import SolverError
+
+    model = p3.full(J=np.diag([0.13, 0.28, 0.17]), rho=[0.0, 0.0, 0.3])
+    x0 = model.state(R=np.eye(3), omega=[1.0, 0.5, 0.2])
+    x = ca.SX.sym("x", 12)
+    # real while omega_x > 0.9: NaN once the body has slowed down (t ~ 0.4 s)
+    k = ca.Function("k", [x], [ca.vertcat(ca.sqrt(x[9] - 0.9), 0, 0)])
+    knobs = {} if method == "cvodes" else {"step": 0.05}
+    with pytest.raises(SolverError, match="non-finite|not finite|failed"):
+        simulate(model, x0, np.linspace(0.0, 1.0, 11), controller=k, method=method, **knobs)

@@ -459,7 +459,18 @@ def simulate(
     else:
         cost.update(steps=n_out * opts["number_of_finite_elements"], rhs_evaluations=None)
 
-    u_out = np.asarray(loop.map(len(tv))(xs_out.T, model.p)[1]).T.reshape(len(tv), -1)
+    rhs_map, u_map = loop.map(len(tv))(xs_out.T, model.p)
+    u_out = np.asarray(u_map).T.reshape(len(tv), -1)
+    rhs_ok = np.all(np.isfinite(np.asarray(rhs_map)), axis=0)
+    if not (np.all(rhs_ok) and np.all(np.isfinite(u_out))):
+        # collocation's Newton step keeps the last state when the field turns NaN, without
+        # an error: the trajectory would "stop" there and look like a result
+        bad = int(np.argmin(rhs_ok & np.all(np.isfinite(u_out), axis=1)))
+        raise SolverError(
+            f"{method.value}: the {'closed-loop ' if controller is not None else ''}field of "
+            f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
+            f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
+            "are not a solution", status="non-finite")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
     return traj
