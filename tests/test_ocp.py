@@ -380,3 +380,40 @@ def test_bad_method_and_options_are_rejected(ocp):
         solve(ocp, Collocation(N=10), tol=-1.0)
     with pytest.raises(ParameterError, match="rng"):
         Guess.geodesic(ocp, noise=0.1)
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    ({"max_iter": 2**32 + 3}, r"max_iter must be .*2147483647"),
+    ({"ipopt_options": {"max_iter": 3.5}}, r"ipopt_options\['max_iter'\] must be an integer"),
+    ({"ipopt_options": {"max_iter": True}}, r"ipopt_options\['max_iter'\] must be a number"),
+    ({"ipopt_options": {"tol": None}}, r"ipopt_options\['tol'\] must be a number"),
+])
+def test_ipopt_numbers_are_never_truncated_or_dropped(ocp, kw, fragment):
+    """casadi passes integer options as C ints: 2**32 + 3 became 3 iterations, 3.5 became 3,
+    True became 1, and a None was dropped."""
+    with pytest.raises(ParameterError, match=fragment):
+        solve(ocp, Collocation(N=10), **kw)
+
+
+def test_solution_inputs_are_checked_not_clamped(base):
+    with pytest.raises(ParameterError, match=r"t must be in \[0, T\]"):
+        base.control(base.T * 1.5)
+    with pytest.raises(ParameterError, match="finite"):
+        base.control(float("nan"))
+    assert np.array_equal(base.control(base.T), base.u[-1])
+    with pytest.raises(ParameterError, match="substeps"):
+        base.resimulate(substeps=0)
+
+
+def test_multistart_refuses_a_guess_it_would_ignore(ocp, base):
+    with pytest.raises(ParameterError, match="multistart makes its own guesses"):
+        multistart(ocp, Collocation(N=10), seeds=[0], guess=base)
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (lambda: Collocation(N=10, degree=10), r"degree must be an integer in \[1, 9\]"),
+    (lambda: Collocation(N=10**8), r"N must be an integer in \[1, 100000\]"),
+])
+def test_transcription_sizes_are_bounded(make, fragment):
+    with pytest.raises(ParameterError, match=fragment):
+        make()

@@ -222,3 +222,13 @@ def test_a_field_that_turns_nan_is_an_error_for_every_method(method):
     knobs = {} if method == "cvodes" else {"step": 0.05}
     with pytest.raises(SolverError, match="non-finite|not finite|failed"):
         simulate(model, x0, np.linspace(0.0, 1.0, 11), controller=k, method=method, **knobs)
+
+
+def test_fixed_step_count_and_collocation_degree_are_bounded():
+    model = p3.full(J=np.diag([0.13, 0.28, 0.17]), rho=[0.0, 0.0, 0.3])
+    x0 = model.state(R=np.eye(3), omega=[1.0, 0.5, 0.2])
+    with pytest.raises(ModelError, match="would take 1e\\+12 fixed steps"):
+        simulate(model, x0, np.linspace(0.0, 1.0, 3), method="rk", step=1e-12)
+    with pytest.raises(ModelError, match=r"degree must be .*9"):
+        simulate(model, x0, np.linspace(0.0, 1.0, 3), method="collocation", step=0.1,
+                 degree=10)

@@ -379,7 +379,8 @@ def simulate(
         opts["number_of_finite_elements"] = n_fe
         options_used.update(step=dt_out / n_fe, requested_step=step)
         if method is Method.COLLOCATION:
-            degree = count("degree", 4 if degree is None else degree, error=ModelError)
+            degree = count("degree", 4 if degree is None else degree, maximum=9,
+                           error=ModelError)  # casadi's collocation points: degree <= 9
             opts.update(interpolation_order=degree, collocation_scheme="legendre")
             options_used["degree"] = int(degree)
 

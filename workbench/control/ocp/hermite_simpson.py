@@ -46,9 +46,9 @@ class HermiteSimpson:
     N: int = 40
 
     def __post_init__(self) -> None:
-        from workbench.control.ocp.transcription import _check_int
+        from workbench.control.ocp.transcription import MAX_INTERVALS, _check_int
 
-        _check_int(self.N, "N", 1)
+        _check_int(self.N, "N", 1, MAX_INTERVALS)
 
     def describe(self) -> str:
         """E.g. ``"hermite-simpson foh N=40"``."""

@@ -182,7 +182,16 @@ class OCPSolution(StatusResult):
         return Guess.from_samples(self.ocp, self.t, self.x, self.u)
 
     def control(self, t: float) -> np.ndarray:
-        """The optimal control at time ``t`` (piecewise constant, or linear)."""
+        """The optimal control at time ``t`` in ``[0, T]`` (piecewise constant, or linear).
+
+        Raises
+        ------
+        ParameterError
+            ``t`` not a finite number in ``[0, T]`` (it is never clamped).
+        """
+        t = validate.real("t", t)
+        if not 0.0 <= t <= self.T * (1 + 1e-12):
+            raise ParameterError(f"t must be in [0, T] = [0, {self.T:g}]; got {t!r}")
         if self.first_order_hold:
             return np.array([np.interp(t, self.t, uj) for uj in self.u.T])
         k = int(np.clip(np.floor(t / self.T * len(self.u)), 0, len(self.u) - 1))
@@ -210,6 +219,7 @@ class OCPSolution(StatusResult):
         """
         from workbench.control.ocp.stepper import Stepper
 
+        substeps = validate.count("substeps", substeps, maximum=validate.MAX_DIM)
         stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
         t0 = time.perf_counter()
         h = self.T / (len(self.x) - 1)
@@ -280,14 +290,42 @@ def _check_ipopt_options(items: str) -> None:
                              f"{items} (Ipopt: {' '.join(reason)[-300:]})") from exc
 
 
+_IPOPT_INT_MAX = 2**31 - 1
+"""Ipopt's integer options are C ints: a larger value would wrap (2**32 + 3 became 3)."""
+
+_IPOPT_INTEGER_OPTIONS = frozenset({
+    "max_iter", "max_soc", "max_refinement_steps", "min_refinement_steps", "acceptable_iter",
+    "watchdog_shortened_iter_trigger", "watchdog_trial_iter_max", "max_resto_iter",
+    "limited_memory_max_history", "limited_memory_max_skipping", "print_level",
+    "file_print_level", "print_frequency_iter", "mumps_mem_percent", "mumps_pivot_order",
+    "mumps_permuting_scaling", "mumps_scaling", "max_filter_resets", "filter_reset_trigger",
+    "accept_after_max_steps", "soc_method", "num_linear_variables",
+})
+"""Integer options of Ipopt that casadi would truncate a float or a bool into."""
+
+
+def _check_ipopt_values(extra: dict[str, Any]) -> None:
+    for k, v in extra.items():
+        if v is None or isinstance(v, bool) or not isinstance(v, (str, int, float, np.integer,
+                                                                   np.floating)):
+            raise ParameterError(f"ipopt_options[{k!r}] must be a number or a string (Ipopt "
+                                 f"has no booleans: 'yes'/'no'); got {v!r}")
+        if k in _IPOPT_INTEGER_OPTIONS and not (
+                isinstance(v, (int, np.integer)) and 0 <= v <= _IPOPT_INT_MAX):
+            raise ParameterError(f"ipopt_options[{k!r}] must be an integer in [0, "
+                                 f"{_IPOPT_INT_MAX}] (Ipopt reads it as a C int; a float "
+                                 f"would be truncated); got {v!r}")
+
+
 def _ipopt_options(tol: float, max_iter: int, print_level: int,
                    extra: dict[str, Any] | None) -> dict[str, Any]:
     tol = validate.tolerance("tol", tol)
-    max_iter = validate.count("max_iter", max_iter)
+    max_iter = validate.count("max_iter", max_iter, maximum=_IPOPT_INT_MAX)
     if extra is not None:
         if not isinstance(extra, dict) or not all(isinstance(k, str) for k in extra):
             raise ParameterError(f"ipopt_options must be a dict of Ipopt option names to "
                                  f"values; got {extra!r}")
+        _check_ipopt_values(extra)
         try:
             _check_ipopt_options(json.dumps(sorted(extra.items())))
         except TypeError as exc:

@@ -117,9 +117,12 @@ def multistart(
         raise ParameterError("refine_best chooses which starts go through refine_with; "
                              "got refine_best without refine_with")
     later = list(refine_with) if refine_best is not None else []
+    if "guess" in solve_options:
+        raise ParameterError("multistart makes its own guesses (seeded geodesics); got a "
+                             "guess= (solve from it with solve(), or refine it with "
+                             "coarse_to_fine())")
     solve_options = dict(solve_options)
     solve_options.pop("raise_on_failure", None)
-    solve_options.pop("guess", None)
     job = {"ocp": ocp, "method": method or Collocation(), "noise": noise, "seeds": list(seeds),
            "T_guesses": T_guesses, "describe": describe,
            "refine_with": [] if later else list(refine_with),

@@ -77,10 +77,19 @@ class Integrator(Enum):
     CVODES = "cvodes"
 
 
-def _check_int(value: Any, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ParameterError(f"{name} must be an integer >= {minimum}; got {value!r}")
+def _check_int(value: Any, name: str, minimum: int, maximum: int | None = None) -> int:
+    if (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum
+            or (maximum is not None and value > maximum)):
+        span = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+        raise ParameterError(f"{name} must be an integer {span}; got {value!r}")
     return int(value)
+
+
+MAX_DEGREE = 9
+"""casadi's collocation points exist up to degree 9 (``collocation_points``: order < 10)."""
+
+MAX_INTERVALS = 100_000
+"""More intervals than this would build a graph of millions of nodes (memory runs out)."""
 
 
 @dataclass(frozen=True)
@@ -102,8 +111,8 @@ class Collocation:
     scheme: Scheme = Scheme.LEGENDRE
 
     def __post_init__(self) -> None:
-        _check_int(self.N, "N", 1)
-        _check_int(self.degree, "degree", 1)
+        _check_int(self.N, "N", 1, MAX_INTERVALS)
+        _check_int(self.degree, "degree", 1, MAX_DEGREE)
         if not isinstance(self.scheme, Scheme):
             raise ParameterError(f"scheme must be a Scheme; got {self.scheme!r}")
 
@@ -135,7 +144,7 @@ class MultipleShooting:
     rtol: float = 1e-8
 
     def __post_init__(self) -> None:
-        _check_int(self.N, "N", 1)
+        _check_int(self.N, "N", 1, MAX_INTERVALS)
         _check_int(self.steps, "steps", 1)
         object.__setattr__(self, "rtol", validate.tolerance("rtol", self.rtol))
         if not isinstance(self.integrator, Integrator):

@@ -407,14 +407,24 @@ def check_step(
     Raises
     ------
     ParameterError
-        (or ``error``) ``step`` not a positive finite number, or larger than ``horizon``.
+        (or ``error``) ``step`` not a positive finite number, larger than ``horizon``, or
+        so small that the horizon would take more than :data:`MAX_FIXED_STEPS` steps.
     """
     s = positive("step", step, error=error)
     if s > horizon:
         raise error(
             f"step must not exceed the horizon |t[-1] - t[0]| = {horizon:.6g}; got {s:.6g}"
         )
+    if horizon / s > MAX_FIXED_STEPS:
+        raise error(
+            f"step {s:.3g} would take {horizon / s:.3g} fixed steps over the horizon "
+            f"{horizon:.6g} (at most {MAX_FIXED_STEPS:.0e}: hours of work); use a larger "
+            "step, or an adaptive method (cvodes)")
     return s
+
+
+MAX_FIXED_STEPS = 10**8
+"""Fixed steps one simulation may take (1e8 steps of a small model: minutes)."""
 
 
 def integrate(
