@@ -52,3 +52,15 @@ def test_bad_feedbacks_are_refused_with_the_argument_named(cart_lqr, tmp_path):
     with pytest.raises(ModelError, match="casadi.Function"):
         codegen.feedback_controller(cart, lambda x, p: x, name="ok", title="t",
                                     example_state=x_up)
+
+
+@pytest.mark.parametrize("name", ["int", "main", "bench", "sqrt", "_x", "a__b", "x" * 65])
+def test_export_names_that_collide_in_c_are_refused(cart_lqr, tmp_path, name):
+    """They failed inside casadi or as gcc errors; the message now names the argument."""
+    from workbench.core.errors import ModelError
+
+    cart, x_up, k = cart_lqr
+    with pytest.raises(ModelError, match="C prefix of the export"):
+        codegen.export_feedback(cart, k, tmp_path / "c", name=name, title="LQR",
+                                example_state=x_up)
+    assert not (tmp_path / "c").exists()

@@ -417,3 +417,21 @@ def test_multistart_refuses_a_guess_it_would_ignore(ocp, base):
 def test_transcription_sizes_are_bounded(make, fragment):
     with pytest.raises(ParameterError, match=fragment):
         make()
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    ({"T": -1.0}, "T must be"), ({"T": float("nan")}, "T must be"),
+    ({"noise": -5.0}, "noise must be >= 0"), ({"noise": float("nan")}, "noise must be"),
+    ({"samples": 1}, "samples must be"), ({"samples": 2.7}, "samples must be"),
+    ({"axes": {"nope": [1.0, 0.0, 0.0]}}, r"axes names factors.*\['nope'\]"),
+])
+def test_geodesic_guess_arguments_are_checked(ocp, kw, fragment):
+    with pytest.raises(ParameterError, match=fragment):
+        Guess.geodesic(ocp, rng=np.random.default_rng(0), **kw)
+
+
+def test_bounds_that_leave_no_admissible_control_are_refused():
+    model = chain_cart(1, m=0.5, masses=0.1, lengths=0.1, g=9.81)
+    with pytest.raises(ParameterError, match="u_lower must not be inf"):
+        OCP(model, x0=X0, target=TargetPoint(model.manifold, XF), u_lower=np.inf,
+            u_upper=np.inf, T=2.0, running_cost=lambda x, u: ca.dot(u, u))

@@ -92,6 +92,24 @@ Law = Callable[[Context, dict[str, Any]], Any]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 
 
+C_RESERVED = frozenset({
+    # C99/C11 keywords and macros of the headers the generated code includes
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch",
+    "typedef", "union", "unsigned", "void", "volatile", "while", "bool", "true", "false",
+    "NULL", "EOF", "errno", "assert",
+    # functions and files of the generated project and the C library it calls
+    "main", "bench", "example", "printf", "fprintf", "exit", "malloc", "free", "memcpy",
+    "memset", "time", "clock", "sqrt", "fabs", "sin", "cos", "tan", "exp", "log", "pow",
+    "atan2", "floor", "fmin", "fmax", "casadi",
+})
+"""Names refused as the C prefix of an export: they collide in the generated code."""
+
+MAX_NAME = 64
+"""Longest C prefix (file names and symbols are built from it)."""
+
+
 @dataclass
 class ExportableController:
     """A controller of the workbench with everything an export needs.
@@ -144,6 +162,13 @@ class ExportableController:
     def __post_init__(self) -> None:
         # the name prefixes every C symbol and file: a C identifier, checked, never mangled
         validate.identifier("name (the C prefix of the export)", self.name, error=ModelError)
+        if (self.name in C_RESERVED or self.name.startswith("_") or "__" in self.name
+                or len(self.name) > MAX_NAME):
+            raise ModelError(
+                f"name (the C prefix of the export) must not be a C keyword or a name the "
+                f"generated code uses ({', '.join(sorted(C_RESERVED)[:8])}, ...), start with "
+                f"'_', contain '__' (reserved in C and by casadi) or exceed {MAX_NAME} "
+                f"characters; got {self.name!r}")
         if not isinstance(self.model, Model):
             raise ModelError(f"model must be a workbench Model; got {type(self.model).__name__}")
         for label in ("title", "example_note", "singular"):

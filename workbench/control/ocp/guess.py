@@ -19,6 +19,7 @@ import numpy as np
 
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
+from workbench.core import validate
 from workbench.core.errors import ParameterError
 from workbench.core.manifolds import S2, TS2, sphere_basis
 from workbench.core.types import ArrayLike, Vector
@@ -123,8 +124,24 @@ class Guess:
         Returns
         -------
         Guess
+
+        Raises
+        ------
+        ParameterError
+            ``T`` not a positive finite number, ``noise`` negative or not finite,
+            ``samples`` not an integer >= 2, or an ``axes`` name that is not a factor.
         """
         man = ocp.model.manifold
+        if T is not None:
+            T = validate.positive("T", T)
+        noise = validate.real("noise", noise)
+        if noise < 0:
+            raise ParameterError(f"noise must be >= 0; got {noise!r}")
+        samples = validate.count("samples", samples, minimum=2, maximum=validate.MAX_DIM)
+        unknown = sorted(set(axes or {}) - set(man.names))
+        if unknown:
+            raise ParameterError(f"axes names factors of the state; got {unknown}, factors "
+                                 f"{list(man.names)}")
         local = ProductLocal(man)
         x0 = ocp.x0
         xf = ocp.target.witness if end is None else man.check(end, name="end")

@@ -376,6 +376,11 @@ class OCP:
                 f"{name} must be a number or have {self.model.n_inputs} entries (one per "
                 f"input of {self.model.name}); got {np.asarray(value).tolist()}"
             )
+        # a lower bound of +inf (or an upper bound of -inf) leaves no admissible control
+        wrong = np.inf if name.endswith("lower") else -np.inf
+        if np.any(arr == wrong):
+            raise ParameterError(f"{name} must not be {wrong} (no control would be "
+                                 f"admissible); got {arr.tolist()}")
         return arr
 
     @staticmethod
