@@ -10,6 +10,7 @@ from workbench.core._feedback import (
     feedback_function,
 )
 from workbench.core._model import (
+    RESERVED_NAMES,
     BuildLog,
     BuildRecord,
     Context,
@@ -72,6 +73,7 @@ __all__ = [
     "ManifoldError",
     "Matrix",
     "Model",
+    "RESERVED_NAMES",
     "ModelError",
     "Parameter",
     "ParameterError",

@@ -201,7 +201,7 @@ Builder = Callable[[Context], Any]
 # the model
 
 
-_RESERVED = frozenset({"f", "f_x", "f_u", "residual", "invariants", "x", "u", "p"})
+RESERVED_NAMES = frozenset({"f", "f_x", "f_u", "residual", "invariants", "x", "u", "p"})
 """Names an invariant cannot take: the model's own functions and their inputs."""
 
 
@@ -292,9 +292,10 @@ class Model:
         for inv in invariants or {}:
             # an invariant becomes a casadi.Function (and output) of that name
             validate.identifier("invariant name", inv, error=ModelError)
-            if inv in _RESERVED:
-                raise ModelError(f"invariant name must not be one of {sorted(_RESERVED)} (the "
-                                 f"model's own functions); got {inv!r}")
+            if inv in RESERVED_NAMES:
+                raise ModelError(f"invariant name must not be one of "
+                                 f"{sorted(RESERVED_NAMES)} (the model's own functions and "
+                                 f"their inputs); got {inv!r}")
         self.name = name
         self.manifold = manifold
         self.n_inputs = int(n_inputs)

@@ -7,6 +7,7 @@ here means a move of the core touches one file.
 from __future__ import annotations
 
 from workbench.core import (
+    RESERVED_NAMES,
     SO3,
     TS2,
     Context,
@@ -29,6 +30,7 @@ from workbench.core.validate import MAX_DIM
 
 __all__ = [
     "MAX_DIM",
+    "RESERVED_NAMES",
     "Context",
     "Model",
     "ModelError",

@@ -23,6 +23,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.mechanics._bodies import RigidBody
+from workbench.mechanics._checks import inertia
 from workbench.mechanics._engine import (
     Context,
     Model,
@@ -169,24 +170,6 @@ def _check_momenta(model: Model, der: Derivation, x: np.ndarray, cache: dict) ->
                 "Lagrangian or the loads are not invariant under its generator")
 
 
-def _inertia_message(J: np.ndarray) -> str | None:
-    """Symmetric (to ``1e-12`` relative) and positive definite, or what is wrong.
-
-    The triangle inequality is left to ``check=mechanics.inertia`` (and to literal
-    inertias): the equations are right for any SPD inertia, which models with independent
-    ``J``, ``m`` and ``rho`` parameters use; a non-symmetric one would be symmetrised by
-    ``Omega^T J Omega`` without a word, an indefinite one has no motion.
-    """
-    scale = max(float(np.max(np.abs(J))), 1e-300)
-    asym = float(np.max(np.abs(J - J.T)))
-    if asym > 1e-12 * scale:
-        return f"must be symmetric; got max |J - J^T| = {asym:.3g} in {J.tolist()}"
-    eig = np.linalg.eigvalsh(0.5 * (J + J.T))
-    if not eig[0] > 0:
-        return f"must be positive definite; got principal moments {eig.tolist()}"
-    return None
-
-
 def _value_checks(system: Any, der: Derivation) -> Any:
     """The build checks that depend on parameter values, as ``check(model, x)``.
 
@@ -211,7 +194,7 @@ def _value_checks(system: Any, der: Derivation) -> Any:
         if inertias is not None:  # before the mass matrix: the message names the body
             Js = np.asarray(inertias(pv), dtype=float)
             for k, b in enumerate(rigid):
-                msg = _inertia_message(Js[:, 3 * k: 3 * k + 3])
+                msg = inertia(Js[:, 3 * k: 3 * k + 3], triangle=False)
                 if msg:
                     about = "origin" if b.inertia_origin is not None else "centre of mass"
                     raise ModelError(f"rigid body {b.name!r}: its inertia about its {about}, "

@@ -34,7 +34,14 @@ from workbench.mechanics._checks import (
     check_inertia_value,
     parameter_value,
 )
-from workbench.mechanics._engine import MAX_DIM, ModelError, Parameter, ParameterError, finite
+from workbench.mechanics._engine import (
+    MAX_DIM,
+    RESERVED_NAMES,
+    ModelError,
+    Parameter,
+    ParameterError,
+    finite,
+)
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
 from workbench.mechanics._model import _ingredients, build_model
@@ -47,9 +54,6 @@ E3 = np.array([0.0, 0.0, 1.0])
 """The vertical, pointing *down* along gravity (the workbench's convention)."""
 
 _Check = Callable[[np.ndarray], "str | None"]
-
-_NOT_INVARIANT_NAMES = frozenset({"f", "f_x", "f_u", "residual", "invariants", "x", "u", "p"})
-"""Names a momentum cannot take (the Model's functions and their inputs)."""
 
 
 def _name(value: Any, what: str) -> str:
@@ -457,8 +461,8 @@ class System:
             coordinates turn under a rotation about the vertical); override the above.
         """
         _name(name, "momentum name")
-        if name in _NOT_INVARIANT_NAMES:
-            raise ModelError(f"momentum name must not be one of {sorted(_NOT_INVARIANT_NAMES)} "
+        if name in RESERVED_NAMES:
+            raise ModelError(f"momentum name must not be one of {sorted(RESERVED_NAMES)} "
                              f"(the model's own functions and their inputs); got {name!r}")
         if name == "energy" or name in self.momenta:
             raise ModelError(f"invariant name {name!r} is already used")

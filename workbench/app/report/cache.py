@@ -36,7 +36,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from workbench.core.files import apply_umask
+from workbench.core.files import apply_umask, write_atomic
 
 __all__ = ["STYLE_VERSION", "PARENT_ONLY", "MARKER", "problem_key", "engine_digest",
            "versions", "load", "store", "entry_path", "check_foreign", "claim"]
@@ -181,8 +181,6 @@ def claim(cache_dir: Path) -> None:
     """Mark an existing folder (checked by :func:`check_foreign`) as the report's cache."""
     marker = Path(cache_dir) / MARKER
     if not marker.is_file():
-        from workbench.core.files import write_atomic
-
         write_atomic(marker, "workbench report cache: its entries are written and removed by "
                              "'workbench report'\n", name="--cache")
 

@@ -310,11 +310,8 @@ def _check_ipopt_values(extra: dict[str, Any]) -> None:
                                                                    np.floating)):
             raise ParameterError(f"ipopt_options[{k!r}] must be a number or a string (Ipopt "
                                  f"has no booleans: 'yes'/'no'); got {v!r}")
-        if k in _IPOPT_INTEGER_OPTIONS and not (
-                isinstance(v, (int, np.integer)) and 0 <= v <= _IPOPT_INT_MAX):
-            raise ParameterError(f"ipopt_options[{k!r}] must be an integer in [0, "
-                                 f"{_IPOPT_INT_MAX}] (Ipopt reads it as a C int; a float "
-                                 f"would be truncated); got {v!r}")
+        if k in _IPOPT_INTEGER_OPTIONS:  # a C int in Ipopt: a float would be truncated
+            validate.count(f"ipopt_options[{k!r}]", v, minimum=0, maximum=_IPOPT_INT_MAX)
 
 
 def _ipopt_options(tol: float, max_iter: int, print_level: int,
