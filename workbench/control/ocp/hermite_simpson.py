@@ -21,6 +21,10 @@ the local coordinates ``y`` of the interval (``x = act(x_k, y)``, ``y(0) = 0``; 
 :mod:`workbench.control.ocp.local`): one vector ``y_1 = y(h)`` per interval is a decision variable,
 ``y_c = y_1 / 2 + h (y'_0 - y'_1) / 8``, the defect is ``y_1 - h (y'_0 + 4 y'_c + y'_1) / 6``
 and ``x_(k+1) = act(x_k, y_1)``, so every node is exactly on the manifold.
+``ManifoldHandling.PROJECTED`` applies the ambient formulas and imposes
+``x_(k+1) = Pi(x_k + h (f_k + 4 f_c + f_(k+1)) / 6)`` with the smooth projection ``Pi``
+of :mod:`workbench.control.ocp.projection`: the nodes are on the manifold and the NLP has
+the ambient one's size.
 """
 
 from __future__ import annotations
@@ -57,7 +61,8 @@ class HermiteSimpson:
 
 def hermite_simpson_interval(S: Any, nx: int, nu: int, n_params: int, f: ca.Function,
                              L: ca.Function | None, local: Any | None,
-                             fopts: dict[str, Any]) -> ca.Function:
+                             fopts: dict[str, Any], *,
+                             project: ca.Function | None = None) -> ca.Function:
     """``(X_k, X_(k+1), Z_k, U_k, U_(k+1), h, p) -> (defects, x_end, cost)``.
 
     Parameters
@@ -74,6 +79,8 @@ def hermite_simpson_interval(S: Any, nx: int, nu: int, n_params: int, f: ca.Func
         ``(act, ydot)`` of the local coordinates for ``LIE_GROUP``; ``None`` for ambient.
     fopts : dict
         Options of the returned function.
+    project : casadi.Function, optional
+        ``Pi(x)`` of ``ManifoldHandling.PROJECTED``: applied to the ambient end point.
 
     Returns
     -------
@@ -91,6 +98,8 @@ def hermite_simpson_interval(S: Any, nx: int, nu: int, n_params: int, f: ca.Func
         fk, f1 = f(Xk, Uk, p), f(Xk1, Uk1, p)
         fc = f((Xk + Xk1) / 2 + h / 8 * (fk - f1), Uc, p)
         x_end = Xk + h / 6 * (fk + 4 * fc + f1)
+        if project is not None:
+            x_end = project(x_end)
         defects = S.zeros(0, 1)
     else:
         act, ydot_of = local

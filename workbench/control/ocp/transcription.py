@@ -11,6 +11,10 @@ constant control, and both come in two manifold handlings:
     of the models for every ambient state, so the nodes stay on the manifold to rounding
     error; Radau collocation and Runge-Kutta shooting leave a residual of the order of
     their local error, which the solution reports.
+``ManifoldHandling.PROJECTED``
+    As ``AMBIENT``, with continuity imposed on the interval's end point projected onto the
+    manifold, ``X_(k+1) = Pi(x_end)`` (:mod:`workbench.control.ocp.projection`): every
+    node is on the manifold for every scheme, at the ambient NLP's size and cost.
 ``ManifoldHandling.LIE_GROUP``
     On each interval the state is ``x(t) = act(x_k, y(t))`` with ``y(0) = 0`` in the Lie
     algebra of the group acting on each factor (:mod:`workbench.control.ocp.local`); the
@@ -41,6 +45,7 @@ from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.hermite_simpson import HermiteSimpson, hermite_simpson_interval
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
+from workbench.control.ocp.projection import projection_function
 from workbench.core import validate
 from workbench.core._model import Symbolic
 from workbench.core.errors import ModelError, ParameterError
@@ -68,6 +73,7 @@ class ManifoldHandling(Enum):
 
     AMBIENT = "ambient"
     LIE_GROUP = "lie_group"
+    PROJECTED = "projected"
 
 
 class Integrator(Enum):
@@ -318,13 +324,16 @@ class Transcription:
         xs, ys = ca.SX.sym("x", nx), ca.SX.sym("y", loc.ydim)
         xks, xds, us = ca.SX.sym("xk", nx), ca.SX.sym("xdot", nx), ca.SX.sym("u", nu)
         act = ca.Function("act", [xks, ys], [loc.act(xks, ys)], {"cse": True})
+        proj = (projection_function(ocp.model.manifold)
+                if self.handling is ManifoldHandling.PROJECTED else None)
         ydot_of = ca.Function("ydot", [xks, ys, xs, xds], [loc.ydot(xks, ys, xs, xds)],
                               {"cse": True})
         running = ocp.running_cost
         L = None if running is None else ca.Function("L", [xs, us], [running(xs, us)])
         if self.foh:
             return hermite_simpson_interval(S, nx, nu, ocp.model.n_params, self.f, L,
-                                            (act, ydot_of) if lie else None, self._fopts)
+                                            (act, ydot_of) if lie else None, self._fopts,
+                                            project=proj)
 
         def ydot(y: Any) -> Any:
             x = act(Xk, y)
@@ -348,6 +357,8 @@ class Transcription:
                     cost = cost + self.B[j] * h * L(x, U)
             end = sum(self.D[r] * pts[r] for r in range(d + 1))
             x_end = act(Xk, end) if lie else end
+            if proj is not None:
+                x_end = proj(x_end)
             return ca.Function("interval", [Xk, Z, U, h, p],
                                [ca.vertcat(*defects), x_end, cost], self._fopts)
         # multiple shooting
@@ -373,6 +384,8 @@ class Transcription:
         res = F(x0=start, p=params)
         y_end = res["xf"]
         x_end = act(Xk, y_end) if lie else y_end
+        if proj is not None:
+            x_end = proj(x_end)
         return ca.Function("interval", [Xk, Z, U, h, p], [S.zeros(0, 1), x_end, res["qf"]],
                            self._fopts)
 
