@@ -236,8 +236,8 @@ def test_bad_input_is_refused(pendulum):
     with pytest.raises(ModelError, match="made by workbench.mechanics"):
         mechanics_variational(pendulum3d.reduced(J=np.diag([1.0, 2.0, 3.0]), rho=[0, 0, 1]))
     odd = spherical_pendulum()
-    odd.mechanics.ing.factors[0].kind = "S^1"  # a kind the integrator does not know
-    with pytest.raises(ModelError, match=r"factor 'q'.*S\^1.*rkmk4"):
+    odd.mechanics.ing.factors[0].kind = "SE(3)"  # a kind the integrator does not know
+    with pytest.raises(ModelError, match=r"factor 'q'.*SE\(3\).*rkmk4"):
         mechanics_variational(odd)
     with pytest.raises(ModelError, match="model must be a workbench Model"):
         mechanics_variational("pendulum")
