@@ -176,6 +176,7 @@ def test_declared_shift_momentum_is_checked_and_conserved():
     (lambda s, th, x: s.force(th, [1.0]), "force\\(...\\) acts on R\\^k factors"),
     (lambda s, th, x: s.s1("theta"), "already used"),
     (lambda s, th, x: s.s1("phi", velocity="phi"), "different names"),
+    (lambda s, th, x: th.rotation_generator(ca.SX([0.0, 0.0, 1.0])), "shift=\\{angle"),
 ])
 def test_misuse_is_refused_with_the_argument_named(call, match):
     s = mechanics.System("misuse")

@@ -246,6 +246,11 @@ class S1Factor(Factor):
         """The velocity of the factor under the shift ``theta -> theta + c`` at unit speed."""
         return ca.SX(1)
 
+    def rotation_generator(self, axis: ca.SX) -> ca.SX:  # noqa: D102
+        raise ModelError(
+            f"factor {self.name!r} (S^1) is an angle whose plane the layer does not know; say "
+            "how a rotation moves it with momentum(..., shift={angle: +1 or -1})")
+
     @property
     def velocity_names(self) -> str:  # noqa: D102
         return f"{self.velocity_name} (rate of the angle {self.name})"

@@ -17,7 +17,7 @@ SO(3)          world rotation about ``a``        ``R^T a`` (body frame)
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import casadi as ca
@@ -41,9 +41,13 @@ class Momenta:
     ``values`` and ``name``.
     """
 
+    name: str
     factors: list
     momenta: dict
-    name: str
+    parameters: list
+    values: dict
+    symbols: Any
+    factor: Callable[[Any], Any]
 
     def _shifts(self, shift: Any) -> dict[int, ca.SX]:
         """The generators of ``shift=``: S^1 factors, each at unit rate or a given rate."""
@@ -55,11 +59,11 @@ class Momenta:
                              f"factor to rate; got {shift!r}")
         gens = {}
         for ref, rate in items:
-            f = self.factor(ref)  # type: ignore[attr-defined]
+            f = self.factor(ref)
             if not isinstance(f, S1Factor):
                 raise ModelError(f"shift acts on S^1 factors (angles); {f.name!r} is {f.kind}")
             gen = as_expr(rate, f"shift[{f.name!r}]", (1, 1))
-            self.symbols.require(gen, f"shift[{f.name!r}]", (PARAMETER,))  # type: ignore
+            self.symbols.require(gen, f"shift[{f.name!r}]", (PARAMETER,))
             gens[id(f)] = gen * f.shift_generator()
         return gens
 
@@ -99,17 +103,16 @@ class Momenta:
                 if isinstance(f, (S2Factor, SO3Factor)):
                     gens[id(f)] = f.rotation_generator(axis)
         for ref, d in (translate or {}).items():
-            f = self.factor(ref)  # type: ignore[attr-defined]
+            f = self.factor(ref)
             if not isinstance(f, RnFactor):
                 raise ModelError(f"translate acts on R^k factors; {f.name!r} is {f.kind}")
             gens[id(f)] = as_expr(d, f"translate[{f.name!r}]", (f.dim, 1))
         if shift is not None:
             gens.update(self._shifts(shift))
         for ref, g in (generators or {}).items():
-            f = self.factor(ref)  # type: ignore[attr-defined]
+            f = self.factor(ref)
             gen = as_expr(g, f"generators[{f.name!r}]", (f.velocity_sym.shape[0], 1))
-            self.symbols.require(gen, f"generators[{f.name!r}]",  # type: ignore[attr-defined]
-                                 (CONFIG, PARAMETER))
+            self.symbols.require(gen, f"generators[{f.name!r}]", (CONFIG, PARAMETER))
             gens[id(f)] = gen
         if not gens:
             raise ModelError(f"momentum {name!r} needs translate=, rotate=, shift= or "
@@ -153,9 +156,8 @@ class Momenta:
             raise ModelError(f"system {self.name!r} has no factors; add rn(...), s1(...), "
                              "s2(...) or so3(...)")
         der = Derivation(_ingredients(self), self.name)
-        pars, vals = self.parameters, self.values  # type: ignore[attr-defined]
-        p = (np.concatenate([np.asarray(vals[q.name], dtype=float).reshape(-1) for q in pars])
-             if pars else np.zeros(0))
+        p = (np.concatenate([np.asarray(self.values[q.name], dtype=float).reshape(-1)
+                             for q in self.parameters]) if self.parameters else np.zeros(0))
         found = detect(self, der, p, rtol=float(rtol), n_states=n_states, seed=seed)
         for c in found:
             self.momenta[c.name] = c.generators
