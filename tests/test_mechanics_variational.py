@@ -1,4 +1,4 @@
-"""The variational integrator of models made by workbench.mechanics (R^k, SO(3), S^2 factors).
+"""The variational integrator of models made by workbench.mechanics (R^k, S^1, SO(3), S^2).
 
 Checked: every step solves the discrete Euler-Lagrange equations of the discrete Lagrangian
 written independently (AD through the inverse Cayley map; on S^2 the reference shares the
@@ -19,8 +19,10 @@ import pytest
 
 import workbench as wb
 from models import pendulum3d
+from models.acrobot import acrobot
 from models.chain_cart import chain_cart, link_state
 from models.double_pendulum3d import double_pendulum3d
+from models.furuta import furuta
 from models.pendulum3d_cart import pendulum3d_cart
 from models.quadrotor_slung_load import quadrotor_slung_load
 from models.spherical import spherical_pendulum
@@ -72,8 +74,9 @@ def _explicit_del(model, h):
 
     ``L_d(c0, c1) = h/2 [L(c0, xi) + L(c1, xi)]`` with ``xi`` recovered from the two
     configurations (``(x1 - x0)/h``; ``hat(h Omega/2) = (F - I)(F + I)^{-1}``, ``F = R0^T
-    R1``), left-trivialised by the factors' own ``K(c)^T``: independent of the closed-form
-    Cayley derivatives the integrator uses.
+    R1``; on S^1 ``h xi/2 = tan`` of half the angle from ``p0`` to ``p1``), left-trivialised
+    by the factors' own ``K(c)^T``: independent of the closed-form Cayley derivatives the
+    integrator uses.
     """
     der = model.mechanics
     nc = der.c.shape[0]
@@ -88,6 +91,8 @@ def _explicit_del(model, h):
             xi.append(2.0 / h * wb.vee(0.5 * (A - A.T)))
         elif f.kind == "S^2":  # the rotation normal to both ends taking a to b
             xi.append(2.0 / h * ca.cross(a, b) / (1.0 + ca.dot(a, b)))
+        elif f.kind == "S^1":  # h xi = 2 tan(angle/2) = 2 sin / (1 + cos) from a to b
+            xi.append(2.0 / h * (a[0] * b[1] - a[1] * b[0]) / (1.0 + ca.dot(a, b)))
         else:
             xi.append((b - a) / h)
         kts.append(f.kt(cov[k : k + n]))
@@ -109,7 +114,7 @@ def _chain():
 
 
 @pytest.mark.parametrize("make", [double_pendulum3d, pendulum3d_cart, _chain,
-                                  quadrotor_slung_load])
+                                  quadrotor_slung_load, furuta, acrobot])
 def test_steps_solve_the_discrete_euler_lagrange_equations(make):
     """D_2 L_d(c0, c1) + D_1 L_d(c1, c2) = 0 and mu = Pi(c, nu) = -D_1 L_d = D_2 L_d.
 
@@ -236,8 +241,8 @@ def test_bad_input_is_refused(pendulum):
     with pytest.raises(ModelError, match="made by workbench.mechanics"):
         mechanics_variational(pendulum3d.reduced(J=np.diag([1.0, 2.0, 3.0]), rho=[0, 0, 1]))
     odd = spherical_pendulum()
-    odd.mechanics.ing.factors[0].kind = "S^1"  # a kind the integrator does not know
-    with pytest.raises(ModelError, match=r"factor 'q'.*S\^1.*rkmk4"):
+    odd.mechanics.ing.factors[0].kind = "SE(3)"  # a kind the integrator does not know
+    with pytest.raises(ModelError, match=r"factor 'q'.*SE\(3\).*rkmk4"):
         mechanics_variational(odd)
     with pytest.raises(ModelError, match="model must be a workbench Model"):
         mechanics_variational("pendulum")

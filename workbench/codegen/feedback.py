@@ -17,8 +17,17 @@ import numpy as np
 from workbench.codegen.api import ExportResult, export_c
 from workbench.codegen.spec import Binding, Entry, ExportableController
 from workbench.core import Model, ModelError, validate
+from workbench.core.manifolds import S1, Factor
 
 __all__ = ["feedback_controller", "export_feedback"]
+
+
+def _entry_text(name: str, factor: Factor) -> str:
+    """A state entry in the header: the factor's kind; an S1 factor says it is an angle."""
+    if isinstance(factor, S1):
+        return (f"S^1 factor {name!r}: an angle on S^1 stored as (cos, sin), a unit 2-vector "
+                "(see the model's conventions for its zero and sense)")
+    return f"{type(factor).__name__} factor {name!r} (see the model's conventions)"
 
 
 def feedback_controller(
@@ -70,8 +79,7 @@ def feedback_controller(
             f"{function.size_out(0)}")
     x_ex = model.check_state(example_state, name="example_state")
     entries = tuple(Entry(n, model.manifold.slices[n].stop - model.manifold.slices[n].start,
-                          f"{type(f).__name__} factor {n!r} (see the model's conventions)")
-                    for n, f in model.manifold.factors)
+                          _entry_text(n, f)) for n, f in model.manifold.factors)
 
     def sampler(rng: np.random.Generator, n: int) -> np.ndarray:
         pts = [model.manifold.random_point(rng) for _ in range(max(int(n) - 1, 0))]

@@ -27,8 +27,8 @@ import numpy as np
 from workbench.core import validate
 from workbench.core._buildlog import BuildLog, BuildRecord
 from workbench.core._evaluator import Evaluator
-from workbench.core.errors import ModelError, ParameterError
-from workbench.core.manifolds import DEFAULT_TOL, ProductManifold
+from workbench.core.errors import ManifoldError, ModelError, ParameterError
+from workbench.core.manifolds import DEFAULT_TOL, S1, ProductManifold
 from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import choice
 
@@ -530,8 +530,20 @@ class Model:
         return self.manifold.check(x, name=name, tol=tol)
 
     def state(self, *, tol: float = DEFAULT_TOL, **parts: ArrayLike) -> Vector:
-        """Assemble and validate a state from named parts, e.g. ``state(R=I, omega=w)``."""
-        return self.check_state(self.manifold.join(parts), tol=tol)
+        """Assemble and validate a state from named parts, e.g. ``state(R=I, omega=w)``.
+
+        Each part is its factor's stored value (flattened column-major). A part of an
+        ``S1`` factor (an angle, stored as the unit vector ``(cos theta, sin theta)``) may
+        also be the angle itself, a real number ``theta`` [rad], stored as
+        ``(cos theta, sin theta)``; a 2-vector is validated as given, never normalised.
+        """
+        man = self.manifold
+        angles = {n: validate.real(f"part {n!r} (an S1 factor: an angle [rad] or a unit "
+                                   "2-vector (cos, sin))", v, error=ManifoldError)
+                  for n, v in parts.items() if n in man.slices and isinstance(man.factor(n), S1)
+                  and np.ndim(v) == 0 and not isinstance(v, (ca.SX, ca.MX, ca.DM))}
+        parts.update({n: np.array([np.cos(a), np.sin(a)]) for n, a in angles.items()})
+        return self.check_state(man.join(parts), tol=tol)
 
     def _input(self, u: ArrayLike | None) -> Vector:
         if u is None:

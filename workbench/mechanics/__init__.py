@@ -1,6 +1,6 @@
 """Mechanical systems from their Lagrangians, coordinate-free, by automatic differentiation.
 
-Declare configuration factors (R^k, S^2, SO(3)), parameters, inputs, bodies (point masses,
+Declare configuration factors (R^k, S^1, S^2, SO(3)), parameters, inputs, bodies (point masses,
 rigid bodies), energies (kinetic written directly or carried by bodies, potentials,
 gravity), loads (forces at points, moments, forces on coordinates, Rayleigh dissipation)
 and symmetries; :meth:`System.model` derives the Lagrange-d'Alembert equations on each
@@ -28,7 +28,7 @@ Example, the n-link chain on a cart (paper 003) in a few lines::
 
 from workbench.mechanics._bodies import PointMass, RigidBody
 from workbench.mechanics._checks import inertia
-from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
+from workbench.mechanics._factors import Factor, RnFactor, S1Factor, S2Factor, SO3Factor
 from workbench.mechanics._model import check_kinetic_energy
 from workbench.mechanics._system import E3, System
 
@@ -36,6 +36,7 @@ __all__ = [
     "System",
     "Factor",
     "RnFactor",
+    "S1Factor",
     "S2Factor",
     "SO3Factor",
     "PointMass",

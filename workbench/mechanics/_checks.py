@@ -17,12 +17,19 @@ import numpy as np
 from workbench.mechanics._engine import ModelError, ParameterError
 
 __all__ = ["as_number_array", "as_expr", "inertia", "check_inertia_value", "shape_of",
-           "parameter_value"]
+           "parameter_value", "identifier"]
 
 
 def _describe(value: Any) -> str:
     text = repr(value)
     return text if len(text) < 120 else text[:117] + "..."
+
+
+def identifier(value: Any, what: str) -> str:
+    """``value`` if it is an identifier string, else ModelError naming ``what``."""
+    if not isinstance(value, str) or not value.isidentifier():
+        raise ModelError(f"{what} must be an identifier string; got {value!r}")
+    return value
 
 
 def as_number_array(value: Any, name: str) -> np.ndarray:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from workbench.core import (
     RESERVED_NAMES,
+    S1,
     SO3,
     TS2,
     Context,
@@ -38,6 +39,7 @@ __all__ = [
     "ParameterError",
     "ProductManifold",
     "Rn",
+    "S1",
     "SO3",
     "TS2",
     "Symbolic",

@@ -1,4 +1,4 @@
-"""Configuration factors and their kinematics: R^k, S^2 and SO(3) with their velocities.
+"""Configuration factors and their kinematics: R^k, S^1, S^2 and SO(3) with their velocities.
 
 Each factor has a configuration ``c`` (stored in ambient coordinates) and a velocity
 ``nu``, related by kinematics linear in the velocity, ``c-dot = K(c) nu``; the same map
@@ -8,9 +8,15 @@ generates the virtual displacements, ``delta c = K(c) eta``:
 factor     configuration, velocity     kinematics K(c) nu      K(c)^T applied to a covector
 =========  ==========================  =====================  ============================
 R^k        ``x`` (k), ``v`` (k)        ``x-dot = v``           ``g``
+S^1        ``p`` (2), ``rate`` (1)     ``p-dot = rate J p``    ``(J p) . g = p1 g2 - p2 g1``
 S^2        ``q`` (3), ``omega`` (3)    ``q-dot = omega x q``   ``q x g``
 SO(3)      ``R`` (3x3), ``Omega`` (3)  ``R-dot = R hat(Omega)``  ``sum_i g_i x r_i``
 =========  ==========================  =====================  ============================
+
+On S^1 (an angle, a revolute joint) ``p = (cos theta, sin theta)`` is a unit 2-vector and
+``J p = (-p2, p1)`` its quarter turn; no angle is stored, so there is no wrapping and no
+singular coordinate: where a distance between two angles is taken (an equilibrium, a
+target, a comparison) it is taken between unit vectors, modulo 2 pi by construction.
 
 where, on SO(3), ``r_i`` and ``g_i`` are the *rows* of ``R`` and of the covector ``G``
 (``R^T = [r_1 r_2 r_3]``), i.e. ``K^T G = vee(R^T G - G^T R)``; ``Omega`` is the body
@@ -20,6 +26,7 @@ the Lagrangian sees it through ``omega_eff = (q.q) omega - (q.omega) q`` (equal 
 simply the projection of ``d/dt dL/domega = q x dL/dq + (forces)`` to the tangent plane.
 
 Storage (the workbench's conventions): R^k -> two factors ``x`` and ``v`` (Rn(k) each);
+S^1 -> an S1 factor storing ``p`` and an Rn(1) factor for the rate;
 S^2 -> one TS2 factor storing ``(q, omega)``; SO(3) -> an SO3 factor (9 numbers, column
 by column) and an Rn(3) factor for ``Omega`` (as ``models/pendulum3d.full``).
 """
@@ -31,9 +38,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._engine import SO3, TS2, ModelError, Rn, hat, sphere_basis, vee
+from workbench.mechanics._engine import S1, SO3, TS2, ModelError, Rn, hat, sphere_basis, vee
 
-__all__ = ["Factor", "RnFactor", "S2Factor", "SO3Factor"]
+__all__ = ["Factor", "RnFactor", "S1Factor", "S2Factor", "SO3Factor"]
 
 
 @dataclass(eq=False)
@@ -110,6 +117,10 @@ class Factor:
         """Readable name of the velocity, for messages."""
         return self.name
 
+    def describe(self) -> str:
+        """The factor in words for descriptions and exported headers, e.g. ``"S^2 link"``."""
+        return f"{self.kind} {self.name}"
+
 
 @dataclass(eq=False)
 class RnFactor(Factor):
@@ -159,6 +170,93 @@ class RnFactor(Factor):
     @property
     def velocity_names(self) -> str:  # noqa: D102
         return f"{self.velocity_name} (velocity of {self.name})"
+
+    def describe(self) -> str:  # noqa: D102
+        return f"R^{self.dim} {self.name}"
+
+
+@dataclass(eq=False)
+class S1Factor(Factor):
+    """S^1, an angle: the unit vector ``p = (cos theta, sin theta)`` and the rate theta-dot.
+
+    Stored as an S1 factor ``p`` (named by the factor's name) and an Rn(1) factor for the
+    rate (named by ``velocity=``); no angle is stored. Kinematics
+    ``p-dot = theta-dot (-sin theta, cos theta)``; the angle's symmetry is the shift
+    ``theta -> theta + c``, a rotation of ``p``, whose generator is the unit rate.
+
+    Attributes
+    ----------
+    p : casadi.SX, shape=(2, 1)
+        The unit vector ``(cos theta, sin theta)``.
+    cos, sin : casadi.SX, shape=(1, 1)
+        Its entries ``cos theta`` and ``sin theta``.
+    perp : casadi.SX, shape=(2, 1)
+        ``J p = (-sin theta, cos theta)``, the derivative of ``p`` by the angle.
+    rate : casadi.SX, shape=(1, 1)
+        The angle's rate theta-dot [rad/s] (stored under the name ``velocity_name``).
+    p_dot : casadi.SX, shape=(2, 1)
+        ``rate * perp``, the rate of ``p`` (for kinetic energies written directly).
+    velocity_name : str
+        Storage name of the rate.
+    """
+
+    velocity_name: str = "theta_dot"
+    kind = "S^1"
+
+    @property
+    def p(self) -> ca.SX:  # noqa: D102
+        return self.config_sym
+
+    @property
+    def cos(self) -> ca.SX:  # noqa: D102
+        return self.config_sym[0]
+
+    @property
+    def sin(self) -> ca.SX:  # noqa: D102
+        return self.config_sym[1]
+
+    @property
+    def perp(self) -> ca.SX:  # noqa: D102
+        return ca.vertcat(-self.config_sym[1], self.config_sym[0])
+
+    @property
+    def rate(self) -> ca.SX:  # noqa: D102
+        return self.velocity_sym
+
+    @property
+    def p_dot(self) -> ca.SX:  # noqa: D102
+        return self.velocity_sym * self.perp
+
+    def storage(self) -> list[tuple[str, object]]:  # noqa: D102
+        return [(self.name, S1()), (self.velocity_name, Rn(1))]
+
+    def state_symbols(self) -> list[ca.SX]:  # noqa: D102
+        return [self.config_sym, self.velocity_sym]
+
+    def state_rate(self, acc: ca.SX) -> list[ca.SX]:  # noqa: D102
+        return [self.p_dot, acc]
+
+    def kinematics(self, nu: ca.SX) -> ca.SX:  # noqa: D102
+        return nu * self.perp
+
+    def kt(self, cov: ca.SX) -> ca.SX:  # noqa: D102
+        return ca.dot(self.perp, cov)
+
+    def shift_generator(self) -> ca.SX:
+        """The velocity of the factor under the shift ``theta -> theta + c`` at unit speed."""
+        return ca.SX(1)
+
+    def rotation_generator(self, axis: ca.SX) -> ca.SX:  # noqa: D102
+        raise ModelError(
+            f"factor {self.name!r} (S^1) is an angle whose plane the layer does not know; say "
+            "how a rotation moves it with momentum(..., shift={angle: +1 or -1})")
+
+    @property
+    def velocity_names(self) -> str:  # noqa: D102
+        return f"{self.velocity_name} (rate of the angle {self.name})"
+
+    def describe(self) -> str:  # noqa: D102
+        return f"S^1 {self.name} (cos, sin)"
 
 
 @dataclass(eq=False)

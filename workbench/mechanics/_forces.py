@@ -13,6 +13,7 @@ body-frame force ``F_b`` at ``p(c)``   ``p``                  ``R F_b``
 body moment ``M_b`` on attitude ``R``  ``vec(R)``             ``vec(R hat(M_b) / 2)``
 world moment ``tau`` on an S^2 ``q``   ``q``                  ``tau x q / |q|^2``
 force ``F`` on an R^k factor ``x``     ``x``                  ``F``
+torque ``tau`` on an S^1 angle ``p``   ``p``                  ``tau J p / |p|^2``
 =====================================  =====================  =======================
 
 (``M_b . vee(R^T delta R) = <R hat(M_b), delta R> / 2``; off SO(3) the body moment's
@@ -27,7 +28,8 @@ part of ``tau`` normal to ``q``, for every ``|q|``: the moment's virtual work on
 ``delta q = eta x q`` is ``tau . (I - q q^T/|q|^2) eta`` off the sphere as on it, so its
 authority does not fade when an optimiser's ambient iterate has ``|q| < 1``; with the
 weight ``tau x q`` it would scale like ``|q|^2`` and swing-ups in ambient coordinates
-collapsed to ``q -> 0``, issue 17.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
+collapsed to ``q -> 0``, issue 17. The torque on an angle is scaled alike: ``J p . tau J p
+/ |p|^2 = tau`` for every ``p != 0``.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
 """
 
 from __future__ import annotations
@@ -38,8 +40,8 @@ import casadi as ca
 
 from workbench.mechanics._engine import hat
 
-__all__ = ["Load", "force_at", "body_moment", "sphere_moment", "coordinate_force",
-           "gravity_potential", "load_covector"]
+__all__ = ["Load", "force_at", "body_moment", "sphere_moment", "angle_torque",
+           "coordinate_force", "gravity_potential", "load_covector"]
 
 
 @dataclass(eq=False)
@@ -79,6 +81,16 @@ def sphere_moment(label: str, q: ca.SX, moment: ca.SX) -> Load:
     for every ambient ``q != 0`` (equal to ``moment x q`` on the sphere).
     """
     return Load(label, q, ca.cross(moment, q) / ca.dot(q, q))
+
+
+def angle_torque(label: str, p: ca.SX, torque: ca.SX) -> Load:
+    """A torque about an S^1 factor's joint (virtual work ``torque * delta theta``).
+
+    The weight ``torque J p / |p|^2`` (``J p = (-p2, p1)``) gives the generalised force
+    ``torque`` on the rate for every ambient ``p != 0``.
+    """
+    perp = ca.vertcat(-p[1], p[0])
+    return Load(label, p, torque * perp / ca.dot(p, p))
 
 
 def coordinate_force(label: str, x: ca.SX, force: ca.SX) -> Load:

@@ -80,8 +80,8 @@ def _ingredients(system: Any) -> Ingredients:
 
 def _structural_checks(system: Any, der: Derivation) -> None:
     if not system.factors:
-        raise ModelError(f"system {system.name!r} has no factors; add rn(...), s2(...) or "
-                         "so3(...)")
+        raise ModelError(f"system {system.name!r} has no factors; add rn(...), s1(...), "
+                         "s2(...) or so3(...)")
     for f in system.factors:
         if not ca.depends_on(der.T, f.velocity_sym):
             raise ModelError(
@@ -233,7 +233,7 @@ def _value_checks(system: Any, der: Derivation) -> Any:
 
 
 def _describe(system: Any) -> str:
-    parts = [f"{f.kind} {f.name}" for f in system.factors]
+    parts = [f.describe() for f in system.factors]
     return (f"{system.name}: Lagrange-d'Alembert equations derived by AD on "
             + " x ".join(parts))
 

@@ -3,9 +3,14 @@
 A candidate symmetry is a one-parameter group acting on the factors: a world rotation about
 ``e1``, ``e2`` or ``e3`` (every S^2 and SO(3) factor turns; each R^3 factor either turns as
 a vector in space or stays; an R^2 factor, the horizontal plane, turns about ``e3`` or
-stays), or a translation of one R^k factor, or of every R^k factor of one dimension
-together, along a coordinate axis. Its generator ``eta`` (the velocity of each factor
-under the group at unit speed) gives the Noether momentum ``J = sum_f Pi_f . eta_f``.
+stays; an S^1 angle, whose plane the layer does not know, shifts at rate +1 or -1 or
+stays), a translation of one R^k factor, or of every R^k factor of one dimension
+together, along a coordinate axis, or a shift ``theta -> theta + c`` of one S^1 angle (a
+rotation of its ``p``), or of every angle together. Its generator ``eta`` (the velocity of
+each factor under the group at unit speed) gives the Noether momentum
+``J = sum_f Pi_f . eta_f``. An angle's shift is a rotation, so its momentum is named an
+angular momentum: ``angular_momentum_<angle>`` (``angular_momentum_<a>_<b>..`` for all
+angles together).
 
 A candidate is accepted only when it is *verified*: ``dJ/dt = grad J . f(x, 0)`` vanishes,
 to ``rtol * |grad J| |f|``, at several seeded random states of the manifold (random
@@ -14,8 +19,9 @@ the statement the user relies on (``J`` is an invariant of the unforced motion);
 do not vanish at ``u = 0`` (springs written as forces, dissipation) are part of the test.
 Accepted generators are kept only while they are linearly independent of those declared
 or accepted before (translations of single factors first, then joint translations, then
-rotations), so a cart's two translations and the rotation about the vertical give three
-momenta, never a fourth combination of them.
+shifts of single angles, of all angles together, then rotations), so a cart's two
+translations and the rotation about the vertical give three momenta, never a fourth
+combination of them.
 """
 
 from __future__ import annotations
@@ -29,13 +35,14 @@ import numpy as np
 
 from workbench.mechanics._engine import ModelError, ProductManifold
 from workbench.mechanics._equations import Derivation
-from workbench.mechanics._factors import RnFactor, S2Factor, SO3Factor
+from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
 
 __all__ = ["Candidate", "detect", "configuration_action", "MAX_ROTATING_CHOICES"]
 
 MAX_ROTATING_CHOICES = 6
-"""Up to this many R^2/R^3 factors, every turn-or-stay combination is tried; above, only
-"all turn" and "all stay"."""
+"""Up to ``2**MAX_ROTATING_CHOICES`` combinations of the R^2/R^3 factors' turn-or-stay and
+the angles' +1/-1/stay are tried; above, only "all turn" (+1), "all turn" (-1) and "all
+stay"."""
 
 AXES = (("e1", (1.0, 0.0, 0.0)), ("e2", (0.0, 1.0, 0.0)), ("e3", (0.0, 0.0, 1.0)))
 
@@ -73,22 +80,27 @@ def _rotation_generator(f: Any, axis: np.ndarray) -> ca.SX | None:
 
 def _rotations(factors: list) -> list[Candidate]:
     out = []
+    angles = [f for f in factors if isinstance(f, S1Factor)]
     for label, axis in AXES:
         ax = np.array(axis)
         base = {id(f): g for f in factors if isinstance(f, (S2Factor, SO3Factor))
                 for g in [_rotation_generator(f, ax)]}
         movable = [f for f in factors if isinstance(f, RnFactor)
                    and _rotation_generator(f, ax) is not None]
-        if len(movable) <= MAX_ROTATING_CHOICES:
-            choices = itertools.product((True, False), repeat=len(movable))
+        options = [(1, 0)] * len(movable) + [(1, -1, 0)] * len(angles)
+        if np.prod([len(o) for o in options]) <= 2**MAX_ROTATING_CHOICES:
+            choices = itertools.product(*options)
         else:
-            choices = iter([(True,) * len(movable), (False,) * len(movable)])
+            choices = iter([(1,) * len(options), (1,) * len(movable) + (-1,) * len(angles),
+                            (0,) * len(options)])
         for choice in choices:
             gens = dict(base)
-            turned = [f for f, c in zip(movable, choice) if c]
-            gens.update({id(f): _rotation_generator(f, ax) for f in turned})
-            if not gens:
+            gens.update({id(f): _rotation_generator(f, ax)
+                         for f, c in zip(movable, choice) if c})
+            if not gens:  # nothing but angles would move: that is a shift, tried before
                 continue
+            gens.update({id(f): ca.SX(c) * f.shift_generator()
+                         for f, c in zip(angles, choice[len(movable):]) if c})
             names = [f.name for f in factors if id(f) in gens]
             out.append(Candidate(f"angular_momentum_{label}",
                                  f"rotation about {label} turning {', '.join(names)}", gens))
@@ -116,6 +128,19 @@ def _translations(factors: list) -> list[Candidate]:
                 f"translation of {', '.join(f.name for f in group)} together along axis "
                 f"{i + 1}", {id(f): d for f in group}))
     return single + joint
+
+
+def _shifts(factors: list) -> list[Candidate]:
+    angles = [f for f in factors if isinstance(f, S1Factor)]
+    out = [Candidate(f"angular_momentum_{f.name}",
+                     f"shift of the angle {f.name} (a rotation of its (cos, sin))",
+                     {id(f): f.shift_generator()}) for f in angles]
+    if len(angles) >= 2:
+        names = [f.name for f in angles]
+        out.append(Candidate(f"angular_momentum_{'_'.join(names)}",
+                             f"shift of the angles {', '.join(names)} together",
+                             {id(f): f.shift_generator() for f in angles}))
+    return out
 
 
 def _generator_matrix(der: Derivation, cands: list, x: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -158,7 +183,7 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states
         Accepted candidates, in order of preference; names not yet used.
     """
     factors = list(system.factors)
-    cands = _translations(factors) + _rotations(factors)
+    cands = _translations(factors) + _shifts(factors) + _rotations(factors)
     if not cands:
         return []
     manifold = ProductManifold([s for f in factors for s in f.storage()])

@@ -20,7 +20,7 @@ Example: a planar cart (R^2) carrying a spherical pendulum (S^2)::
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import casadi as ca
@@ -34,19 +34,19 @@ from workbench.mechanics._checks import (
     check_inertia_value,
     parameter_value,
 )
+from workbench.mechanics._checks import identifier as _name
 from workbench.mechanics._engine import (
     MAX_DIM,
-    RESERVED_NAMES,
     ModelError,
     Parameter,
     ParameterError,
     finite,
 )
-from workbench.mechanics._equations import Derivation
-from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
-from workbench.mechanics._model import _ingredients, build_model
+from workbench.mechanics._factors import Factor, RnFactor, S1Factor, S2Factor, SO3Factor
+from workbench.mechanics._model import build_model
+from workbench.mechanics._momenta import Momenta
 from workbench.mechanics._symbols import CONFIG, INPUT, PARAMETER, VELOCITY, SymbolTable
-from workbench.mechanics._symmetry import check_options, configuration_action, detect
+from workbench.mechanics._symmetry import configuration_action
 
 __all__ = ["System", "E3"]
 
@@ -56,14 +56,8 @@ E3 = np.array([0.0, 0.0, 1.0])
 _Check = Callable[[np.ndarray], "str | None"]
 
 
-def _name(value: Any, what: str) -> str:
-    if not isinstance(value, str) or not value.isidentifier():
-        raise ModelError(f"{what} must be an identifier string; got {value!r}")
-    return value
-
-
-class System:
-    """A mechanical system on a product of R^k, S^2 and SO(3), built declaratively.
+class System(Momenta):
+    """A mechanical system on a product of R^k, S^1, S^2 and SO(3), built declaratively.
 
     Parameters
     ----------
@@ -132,6 +126,33 @@ class System:
         self.factors.append(f)
         return f
 
+    def s1(self, name: str, *, velocity: str | None = None) -> S1Factor:
+        """Add an S^1 factor, an angle: ``p = (cos theta, sin theta)`` and its rate.
+
+        No angle is stored (no wrapping, no singular coordinate): write positions with
+        ``.cos``, ``.sin`` (or ``.p``), energies with ``.rate``. ``model.state(name=0.3)``
+        takes the angle in radians, or ``(cos, sin)``.
+
+        Parameters
+        ----------
+        name : str
+            Storage name of the unit vector ``p`` (an S1 factor, 2 numbers).
+        velocity : str, optional
+            Storage name of the rate theta-dot (an Rn(1) factor; default ``name + "_dot"``).
+
+        Returns
+        -------
+        S1Factor
+            With symbols ``.p``, ``.perp`` (2x1), ``.cos``, ``.sin``, ``.rate`` (1x1) and
+            ``.p_dot = rate * perp``; ``p-dot = theta-dot (-sin theta, cos theta)``.
+        """
+        vname = velocity if velocity is not None else f"{name}_dot"
+        self._claim(name, vname)
+        f = S1Factor(name, self.symbols.new(f"{name}#p", 2, CONFIG, name),
+                     self.symbols.new(f"{name}#v", 1, VELOCITY, vname), vname)
+        self.factors.append(f)
+        return f
+
     def s2(self, name: str) -> S2Factor:
         """Add an S^2 factor: direction ``q`` and angular velocity ``omega`` (one TS2 factor).
 
@@ -172,6 +193,9 @@ class System:
                       self.symbols.new(f"{name}#W", 3, VELOCITY, vname), vname)
         self.factors.append(f)
         return f
+
+    def _factor_or_none(self, ref: Any) -> Factor | None:
+        return next((f for f in self.factors if f is ref or f.name == ref), None)
 
     def factor(self, ref: Factor | str) -> Factor:
         """A factor of this system by object or name; ModelError for unknown ones."""
@@ -424,11 +448,19 @@ class System:
         known = [b.name for b in self.bodies if isinstance(b, RigidBody)]
         raise ModelError(f"unknown rigid body {getattr(ref, 'name', ref)!r}; known: {known}")
 
-    def moment(self, target: RigidBody | SO3Factor | S2Factor | str, value: Any) -> None:
+    def moment(self, target: RigidBody | SO3Factor | S2Factor | S1Factor | str,
+               value: Any) -> None:
         """A moment: body frame on a rigid body or SO(3) factor, world frame on an S^2 factor.
 
-        On an S^2 factor (a link about its pivot) only the part normal to ``q`` acts.
+        On an S^2 factor (a link about its pivot) only the part normal to ``q`` acts. On an
+        S^1 factor (a revolute joint) ``value`` is a scalar torque about the joint, its
+        virtual work ``value * delta theta`` (a motor at the joint).
         """
+        f = self._factor_or_none(target)
+        if isinstance(f, S1Factor):
+            self.loads.append(F.angle_torque(f"torque on {f.name}", f.p,
+                                             self._load_value(value, "moment", 1)))
+            return
         M = self._load_value(value, "moment", 3)
         if isinstance(target, RigidBody) or (isinstance(target, str) and any(
                 b.name == target for b in self.bodies)):
@@ -440,93 +472,8 @@ class System:
         elif isinstance(f, S2Factor):
             self.loads.append(F.sphere_moment(f"moment on {f.name}", f.q, M))
         else:
-            raise ModelError(f"moment(...) acts on S^2 or SO(3) factors or rigid bodies; "
-                             f"{f.name!r} is {f.kind} (use force(...))")
-
-    def momentum(self, name: str, *, translate: Mapping[Any, Any] | None = None,
-                 rotate: Any = None, generators: Mapping[Any, Any] | None = None) -> None:
-        """Declare a symmetry; its Noether momentum ``sum_f Pi_f . eta_f`` is an invariant.
-
-        Parameters
-        ----------
-        name : str
-            Name of the invariant (not ``"energy"``).
-        translate : mapping of RnFactor to array-like, optional
-            Translations of R^k factors (their ``eta`` is the given direction).
-        rotate : array-like, shape=(3,), optional
-            A world rotation axis: every S^2 factor turns (``eta = axis``) and every SO(3)
-            factor turns (``eta = R^T axis``).
-        generators : mapping of factor to casadi.SX, optional
-            Explicit velocities of factors under the symmetry (e.g. how a cart's R^2
-            coordinates turn under a rotation about the vertical); override the above.
-        """
-        _name(name, "momentum name")
-        if name in RESERVED_NAMES:
-            raise ModelError(f"momentum name must not be one of {sorted(RESERVED_NAMES)} "
-                             f"(the model's own functions and their inputs); got {name!r}")
-        if name == "energy" or name in self.momenta:
-            raise ModelError(f"invariant name {name!r} is already used")
-        gens: dict[int, ca.SX] = {}
-        if rotate is not None:
-            axis = as_expr(rotate, "rotate", (3, 1))
-            for f in self.factors:
-                if isinstance(f, (S2Factor, SO3Factor)):
-                    gens[id(f)] = f.rotation_generator(axis)
-        for ref, d in (translate or {}).items():
-            f = self.factor(ref)
-            if not isinstance(f, RnFactor):
-                raise ModelError(f"translate acts on R^k factors; {f.name!r} is {f.kind}")
-            gens[id(f)] = as_expr(d, f"translate[{f.name!r}]", (f.dim, 1))
-        for ref, g in (generators or {}).items():
-            f = self.factor(ref)
-            gen = as_expr(g, f"generators[{f.name!r}]", (f.velocity_sym.shape[0], 1))
-            self.symbols.require(gen, f"generators[{f.name!r}]", (CONFIG, PARAMETER))
-            gens[id(f)] = gen
-        if not gens:
-            raise ModelError(f"momentum {name!r} needs translate=, rotate= or generators=")
-        if all(ca.SX(g).is_zero() for g in gens.values()):
-            raise ModelError(f"momentum {name!r}: its generator is zero (a zero axis or "
-                             "translation); it would declare the constant 0")
-        self.momenta[name] = gens
-
-    def detect_momenta(self, *, rtol: float = 1e-9, n_states: int = 3,
-                       seed: int = 0) -> dict[str, str]:
-        """Find the system's rotation and translation symmetries and declare their momenta.
-
-        Tries world rotations about ``e1``, ``e2``, ``e3`` (S^2 and SO(3) factors turn; each
-        R^3 factor, and an R^2 factor about ``e3``, turns or stays) and translations of R^k
-        factors along their axes; a candidate is declared only when its Noether momentum is
-        verified conserved (``|dJ/dt| <= rtol |grad J| |f|`` at ``n_states`` seeded random
-        states, zero input) and independent of the momenta declared so far. See
-        :mod:`workbench.mechanics._symmetry`. The test runs at the current parameter values:
-        a symmetry that holds only there (a spring constant that is zero now) is declared,
-        so detect again after changing such a value.
-
-        Parameters
-        ----------
-        rtol : float
-            Relative tolerance of the conservation test, in (0, 1).
-        n_states : int
-            Random states every candidate must pass, >= 1.
-        seed : int
-            Seed of those states.
-
-        Returns
-        -------
-        dict of str to str
-            The momenta declared by this call: name -> what the symmetry does.
-        """
-        check_options(rtol, n_states, seed)
-        if not self.factors:
-            raise ModelError(f"system {self.name!r} has no factors; add rn(...), s2(...) or "
-                             "so3(...)")
-        der = Derivation(_ingredients(self), self.name)
-        p = (np.concatenate([np.asarray(self.values[q.name], dtype=float).reshape(-1)
-                             for q in self.parameters]) if self.parameters else np.zeros(0))
-        found = detect(self, der, p, rtol=float(rtol), n_states=n_states, seed=seed)
-        for c in found:
-            self.momenta[c.name] = c.generators
-        return {c.name: c.description for c in found}
+            raise ModelError(f"moment(...) acts on S^2 or SO(3) factors, S^1 angles (a torque) "
+                             f"or rigid bodies; {f.name!r} is {f.kind} (use force(...))")
 
     # the model -----------------------------------------------------------------------------
     def model(self, name: str | None = None, *, symbolic: str = "auto",

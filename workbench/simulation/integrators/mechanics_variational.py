@@ -1,25 +1,27 @@
-"""A variational integrator on R^k, SO(3) and S^2 factors for the models of the mechanics layer.
+"""A variational integrator on R^k, S^1, SO(3), S^2 factors for the models of the mechanics layer.
 
 The mechanics layer keeps its derivation on the model (``model.mechanics``: the kinetic
 energy ``T(c, nu)``, the potential ``V(c)``, the loads, the factors). From them this module
 writes a discrete Lagrangian and its discrete Lagrange-d'Alembert equations, so that any
-system declared with R^k, SO(3) and S^2 factors (the 3D pendulum, the pendulum on a cart,
-the double 3D pendulum, the chains on a cart, the quadrotor with a slung load) gets a
-symplectic, momentum-preserving step.
+system declared with R^k, S^1, SO(3) and S^2 factors (the 3D pendulum, the pendulum on a
+cart, the double 3D pendulum, the chains on a cart, the quadrotor with a slung load, the
+Furuta pendulum, the acrobot) gets a symplectic, momentum-preserving step.
 
 Discrete configuration update, per factor (``h`` the signed step, ``xi`` the unknown
 discrete velocity)::
 
     R^k:    x_{k+1} = x_k + h v
+    S^1:    p_{k+1} = cay(h w) p_k,       cay(a) = [[1 - a^2/4, -a], [a, 1 - a^2/4]] / d
     SO(3):  R_{k+1} = R_k cay(h Omega),   cay(a) = (I - hat(a)/2)^{-1} (I + hat(a)/2)
     S^2:    q_{k+1} = cay(h w) q_k,       q_k . w = 0
 
-so ``R_{k+1}`` and ``q_{k+1}`` are rotated by rotations (SO(3) and S^2 are kept to
-round-off, never projected). On S^2 the discrete angular velocity ``w`` is normal to both
-ends, ``w = 2/h (q_k x q_{k+1}) / (1 + q_k . q_{k+1})``; the equation ``q_k . w = 0`` is
-added to the S^2 rows (whose other terms are normal to ``q_k``), weighted like the mass
-matrix's block, as the continuous derivation pins ``q . omega = 0``. The
-discrete Lagrangian is the trapezoidal rule at the discrete velocity::
+(``d = 1 + a^2/4``) so ``p_{k+1}``, ``R_{k+1}`` and ``q_{k+1}`` are rotated by rotations
+(S^1, SO(3) and S^2 are kept to round-off, never projected). On S^1 the planar Cayley map
+is the rotation by ``2 atan(a/2)``, the SO(3) map about a fixed axis. On S^2 the discrete
+angular velocity ``w`` is normal to both ends, ``w = 2/h (q_k x q_{k+1}) / (1 + q_k .
+q_{k+1})``; the equation ``q_k . w = 0`` is added to the S^2 rows (whose other terms are
+normal to ``q_k``), weighted like the mass matrix's block, as the continuous derivation
+pins ``q . omega = 0``. The discrete Lagrangian is the trapezoidal rule at the discrete velocity::
 
     L_d(c_k, xi) = h/2 [L(c_k, xi) + L(c_{k+1}, xi)],   L = T - V.
 
@@ -27,8 +29,8 @@ It is symmetric (``L_d(c_{k+1}, c_k; -h) = -L_d(c_k, c_{k+1}; h)``, as
 ``cay(-a) = cay(a)^{-1}``), hence of order 2. Its left-trivialised derivatives (along the
 perturbations ``x + eps eta`` and ``R exp(eps hat(eta))`` of one end, the other held) follow
 from the right-trivialised inverse derivative of the Cayley map, ``dcay_a^{-1} = I -
-hat(a)/2 + a a^T/4`` (identity on R^k; on S^2 the derivative of the formula for ``w`` by
-AD, ``P`` pulled back through it, left-trivialised by ``q x``)::
+hat(a)/2 + a a^T/4`` (identity on R^k, ``1 + a^2/4`` on S^1; on S^2 the derivative of the
+formula for ``w`` by AD, ``P`` pulled back through it, left-trivialised by ``q x``)::
 
     -D_1 L_d = 1/2 (dcay_{h xi}^{-1})^T P - h/2 G(c_k, xi)
      D_2 L_d = 1/2 (dcay_{-h xi}^{-1})^T P + h/2 G(c_{k+1}, xi)
@@ -78,7 +80,7 @@ from workbench.simulation.integrators.common import (
 
 __all__ = ["mechanics_variational", "SUPPORTED_FACTORS"]
 
-SUPPORTED_FACTORS = ("R^k", "SO(3)", "S^2")
+SUPPORTED_FACTORS = ("R^k", "S^1", "SO(3)", "S^2")
 """Kinds of mechanics factors this integrator steps."""
 
 
@@ -120,6 +122,16 @@ def _cayley(a: ca.SX) -> ca.SX:
     return ca.SX.eye(3) + 4.0 / (4.0 + ca.dot(a, a)) * (A + 0.5 * A @ A)
 
 
+def _cayley2(a: ca.SX) -> ca.SX:
+    """The planar Cayley map, the rotation by ``2 atan(a/2)``: ``(I - a J/2)^{-1}(I + a J/2)``.
+
+    ``J`` the quarter turn; ``cay(a) = [[1 - a^2/4, -a], [a, 1 - a^2/4]] / (1 + a^2/4)``.
+    """
+    d = 1.0 + 0.25 * a * a
+    c, s = (1.0 - 0.25 * a * a) / d, a / d
+    return ca.vertcat(ca.horzcat(c, -s), ca.horzcat(s, c))
+
+
 class _Parts:
     """Per-factor slices of ``c``, ``nu`` and the stored state ``x`` of a derivation."""
 
@@ -152,6 +164,9 @@ class _Parts:
                 out.append(vee(R.T @ G - G.T @ R))
             elif f.kind == "S^2":
                 out.append(ca.cross(c[sl], cov[sl]))
+            elif f.kind == "S^1":
+                p, g = c[sl], cov[sl]
+                out.append(p[0] * g[1] - p[1] * g[0])
             else:
                 out.append(cov[sl])
         return ca.vertcat(*out)
@@ -164,6 +179,8 @@ class _Parts:
                 out.append(ca.vec(ca.reshape(c[cs], 3, 3) @ _cayley(h * xi[vs])))
             elif f.kind == "S^2":
                 out.append(_cayley(h * xi[vs]) @ c[cs])
+            elif f.kind == "S^1":
+                out.append(_cayley2(h * xi[vs]) @ c[cs])
             else:
                 out.append(c[cs] + h * xi[vs])
         return ca.vertcat(*out)
@@ -173,7 +190,8 @@ class _Parts:
         """The parts of ``(-D_1 L_d, D_2 L_d)`` from the velocity's dependence on the ends.
 
         ``P = Pi(c_k, xi) + Pi(c_{k+1}, xi)``. R^k: ``(P/2, P/2)``. SO(3): ``1/2
-        (dcay_{+-h xi}^{-1})^T P`` with ``(dcay_a^{-1})^T = I + hat(a)/2 + a a^T/4``.
+        (dcay_{+-h xi}^{-1})^T P`` with ``(dcay_a^{-1})^T = I + hat(a)/2 + a a^T/4``; S^1,
+        its planar case: ``(1 + a^2/4) P/2`` at both ends (``a = h xi``).
         S^2: ``-/+ q_i x (dw/dq_i)^T (h/2 P)`` by AD of the inverse map.
         """
         m1, m2 = [], []
@@ -188,6 +206,10 @@ class _Parts:
                 g0, g1 = _s2_vjp()(c0[cs], c1[cs], h, m)
                 m1.append(-g0)
                 m2.append(g1)
+            elif f.kind == "S^1":
+                a = h * xi[vs]
+                m1.append(0.5 * (1.0 + 0.25 * a * a) * m)
+                m2.append(0.5 * (1.0 + 0.25 * a * a) * m)
             else:
                 m1.append(0.5 * m)
                 m2.append(0.5 * m)
@@ -245,8 +267,9 @@ def mechanics_variational(
     ----------
     model : Model
         A model from ``workbench.mechanics.System(...).model()`` whose factors are R^k,
-        SO(3) and S^2 (e.g. :func:`models.pendulum3d.full`, :func:`models.pendulum3d_cart.
-        pendulum3d_cart`, :func:`models.double_pendulum3d.double_pendulum3d`).
+        S^1, SO(3) and S^2 (e.g. :func:`models.pendulum3d.full`, :func:`models.pendulum3d_cart.
+        pendulum3d_cart`, :func:`models.double_pendulum3d.double_pendulum3d`,
+        :func:`models.acrobot.acrobot`, :func:`models.furuta.furuta`).
     controller : casadi.Function, optional
         Feedback ``u = k(x)`` or ``k(x, p)``, applied in discrete Lagrange-d'Alembert form
         (trapezoidal forces ``h/2 Q`` at both ends of a step); ``u = 0`` when omitted.
@@ -297,7 +320,8 @@ def mechanics_variational(
         evaluations_per_step=0,  # no vector field: gradients of the Lagrangian instead
         structure={
             "manifold": "R_{k+1} = R_k cay(h Omega_k) per SO(3) factor, q_{k+1} = "
-                        "cay(h w_k) q_k per S^2 factor: kept to round-off, never projected",
+                        "cay(h w_k) q_k per S^2 factor, p_{k+1} = cay(h w_k) p_k per S^1 "
+                        "factor: kept to round-off, never projected",
             "symplectic": not forced,
             "symmetric": True,
             "implicit": True,
