@@ -403,10 +403,10 @@ class Transcription:
         c_gauge = S.sym("c_gauge", self.nw if self.symmetry is not None else 0)
         T = w[self.iT]
         h = T / N
-        g, lbg, ubg, kinds = [], [], [], []
+        g, lbg, ubg, kinds, knots = [], [], [], [], []
         J = 0
 
-        def add(expr: Any, lo: Any, hi: Any, kind: str) -> None:
+        def add(expr: Any, lo: Any, hi: Any, kind: str, knot: int) -> None:
             n = int(expr.numel())
             if n == 0:
                 return
@@ -414,6 +414,7 @@ class Transcription:
             lbg.append(np.broadcast_to(np.asarray(lo, float), (n,)).copy())
             ubg.append(np.broadcast_to(np.asarray(hi, float), (n,)).copy())
             kinds.extend([kind] * n)
+            knots.extend([knot] * n)
 
         per, nx, d, nc = self.per, self.nx, self.d, self.ncol
         W = ca.reshape(w[0: N * per], per, N)  # column k: (X_k, vec Z_k, U_k)
@@ -448,26 +449,29 @@ class Transcription:
         lbg.append(np.zeros(n_block))
         ubg.append(np.zeros(n_block))
         kinds.extend((["defect"] * nd + ["continuity"] * nx) * N)
+        for k in range(N):  # a defect belongs to interval k, a continuity condition to knot k+1
+            knots.extend([k] * nd + [k + 1] * nx)
         for k in range(N):
             for c in ocp.path_constraints:
                 if c.applies(k, N):
-                    add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name)
+                    add(c.function(Xs[:, k], Us[:, k]), c.lower, c.upper, c.name, k)
         XN = w[self.ix[N]: self.ix[N] + self.nx]
         UN = w[self.iu[-1]: self.iu[-1] + self.nu]
         for c in ocp.path_constraints:
             if c.applies(N, N):
-                add(c.function(XN, UN), c.lower, c.upper, c.name)
-        add(ocp.target.equations(XN), 0.0, 0.0, "terminal")
+                add(c.function(XN, UN), c.lower, c.upper, c.name, N)
+        add(ocp.target.equations(XN), 0.0, 0.0, "terminal", N)
         for e in ocp.target.domain(XN):
-            add(e, 0.0, np.inf, "terminal chart domain")
+            add(e, 0.0, np.inf, "terminal chart domain", N)
         f_rest = ocp.terminal_cost(XN, T) if ocp.terminal_cost is not None else S.zeros(1)
         J = J + f_rest
         self.i_gauge = None
         if self.symmetry is not None:
             self.i_gauge = len(kinds)
-            add(ca.dot(c_gauge, w), 0.0, 0.0, "gauge")
+            add(ca.dot(c_gauge, w), 0.0, 0.0, "gauge", -1)
         self.lbg, self.ubg = np.concatenate(lbg), np.concatenate(ubg)
         self.g_kinds = np.array(kinds)
+        self.g_knots = np.array(knots, dtype=int)  # the knot (or interval) of each row; -1: none
         self.ng = len(self.lbg)
         G = ca.vertcat(*g)
         P = ca.vertcat(p, c_gauge)
