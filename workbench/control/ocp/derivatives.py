@@ -52,6 +52,15 @@ class IntervalLayout:
         continuity constraint is ``X_(k+1) - x_end``).
     i_T : int
         Index of the horizon ``T`` in ``w`` (``h = T / N``).
+
+    Attributes
+    ----------
+    idx : ndarray, shape=(N, nz)
+        Interval ``k``'s variables ``z_k = w[idx[k]]``: its arguments, then ``X_(k+1)``
+        unless it is one of them, then ``T``.
+    next_pos : int or None
+        Which argument is ``X_(k+1)`` (the block with its offset and length; an empty block
+        at the same offset is not it), or None when it follows the arguments.
     """
 
     def __init__(self, F: ca.Function, blocks: list[list[tuple[int, int]]],
