@@ -52,23 +52,48 @@ class IntervalLayout:
         continuity constraint is ``X_(k+1) - x_end``).
     i_T : int
         Index of the horizon ``T`` in ``w`` (``h = T / N``).
+
+    Attributes
+    ----------
+    idx : ndarray, shape=(N, nz)
+        Interval ``k``'s variables ``z_k = w[idx[k]]``: its arguments, then ``X_(k+1)``
+        unless it is one of them, then ``T``.
+    next_pos : int or None
+        Which argument is ``X_(k+1)`` (the block with its offset and length; an empty block
+        at the same offset is not it), or None when it follows the arguments.
     """
 
     def __init__(self, F: ca.Function, blocks: list[list[tuple[int, int]]],
                  next_node: list[tuple[int, int]], i_T: int) -> None:
         self.F, self.N, self.i_T = F, len(blocks), i_T
         self.blocks, self.next_node = blocks, next_node
+        # X_(k+1) is an argument when a block has its offset *and* length. Matching the
+        # offset alone is wrong: an empty block (no inputs, no collocation variables) starts
+        # where the next block does, often at X_(k+1), and X_(k+1) would then be dropped.
+        positions = {self._next_position(blocks[k], next_node[k]) for k in range(self.N)}
+        if len(positions) != 1:
+            raise AssertionError(f"the next node is an argument of some intervals only "
+                                 f"(positions {sorted(positions, key=str)})")
+        self.next_pos = positions.pop()
         idx = []
         for k in range(self.N):
             cols = [np.arange(o, o + n) for o, n in blocks[k]]
-            o, n = next_node[k]
-            if not any(o == b for b, _ in blocks[k]):  # X_(k+1) not already an argument
+            if self.next_pos is None:
+                o, n = next_node[k]
                 cols.append(np.arange(o, o + n))
             cols.append(np.array([i_T]))
             idx.append(np.concatenate(cols).astype(int))
         self.idx = np.array(idx)  # N x nz
         self.nz = self.idx.shape[1]
-        self.extra_next = self.nz - sum(n for _, n in blocks[0]) - 1 > 0
+
+    @staticmethod
+    def _next_position(blocks: list[tuple[int, int]], next_node: tuple[int, int]
+                       ) -> int | None:
+        """Index of the argument that is the next node, or None when it is not one."""
+        o, n = next_node
+        if n == 0:
+            raise AssertionError("the next node has no entries")
+        return next((i for i, (b, m) in enumerate(blocks) if (b, m) == (o, n)), None)
 
     def local_functions(self, n_params: int) -> tuple[ca.Function, ca.Function, int]:
         """``(z, p) -> nz(J_k)`` and ``(z, p, sigma, lam) -> nz(H_k)`` with their triplets."""
@@ -79,11 +104,10 @@ class IntervalLayout:
             args.append(ca.reshape(z[o: o + n], F.size1_in(i), F.size2_in(i)))
             o += n
         nx = self.next_node[0][1]
-        if self.extra_next:
+        if self.next_pos is None:  # X_(k+1) follows the arguments
             x_next = z[o: o + nx]
-        else:  # X_(k+1) is one of the arguments: the one at the next node's offset
-            pos = [b for b, _ in self.blocks[0]].index(self.next_node[0][0])
-            start = sum(n for _, n in self.blocks[0][:pos])
+        else:  # X_(k+1) is one of the arguments
+            start = sum(n for _, n in self.blocks[0][:self.next_pos])
             x_next = z[start: start + nx]
         h = z[self.nz - 1] / self.N
         defects, x_end, cost = F(*args, h, p)
