@@ -106,8 +106,10 @@ class LoadShare:
         """How the estimate was scaled, for the printed line."""
         if math.isnan(self.load):
             return "load average unknown: estimate for an idle machine"
-        return (f"load average {self.load:.2f} on {self.cores} cores: each of the "
-                f"{self.processes} processes gets about {self.share:.0%} of a core")
+        whom = ("the report's process" if self.processes == 1 else
+                f"each of the report's {self.processes} processes")
+        return (f"load average {self.load:.2f} on {self.cores} cores: about "
+                f"{self.share:.0%} of a core for {whom}")
 
 
 def load_share(processes: int, *, load: float | None = None,
