@@ -289,6 +289,9 @@ def test_time_estimate_is_scaled_by_the_load():
     assert "about 2:00 by the last runs (1:00 on an idle machine;" in line, line
     assert "load average 2.00 on 2 cores: about 50% of a core for each of the report's 2" in line
     assert show.remaining() == pytest.approx((120.0 + 80.0) / 2)
+    show.started("a")  # what it took last time is said as it was measured
+    show.step("a", {"message": "orbit"})
+    assert "took 1:00 last time" in out.getvalue().splitlines()[-1]
     idle = io.StringIO()
     Progress(2, stream=idle, enabled=True, jobs=2, load=0.0, cores=2).plan({"a": 60.0})
     assert ("about 1:00 by the last runs (load average 0.00 on 2 cores: about 100% of a core "

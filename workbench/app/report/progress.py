@@ -204,7 +204,8 @@ class Progress:
         self._load, self._cores = load, cores
         self.load = LoadShare(math.nan, cores or 1, jobs, 1.0)
         self.count = 0
-        self.pending: dict[str, float | None] = {}
+        self.pending: dict[str, float | None] = {}  # expected now: scaled by the load
+        self.last: dict[str, float | None] = {}  # the durations of the last runs
         self.running: dict[str, tuple[float, float | None]] = {}
         self.durations: list[float] = []
         self.last_beat: dict[str, float] = {}
@@ -224,6 +225,7 @@ class Progress:
                                cores=self._cores)
         share = self.load.share
         self.pending = {k: (None if e is None else e / share) for k, e in estimates.items()}
+        self.last = dict(estimates)
         if not estimates:
             return
         known = [e for e in estimates.values() if e is not None]
@@ -273,7 +275,8 @@ class Progress:
 
     def _beat(self, name: str, now: float) -> None:
         self.last_beat[name] = now
-        t0, exp = self.running[name]
+        t0, _ = self.running[name]
+        exp = self.last.get(name)
         text, left = self._inside(name, now)
         of = f", took {clock(exp)} last time" if exp else ""
         eta = f", about {clock(left)} left in it" if left is not None else ""
