@@ -54,7 +54,9 @@ def _cover(c: Cover | None, figures: dict[tuple[str, str], str]) -> dict[str, An
 
 def _problem(p: ProblemSection, figures: dict[tuple[str, str], str]) -> dict[str, Any]:
     n_comp = len(p.comparison.rows) if p.comparison is not None else 0
-    n_tables = sum(t is not None for t in (p.comparison, p.cost, p.built)) + len(p.values)
+    tables = [t for t in (p.comparison, *p.values, p.cost, p.built) if t is not None]
+    n_tables = len(tables)
+    folder = next((t.csv.rsplit("/", 1)[0] for t in tables if t.csv), "")
     return {
         "name": p.name, "title": p.title, "status": p.status.value, "seconds": p.seconds,
         "quick": p.quick, "error": p.error,
@@ -62,7 +64,7 @@ def _problem(p: ProblemSection, figures: dict[tuple[str, str], str]) -> dict[str
         "figures": [_figure(p, f, figures) for f in p.figures],
         "animations": len(p.animations), "notes": list(p.notes),
         "models": [{"heading": m.heading, "manifold": m.manifold} for m in p.models],
-        "comparisons": n_comp, "tables": n_tables,
+        "comparisons": n_comp, "tables": n_tables, "folder": folder,
     }
 
 
