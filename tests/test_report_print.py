@@ -166,7 +166,7 @@ def test_csv_files_hold_every_value_of_the_result_json(hostile_report):
         assert parsed["ok"] == str(comp["ok"]).lower()
     # a hostile key cannot leave the folder; names are plain
     assert "escape.csv" in files
-    assert all(re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*\.csv", f) for f in files), files
+    assert all(re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\.csv", f) for f in files), files
     assert all(p.resolve().is_relative_to(out.resolve()) for p in out.rglob("*"))
     assert set(rep.tables) == {p for p in (out / "report-tables").rglob("*.csv")}
 
@@ -242,8 +242,10 @@ def test_csv_cells_round_trip_and_names_are_safe():
                        ("-1.5e3", "-1.5e3"), ("\tx", "'\tx")):
         assert csv_cell(text) == want
     taken: set[str] = set()
-    names = [safe_name(t, taken) for t in ("../../x", ".hidden", "A", "a", "", "é/ü")]
-    assert names == ["x", "hidden", "A", "a-2", "table", "table-2"]
+    names = [safe_name(t, taken) for t in ("../../x", ".hidden", "A", "a", "", "é/ü",
+                                           "L1+.ends", "L1-.ends", "-rf x")]
+    assert names == ["x", "hidden", "A", "a-2", "table", "table-2", "L1+.ends", "L1-.ends",
+                     "rf-x"]
 
 
 def test_foreign_tables_folder_is_refused_and_only_own_files_are_removed(tmp_path):

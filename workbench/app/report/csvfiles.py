@@ -9,8 +9,8 @@ cells empty). The HTML links each table to its file.
 Generated files never carry unescaped user text: the ``csv`` module quotes every cell
 that needs it, and a text cell that a spreadsheet would run as a formula (one starting
 with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return, and not a number) is written
-with a leading ``'``. File and folder names are made of letters, digits, ``_``, ``-``
-and ``.`` only, never start with a dot, and are unique within their folder.
+with a leading ``'``. File and folder names are made of letters, digits, ``_``, ``-``, ``+``
+and ``.`` only, never start with a dot or a dash, and are unique within their folder.
 
 The folder is the report's own: it is marked by :data:`MARKER`, which lists every file
 and folder the report wrote there. A folder that holds other files and no marker is
@@ -41,7 +41,7 @@ MARKER = ".workbench-report-tables"
 NAME_LENGTH = 80
 """Longest file or folder name made from a table's or problem's name (characters)."""
 
-_UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+_UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]+")
 _FORMULA = ("=", "+", "-", "@", "\t", "\r")
 
 
@@ -51,7 +51,7 @@ def tables_dir(out_dir: Path, stem: str) -> Path:
 
 
 def safe_name(text: str, taken: set[str] | None = None) -> str:
-    """A file name from ``text``: letters, digits, ``_-.``; no leading dot; not in ``taken``.
+    """A file name from ``text``: letters, digits, ``_-+.``; no leading dot; not in ``taken``.
 
     Parameters
     ----------
@@ -66,7 +66,7 @@ def safe_name(text: str, taken: set[str] | None = None) -> str:
     str
         At most :data:`NAME_LENGTH` characters (plus ``-2``, ``-3`` ... when taken).
     """
-    base = _UNSAFE.sub("-", str(text)).strip("-.")[:NAME_LENGTH].strip("-.") or "table"
+    base = _UNSAFE.sub("-", str(text)).strip("-.+")[:NAME_LENGTH].strip("-.+") or "table"
     name, k = base, 1
     used = taken if taken is not None else set()
     while name.lower() in used:
