@@ -251,7 +251,19 @@ def test_csv_cells_round_trip_and_names_are_safe():
 def test_foreign_tables_folder_is_refused_and_only_own_files_are_removed(tmp_path):
     out = tmp_path / "out"
     folder = out / "report-tables"
-    folder.mkdir(parents=True)
+    out.mkdir()
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    for make, what in ((lambda: folder.write_text("x"), "is not a folder"),
+                       (lambda: folder.symlink_to(elsewhere), "is a symbolic link")):
+        make()
+        with pytest.raises(ReportInputError, match=what):
+            build_report(["hostile"], catalogue=catalogue(), out_dir=out, progress=False,
+                         cache_dir=None, formats=[Format.HTML])
+        assert sorted(p.name for p in out.iterdir()) == ["report-tables"]
+        folder.unlink()
+    assert list(elsewhere.iterdir()) == []
+    folder.mkdir()
     (folder / "mine.txt").write_text("a user's file")
     with pytest.raises(ReportInputError, match="did not write .*mine.txt"):
         build_report(["hostile"], catalogue=catalogue(), out_dir=out, progress=False,

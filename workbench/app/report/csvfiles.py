@@ -196,9 +196,10 @@ def check_tables_dir(folder: Path) -> None:
     """
     folder = Path(folder)
     if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        what = "a symbolic link" if folder.is_symlink() else "not a folder"
         raise ReportInputError(
-            f"--out: {str(folder)!r} exists and is not a folder; the report writes its CSV "
-            "tables there: move it away or choose another --out")
+            f"--out: {str(folder)!r} is {what}; the report writes its CSV tables in a "
+            "folder of that name, its own: move it away or choose another --out")
     if not folder.is_dir() or (folder / MARKER).is_file():
         return
     others = sorted(p.name for p in folder.iterdir())

@@ -195,8 +195,8 @@ def _headlines(outcomes: list[Any]) -> Table | None:
                  note="The most telling comparison of each problem: one out of tolerance if "
                       "there is one, else the one the problem names its headline, else the "
                       "value printed in a paper (else a closed form's) that comes closest "
-                      "to its tolerance. Every comparison is in the problem's section of "
-                      "the HTML report and in its CSV files.",
+                      "to its tolerance. Every comparison, with its source, is in the HTML "
+                      "report's appendix and in the CSV files beside it.",
                  status=status,
                  numeric=[False, False, False, True, True, True, True, False])
 
