@@ -112,8 +112,7 @@ class Outcome:
         Its document section (None when it failed before producing a result).
     summary : dict
         ``comparisons`` and ``comparisons_ok`` (counts), ``functions_built``, ``models``
-        (names), ``headline`` (every comparison as a plain row ``[quantity, reference,
-        workbench, deviation, tolerance, ok, source, headline]``, most telling first:
+        (names), ``headline`` (every comparison as a plain row, most telling first:
         :func:`~workbench.app.report.tables.telling_order`), ``notes``.
     error, traceback : str
         Why it failed or timed out.
@@ -159,8 +158,7 @@ def _summary(run: Any) -> dict[str, Any]:
         "functions_built": len(res.build_log),
         "models": list(dict.fromkeys(m.name for m in run.models)),
         "headline": [[c.quantity, c.reference, c.workbench, c.deviation, c.tolerance,
-                      bool(c.ok), c.source, bool(getattr(c, "headline", False))]
-                     for c in telling_order(comps)],
+                      bool(c.ok), c.source, c.headline] for c in telling_order(comps)],
     }
 
 
