@@ -101,7 +101,8 @@ def test_report_writes_html_with_progress_and_reuses_it(capsys, tmp_path, monkey
             "--cache", str(cache_dir))
     code, out, err = call(capsys, *argv)
     assert code == 0
-    assert sorted(p.name for p in out_dir.iterdir()) == ["report-quick.html"]
+    assert sorted(p.name for p in out_dir.iterdir()) == ["report-quick-tables",
+                                                          "report-quick.html"]
     assert f"wrote {out_dir / 'report-quick.html'}" in out
     assert "[1/1] pendulum3d_invariants" in err  # per-problem progress on stderr
     assert "elapsed" in err

@@ -274,7 +274,8 @@ def test_no_partial_files_when_pdf_fails(tmp_path, monkeypatch):
     with pytest.raises(ReportError):
         build_report(["good"], out_dir=tmp_path, catalogue=make_catalogue(1.0),
                      progress=False, cache_dir=None)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"]
+    # the CSV tables and the HTML that links them are written before the PDF
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report-tables", "report.html"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -389,7 +390,7 @@ def test_html_parses_cleanly_and_is_self_contained(quick_report):
     # a document first: the plain-language summary and the first page's sections
     assert html.escape(rep.document.problems[0].summary) in text
     assert "Errata of the papers that this report confirms" in text
-    assert text.count("<details") == len(rep.runs)  # the appendix, folded
+    assert text.count('<details id="appendix-') == len(rep.runs)  # the appendix, folded
 
 
 def test_html_renders_in_chromium_with_figures_and_tables(quick_report, tmp_path):
@@ -410,23 +411,37 @@ def test_html_renders_in_chromium_with_figures_and_tables(quick_report, tmp_path
 
 
 def test_pdf_pages_text_and_rendering(quick_report, tmp_path):
+    """The PDF is the printed body: a figure on page 1, each problem's headline comparisons,
+    figures and notes; the full tables are in the HTML and the CSV files, not here."""
     rep, out = quick_report
     pdf = out / "report-quick.pdf"
     n = pdf_pages(pdf)
-    assert n >= 3
+    # the first pages (status, headline numbers, errata, findings: 2), the problem (its
+    # headline table, figure and notes: 1) and the environment (1); the appendix of full
+    # tables made it 8 pages for this one problem
+    assert 3 <= n <= 4, n
     text = pdf_text(pdf)
     run = rep.runs[0]
     assert re.sub(r"\s+", " ", run.title) in text
-    assert "Appendix: full tables" in text
-    assert "Paper vs workbench" in text and "Cost and accuracy" in text
-    assert "Functions built" in text and "pendulum3d_full.f" in text
+    assert "Appendix: full tables" not in text
+    assert "Functions built" not in text and "Cost and accuracy" not in text
+    assert "Vector field read from the built graph" not in text
+    assert "report-quick-tables/" in text  # where the full tables are
     for quantity, *_ in run.summary["headline"][:3]:
         assert quantity in text
+    for note in rep.document.problems[0].notes:
+        assert re.sub(r"\s+", " ", note)[:40] in text
     pages = render_pdf_pages(pdf, tmp_path, first=1, last=min(n, 3))
     for img in pages:
         assert pixels_near(img, (255, 255, 255), tol=3) < 0.995 * img.shape[0] * img.shape[1]
-    # the figure (matplotlib blue) is drawn on one of the first pages
-    assert max(pixels_near(img, (31, 119, 180), tol=25) for img in pages) > 50
+    # page 1 has a figure: the problem's own (its matplotlib blue and orange lines)
+    assert pixels_near(pages[0], (31, 119, 180), tol=25) > 50
+    assert pixels_near(pages[0], (255, 127, 14), tol=25) > 50
+    cover = rep.document.cover
+    assert cover is not None and cover.problem == run.name
+    page1 = subprocess.run(["pdftotext", "-f", "1", "-l", "1", "-layout", str(pdf), "-"],
+                           capture_output=True, text=True, check=True, timeout=60).stdout
+    assert re.sub(r"\s+", " ", cover.figure.caption)[:40] in re.sub(r"\s+", " ", page1)
 
 
 def test_report_lists_every_problem_of_the_catalogue(tmp_path):

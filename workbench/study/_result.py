@@ -162,6 +162,9 @@ class Comparison:
         Where the reference comes from ("paper 000 (3.22)", "closed form", ...).
     relative : bool
         Whether deviation and tolerance are relative to ``|reference|``.
+    headline : bool
+        Whether the problem names this comparison its headline: the report shows it
+        first among those within tolerance (one out of tolerance is always shown first).
     """
 
     quantity: str
@@ -170,6 +173,7 @@ class Comparison:
     tolerance: float
     source: str
     relative: bool = False
+    headline: bool = False
 
     @property
     def deviation(self) -> float:
@@ -196,6 +200,7 @@ class Comparison:
                 "relative": self.relative,
                 "source": self.source,
                 "ok": self.ok,
+                "headline": self.headline,
             }
         )
 
@@ -285,10 +290,41 @@ class Result(StatusResult):
         tolerance: float,
         source: str,
         relative: bool = False,
+        headline: bool = False,
     ) -> Comparison:
-        """Record a reference-versus-workbench comparison and return it."""
+        """Record a reference-versus-workbench comparison and return it.
+
+        Parameters
+        ----------
+        quantity : str
+            What is compared.
+        reference, workbench : float
+            The paper's (or closed form's) value and the workbench's.
+        tolerance : float
+            Largest accepted deviation (relative to ``|reference|`` when ``relative``).
+        source : str
+            Where the reference comes from ("paper 000 (3.22)", "closed form").
+        relative : bool
+            Whether deviation and tolerance are relative.
+        headline : bool
+            Make this the problem's headline comparison in the report (by default the
+            report picks the most telling one from the data: one out of tolerance, else
+            a value printed in a paper, closest to its tolerance).
+
+        Returns
+        -------
+        Comparison
+
+        Raises
+        ------
+        ParameterError
+            If ``headline`` is not a bool.
+        """
+        if not isinstance(headline, (bool, np.bool_)):
+            raise ParameterError(f"compare {quantity!r}: headline must be True or False; got "
+                                 f"{headline!r}")
         c = Comparison(quantity, float(reference), float(workbench), float(tolerance), source,
-                       relative)
+                       relative, bool(headline))
         self.comparisons.append(c)
         return c
 

@@ -1,9 +1,11 @@
 """Reports of the problems, as one self-contained HTML file and one PDF.
 
-A document first, a record second: a first page in plain words (status of every problem,
-headline numbers, the errata confirmed, findings beyond the papers), then for each problem
-a short paragraph, its key numbers and figures (animated in the HTML), and the full tables,
-models and notes in an appendix. Problems run in parallel processes, each with a time
+A document first, a record second: a first page in plain words with a figure (status of
+every problem, each one's most telling comparison, the errata confirmed, findings beyond
+the papers), then for each problem a short paragraph, its key numbers, its figures (animated
+in the HTML) and its notes. The PDF is that body, for print; the HTML adds the full tables
+and the models in a folded appendix, and every table is also a CSV file with every value
+(``<stem>-tables/<problem>/<table>.csv``). Problems run in parallel processes, each with a time
 limit and a memory report, and are re-used from an on-disk cache when nothing they depend
 on changed.
 

@@ -3,8 +3,9 @@
 Problems run in parallel processes and are re-used from the on-disk cache when nothing
 they depend on changed (:mod:`~workbench.app.report.runner`). Output files are written
 completely or not at all (a unique temporary name in the target folder, then a rename),
-and the output directory is checked before any problem runs. The run ends by printing its
-total wall time and peak memory.
+and the output directory is checked before any problem runs. Beside the HTML and the PDF,
+every table goes to a CSV file in ``<stem>-tables/`` (:mod:`~workbench.app.report.csvfiles`),
+which the HTML links to. The run ends by printing its total wall time and peak memory.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from typing import TextIO
 
 from workbench.app.report import cache as report_cache
 from workbench.app.report.collect import Status
+from workbench.app.report.csvfiles import check_tables_dir, tables_dir, write_tables
 from workbench.app.report.errors import ReportInputError
 from workbench.app.report.frontpage import Document, document
 from workbench.app.report.progress import RunStats, process_age
@@ -58,7 +60,9 @@ class Report:
     runs : list of Outcome
         The problems' outcomes (status, errors, timings, memory; run or re-used).
     paths : dict of Format to Path
-        The files written.
+        The files written (HTML, PDF).
+    tables : list of Path
+        The CSV files written (every table of every problem).
     seconds : dict of str to float
         Wall time of each stage: ``problems``, ``document``, ``html``, ``pdf``, ``total``.
     stats : RunStats or None
@@ -70,6 +74,7 @@ class Report:
     paths: dict[Format, Path] = field(default_factory=dict)
     seconds: dict[str, float] = field(default_factory=dict)
     stats: RunStats | None = None
+    tables: list[Path] = field(default_factory=list)
 
     @property
     def failed(self) -> list[str]:
@@ -163,8 +168,14 @@ def _catalogue() -> ModuleType:
 
 
 def _write(doc: Document, out: Path, stem: str, formats: Sequence[Format],
-           seconds: dict[str, float]) -> dict[Format, Path]:
+           seconds: dict[str, float]) -> tuple[dict[Format, Path], list[Path]]:
+    """Write the CSV tables (first: the HTML links to them), then the HTML and the PDF."""
     paths: dict[Format, Path] = {}
+    t0 = time.perf_counter()
+    folder = tables_dir(out, stem)
+    tables = write_tables(doc.problems, folder)
+    doc.tables_dir = folder.name
+    seconds["tables"] = time.perf_counter() - t0
     if Format.HTML in formats:
         from workbench.app.report.html import render_html
 
@@ -177,7 +188,7 @@ def _write(doc: Document, out: Path, stem: str, formats: Sequence[Format],
         t0 = time.perf_counter()
         paths[Format.PDF] = write_atomic(out / f"{stem}.pdf", render_pdf(doc))
         seconds["pdf"] = time.perf_counter() - t0
-    return paths
+    return paths, tables
 
 
 def build_report(
@@ -267,7 +278,8 @@ def build_report(
                                       and not isinstance(memory_mb, bool)
                                       and 0 < memory_mb < float("inf")):
         raise ReportInputError(f"--memory must be a positive number of MB; got {memory_mb!r}")
-    _not_a_file("--out", out_dir)  # both checked before either is created
+    stem = stem or ("report-quick" if quick else "report")
+    check_tables_dir(tables_dir(_not_a_file("--out", out_dir), stem))  # before any is created
     if cache_dir is not None:
         report_cache.check_foreign(_not_a_file("--cache", cache_dir), default=DEFAULT_CACHE)
     out = check_out_dir(out_dir)
@@ -275,7 +287,6 @@ def build_report(
     if cache_dir is not None:
         cache = check_out_dir(cache_dir, option="--cache")
         report_cache.claim(cache)
-    stem = stem or ("report-quick" if quick else "report")
     stream = stream or sys.stderr
     seconds: dict[str, float] = {}
 
@@ -290,7 +301,7 @@ def build_report(
                    run_note=stats.line())
     seconds["document"] = time.perf_counter() - t0
     report = Report(doc, outcomes, seconds=seconds, stats=stats)
-    report.paths = _write(doc, out, stem, formats, seconds)
+    report.paths, report.tables = _write(doc, out, stem, formats, seconds)
     seconds["total"] = time.perf_counter() - t_start
     if progress:
         print(report.summary_line(), file=stream, flush=True)
@@ -299,5 +310,7 @@ def build_report(
 
 def rebuild(doc: Document, *, formats: Sequence[Format], out_dir: str | Path,
             stem: str) -> dict[Format, Path]:
-    """Write an already assembled document (no problem is run)."""
-    return _write(doc, check_out_dir(out_dir), stem, [Format(f) for f in formats], {})
+    """Write an already assembled document (no problem is run), and its CSV tables."""
+    out = check_out_dir(out_dir)
+    check_tables_dir(tables_dir(out, stem))
+    return _write(doc, out, stem, [Format(f) for f in formats], {})[0]

@@ -55,7 +55,7 @@ PARENT_ONLY = frozenset({
     "workbench/app/report/build.py", "workbench/app/report/runner.py",
     "workbench/app/report/cache.py", "workbench/app/report/html.py",
     "workbench/app/report/pdf.py", "workbench/app/report/frontpage.py",
-    "workbench/app/report/progress.py",
+    "workbench/app/report/progress.py", "workbench/app/report/csvfiles.py",
 })
 """Sources that only schedule problems or lay out finished sections: not in the key."""
 

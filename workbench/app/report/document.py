@@ -45,7 +45,8 @@ __all__ = ["Math", "ModelSheet", "ProblemSection", "KEY_FIGURES", "math", "model
 
 
 KEY_FIGURES = 2
-"""Figures of a problem shown in the main body (the others go to the appendix)."""
+"""Figures of a problem shown in the main body of the HTML (the others go to its appendix;
+the PDF prints them all)."""
 
 WIDE = 100
 """Vector-field components with longer LaTeX get a whole line of the report."""
@@ -167,9 +168,11 @@ def model_sheet(model: Model) -> ModelSheet:
 class ProblemSection:
     """What the report shows of one problem.
 
-    The main body shows ``summary``, ``headline`` and the first :data:`KEY_FIGURES`
-    figures and the animations; the appendix shows everything else (the full comparison,
-    values, cost, models, what was built, the other figures, the notes).
+    The HTML's main body shows ``summary``, ``headline`` and the first :data:`KEY_FIGURES`
+    figures and the animations; its appendix shows everything else (the full comparison,
+    values, cost, models, what was built, the other figures, the notes). The PDF prints
+    ``summary``, ``headline``, every figure and the notes; every table (``comparison``,
+    ``values``, ``cost``, ``built``) is also written as a CSV file.
     """
 
     name: str
@@ -199,7 +202,7 @@ class ProblemSection:
 
     @property
     def more_figures(self) -> list[FigureData]:
-        """The figures of the appendix."""
+        """The figures of the HTML's appendix."""
         return self.figures[KEY_FIGURES:]
 
 

@@ -1,11 +1,13 @@
 """The whole document: the first page in plain words, then one section per problem.
 
 :func:`document` assembles a :class:`Document` from the problems' outcomes (run now or
-re-used from the cache): the status of every problem, one headline number of each, the
-errata of the papers the workbench confirms and what it found beyond them (each shown as
-confirmed only when the problem that checks it met all its comparisons in this report),
-the problems' plain-language summaries and the figures' captions
-(:mod:`~workbench.app.report.texts`, or a problem's own ``SUMMARY``).
+re-used from the cache): a figure for the first page (:func:`cover_figure`), the status
+of every problem, the most telling comparison of each
+(:func:`~workbench.app.report.tables.telling_key`), the errata of the papers the
+workbench confirms and what it found beyond them (each shown as confirmed only when the
+problem that checks it met all its comparisons in this report), the problems'
+plain-language summaries and the figures' captions (:mod:`~workbench.app.report.texts`,
+or a problem's own ``SUMMARY``).
 """
 
 from __future__ import annotations
@@ -19,10 +21,11 @@ from typing import Any
 from workbench.app.report.collect import Status
 from workbench.app.report.document import ProblemSection
 from workbench.app.report.environment import environment
-from workbench.app.report.tables import Table, fmt
-from workbench.app.report.texts import CAPTIONS, ERRATA, FINDINGS, INTRO, SUMMARIES
+from workbench.app.report.figures import FigureData
+from workbench.app.report.tables import Table, fmt, telling_key
+from workbench.app.report.texts import CAPTIONS, COVER, ERRATA, FINDINGS, INTRO, SUMMARIES
 
-__all__ = ["Claim", "Document", "document", "summary_of"]
+__all__ = ["Claim", "Cover", "Document", "document", "summary_of", "cover_figure"]
 
 
 @dataclass
@@ -51,8 +54,46 @@ class Claim:
 
 
 @dataclass
+class Cover:
+    """The figure of the first page: one of a problem's figures.
+
+    Attributes
+    ----------
+    problem : str
+        The problem it comes from.
+    figure : FigureData
+        The figure (its caption is the problem's).
+    """
+
+    problem: str
+    figure: FigureData
+
+
+def cover_figure(sections: list[ProblemSection]) -> Cover | None:
+    """The first page's figure.
+
+    The first of :data:`~workbench.app.report.texts.COVER` whose problem is in the report
+    and ok, else the first figure of the first problem that is ok and has one, else of any
+    problem; None when no problem has a figure.
+    """
+    figs = {(s.name, f.name): (s, f) for s in sections for f in s.figures}
+    for key in COVER:
+        if key in figs and figs[key][0].status is Status.OK:
+            return Cover(key[0], figs[key][1])
+    for want_ok in (True, False):
+        for s in sections:
+            if s.figures and (s.status is Status.OK or not want_ok):
+                return Cover(s.name, s.figures[0])
+    return None
+
+
+@dataclass
 class Document:
-    """The whole report."""
+    """The whole report.
+
+    ``cover`` is the first page's figure; ``tables_dir`` the folder of the CSV files,
+    relative to the HTML file ("" when none was written).
+    """
 
     title: str
     quick: bool
@@ -65,6 +106,8 @@ class Document:
     errata: list[Claim] = field(default_factory=list)
     findings: list[Claim] = field(default_factory=list)
     run_note: str = ""
+    cover: Cover | None = None
+    tables_dir: str = ""
 
     @property
     def created(self) -> str:
@@ -124,23 +167,38 @@ def _claims(items: list[tuple[str, ...]], status: dict[str, Status]) -> list[Cla
     return out
 
 
+def _telling(row: list[Any]) -> tuple[int, float]:
+    """:func:`telling_key` of a summary row.
+
+    The row is ``[quantity, reference, workbench, deviation, tolerance, ok, source,
+    headline]`` (rows cached before the headline flag have no 8th item).
+    """
+    _q, ref, _got, dev, tol, ok, src, *flag = row
+    return telling_key(ok=bool(ok), reference=ref, deviation=dev, tolerance=tol, source=src,
+                       headline=bool(flag and flag[0]))
+
+
 def _headlines(outcomes: list[Any]) -> Table | None:
     rows, status = [], []
     for o in outcomes:
         head = o.summary.get("headline") or []
         if not head:
             continue
-        q, ref, got, dev, tol, ok, _src = head[0]
-        rows.append([o.name, q, fmt(ref, digits=8), fmt(got, digits=8), f"{dev:.1e}",
-                     "ok" if ok else "OUT"])
+        q, ref, got, dev, tol, ok, src, *_ = min(head, key=_telling)  # first of the best
+        rows.append([o.name, q, src, fmt(ref, digits=8), fmt(got, digits=8),
+                     f"{dev:.1e}", f"{tol:.0e}", "ok" if ok else "OUT"])
         status.append("ok" if ok else "bad")
     if not rows:
         return None
-    return Table("Headline numbers", ["problem", "quantity", "reference", "workbench",
-                                      "deviation", ""], rows,
-                 note="The first comparison of each problem; every comparison is in its "
-                      "section and the appendix.",
-                 status=status, numeric=[False, False, True, True, True, False])
+    return Table("Headline numbers", ["problem", "quantity", "source", "reference",
+                                      "workbench", "deviation", "tolerance", ""], rows,
+                 note="The most telling comparison of each problem: one out of tolerance if "
+                      "there is one, else the one the problem names its headline, else the "
+                      "value printed in a paper (else a closed form's) that comes closest "
+                      "to its tolerance. Every comparison, with its source, is in the HTML "
+                      "report's appendix and in the CSV files beside it.",
+                 status=status,
+                 numeric=[False, False, False, True, True, True, True, False])
 
 
 def document(outcomes: list[Any], *, quick: bool, seconds: float,
@@ -188,4 +246,5 @@ def document(outcomes: list[Any], *, quick: bool, seconds: float,
     by_name = {o.name: o.status for o in outcomes}
     return Document(title, quick, sections, summary, environment(), seconds, intro=INTRO,
                     headlines=_headlines(outcomes), errata=_claims(ERRATA, by_name),
-                    findings=_claims(FINDINGS, by_name), run_note=run_note)
+                    findings=_claims(FINDINGS, by_name), run_note=run_note,
+                    cover=cover_figure(sections))

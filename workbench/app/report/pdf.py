@@ -1,11 +1,15 @@
 """The PDF report, typeset by Typst (through its Python package).
 
+The PDF is what people print: the first page (with a figure, :attr:`Document.cover`), then
+for each problem what it reproduces, its headline comparisons, all its figures and its
+notes. The full tables (every comparison with its source, the values, cost and accuracy,
+the models with their equations, what was built) are in the HTML report, folded, and in
+the CSV files beside it; the PDF says where.
+
 The document is written as JSON next to a copy of ``reports/templates/report.typ`` in a
 temporary directory, with each figure as an SVG file; Typst reads the JSON and lays it
-out. Formulas are Typst math from :mod:`workbench.app.report.latexmath`, evaluated by the
-template; where a formula was not converted, its LaTeX source is shown in a raw block.
-Should Typst reject the converted math, the PDF is compiled again with every formula as
-LaTeX source, and the document says so.
+out (strings from the JSON are text to Typst, never markup). The PDF holds no formulas:
+the models' equations and vector fields are in the HTML report.
 """
 
 from __future__ import annotations
@@ -13,43 +17,25 @@ from __future__ import annotations
 import json
 import shutil
 import tempfile
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import typst
 
-from workbench.app.report.document import Math, ModelSheet, ProblemSection
+from workbench.app.report.document import ProblemSection
 from workbench.app.report.errors import ReportError
 from workbench.app.report.figures import PRINT_WIDTH
-from workbench.app.report.frontpage import Document
+from workbench.app.report.frontpage import Cover, Document
 from workbench.app.report.html import TEMPLATES
 from workbench.app.report.tables import Table
 
-__all__ = ["render_pdf", "typst_data"]
+__all__ = ["render_pdf", "typst_data", "COVER_HEIGHT"]
 
-MATH_NOTE = (
-    "Formulas: model equations are the models' LaTeX converted to Typst math by "
-    "workbench.app.report.latexmath; parameter values and vector fields are printed by sympy "
-    "(LaTeX) from the model itself and converted the same way. Formulas shown as LaTeX "
-    "source could not be converted."
-)
-
-
-def _math(m: Math, raw: bool) -> dict[str, str]:
-    return {"latex": m.latex, "typst": "" if raw else m.typst}
-
+COVER_HEIGHT = 3.0
+"""Largest height of the first page's figure [in] (the page keeps room for the text)."""
 
 def _table(t: Table | None) -> dict[str, Any] | None:
     return None if t is None else t.as_dict()
-
-
-def _model(m: ModelSheet, raw: bool) -> dict[str, Any]:
-    d = asdict(m)
-    d["equations"] = [_math(e, raw) for e in m.equations]
-    d["parameters"] = [{**p, "value": _math(p["value"], raw)} for p in m.parameters]
-    d["field"] = [{**r, "math": _math(r["math"], raw)} for r in m.field]
-    return d
 
 
 def _figure(p: ProblemSection, f: Any, figures: dict[tuple[str, str], str]) -> dict[str, Any]:
@@ -57,18 +43,28 @@ def _figure(p: ProblemSection, f: Any, figures: dict[tuple[str, str], str]) -> d
             "width": round(min(float(f.width), PRINT_WIDTH), 3)}
 
 
-def _problem(p: ProblemSection, figures: dict[tuple[str, str], str],
-             raw: bool) -> dict[str, Any]:
+def _cover(c: Cover | None, figures: dict[tuple[str, str], str]) -> dict[str, Any] | None:
+    if c is None or (c.problem, c.figure.name) not in figures:
+        return None
+    f = c.figure
+    width = min(float(f.width), PRINT_WIDTH, COVER_HEIGHT * float(f.width) / float(f.height))
+    return {"problem": c.problem, "caption": f.caption, "width": round(width, 3),
+            "file": figures[(c.problem, f.name)]}
+
+
+def _problem(p: ProblemSection, figures: dict[tuple[str, str], str]) -> dict[str, Any]:
+    n_comp = len(p.comparison.rows) if p.comparison is not None else 0
+    tables = [t for t in (p.comparison, *p.values, p.cost, p.built) if t is not None]
+    n_tables = len(tables)
+    folder = next((t.csv.rsplit("/", 1)[0] for t in tables if t.csv), "")
     return {
         "name": p.name, "title": p.title, "status": p.status.value, "seconds": p.seconds,
-        "quick": p.quick, "error": p.error, "traceback": p.traceback,
+        "quick": p.quick, "error": p.error,
         "summary": p.summary, "cached": p.cached, "headline": _table(p.headline),
-        "comparison": _table(p.comparison), "values": [t.as_dict() for t in p.values],
-        "cost": _table(p.cost), "built": _table(p.built),
-        "figures": [_figure(p, f, figures) for f in p.key_figures],
-        "more_figures": [_figure(p, f, figures) for f in p.more_figures],
-        "animations": len(p.animations),
-        "notes": list(p.notes), "models": [_model(m, raw) for m in p.models],
+        "figures": [_figure(p, f, figures) for f in p.figures],
+        "animations": len(p.animations), "notes": list(p.notes),
+        "models": [{"heading": m.heading, "manifold": m.manifold} for m in p.models],
+        "comparisons": n_comp, "tables": n_tables, "folder": folder,
     }
 
 
@@ -77,8 +73,7 @@ def _claim(c: Any) -> dict[str, Any]:
             "confirmed": c.confirmed, "status": c.status}
 
 
-def typst_data(doc: Document, figures: dict[tuple[str, str], str], *,
-               raw_math: bool = False) -> dict[str, Any]:
+def typst_data(doc: Document, figures: dict[tuple[str, str], str]) -> dict[str, Any]:
     """The JSON document the Typst template reads.
 
     Parameters
@@ -86,25 +81,21 @@ def typst_data(doc: Document, figures: dict[tuple[str, str], str], *,
     doc : Document
     figures : dict
         File name of each figure, by ``(problem, figure name)``.
-    raw_math : bool
-        Show every formula as LaTeX source.
 
     Returns
     -------
     dict
     """
-    note = MATH_NOTE + (" Typst rejected the converted math, so every formula is shown as "
-                        "LaTeX source." if raw_math else "")
     return {
         "title": doc.title, "quick": doc.quick, "created": doc.created,
         "seconds": doc.seconds, "summary": doc.summary.as_dict(),
         "intro": doc.intro, "run_note": doc.run_note, "counts": doc.counts,
-        "headlines": _table(doc.headlines),
+        "headlines": _table(doc.headlines), "cover": _cover(doc.cover, figures),
         "errata": [_claim(c) for c in doc.errata],
         "findings": [_claim(c) for c in doc.findings],
         "environment": [list(r) for r in doc.environment],
-        "problems": [_problem(p, figures, raw_math) for p in doc.problems],
-        "math_note": note,
+        "problems": [_problem(p, figures) for p in doc.problems],
+        "tables_dir": doc.tables_dir,
     }
 
 
@@ -145,9 +136,6 @@ def render_pdf(doc: Document) -> bytes:
                 figures[(p.name, f.name)] = fname
         try:
             return _compile(work, typst_data(doc, figures))
-        except typst.TypstError as first:
-            try:
-                return _compile(work, typst_data(doc, figures, raw_math=True))
-            except typst.TypstError as exc:
-                message = " ".join(str(exc).split())  # one line for the command line
-                raise ReportError(f"typst failed: {message}") from first
+        except typst.TypstError as exc:
+            message = " ".join(str(exc).split())  # one line for the command line
+            raise ReportError(f"typst failed: {message}") from exc

@@ -10,7 +10,8 @@ from typing import Any, TextIO
 
 from workbench.core._proc import proc_status_mb
 
-__all__ = ["Progress", "RunStats", "rss_mb", "pss_mb", "cpu_seconds_of", "process_age", "clock"]
+__all__ = ["Progress", "RunStats", "LoadShare", "load_share", "rss_mb", "pss_mb",
+           "cpu_seconds_of", "process_age", "clock"]
 
 _TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
@@ -76,6 +77,74 @@ def clock(seconds: float) -> str:
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
+@dataclass(frozen=True)
+class LoadShare:
+    """The share of a core each of the report's processes can expect on a loaded machine.
+
+    Attributes
+    ----------
+    load : float
+        The load average over the last minute before the report started its problems
+        (processes running or waiting for a core; nan when unknown).
+    cores : int
+        The machine's cores.
+    processes : int
+        The report's problems run at the same time.
+    share : float
+        ``min(1, cores / (load + processes))``: with ``load`` other processes wanting a
+        core and the scheduler sharing the cores evenly, each of the report's processes
+        gets this fraction of a core (1 on an idle machine with a core for each); a
+        problem then takes its idle time divided by it.
+    """
+
+    load: float
+    cores: int
+    processes: int
+    share: float
+
+    def words(self) -> str:
+        """How the estimate was scaled, for the printed line."""
+        if math.isnan(self.load):
+            return "load average unknown: estimate for an idle machine"
+        whom = ("the report's process" if self.processes == 1 else
+                f"each of the report's {self.processes} processes")
+        return (f"load average {self.load:.2f} on {self.cores} cores: about "
+                f"{self.share:.0%} of a core for {whom}")
+
+
+def load_share(processes: int, *, load: float | None = None,
+               cores: int | None = None) -> LoadShare:
+    """The share of a core each of ``processes`` processes gets, from the machine's load.
+
+    Parameters
+    ----------
+    processes : int
+        Processes the report runs at the same time (at least 1).
+    load : float, optional
+        Processes already wanting a core (default: the one-minute load average,
+        ``os.getloadavg()[0]``, read before the report starts its problems).
+    cores : int, optional
+        Cores of the machine (default ``os.cpu_count()``).
+
+    Returns
+    -------
+    LoadShare
+        ``share = min(1, cores / (load + processes))``; 1 when the load is unknown.
+    """
+    if load is None:
+        try:
+            load = os.getloadavg()[0]
+        except (OSError, AttributeError):
+            load = math.nan
+    cores = max(1, int(cores if cores is not None else (os.cpu_count() or 1)))
+    processes = max(1, int(processes))
+    load = float(load)
+    if math.isnan(load):
+        return LoadShare(load, cores, processes, 1.0)
+    share = min(1.0, cores / (max(load, 0.0) + processes))
+    return LoadShare(load, cores, processes, share)
+
+
 @dataclass
 class RunStats:
     """What running the problems cost.
@@ -122,13 +191,21 @@ class Progress:
 
     The estimate uses each problem's duration in the last run (kept by the runner), or,
     for a problem never timed, the mean duration of the problems finished so far; it is
-    the remaining work divided by the number of processes.
+    the remaining work divided by the number of processes. The durations of the last runs
+    are divided by the share of a core each process can expect on this machine now
+    (:func:`load_share`, from the load average before the problems start; ``load`` and
+    ``cores`` replace the machine's values); the durations measured in this run already
+    include the load and are not scaled.
     """
 
-    def __init__(self, total: int, *, stream: TextIO, enabled: bool, jobs: int) -> None:
+    def __init__(self, total: int, *, stream: TextIO, enabled: bool, jobs: int,
+                 load: float | None = None, cores: int | None = None) -> None:
         self.total, self.stream, self.enabled, self.jobs = total, stream, enabled, jobs
+        self._load, self._cores = load, cores
+        self.load = LoadShare(math.nan, cores or 1, jobs, 1.0)
         self.count = 0
-        self.pending: dict[str, float | None] = {}
+        self.pending: dict[str, float | None] = {}  # expected now: scaled by the load
+        self.last: dict[str, float | None] = {}  # the durations of the last runs
         self.running: dict[str, tuple[float, float | None]] = {}
         self.durations: list[float] = []
         self.last_beat: dict[str, float] = {}
@@ -139,12 +216,26 @@ class Progress:
             print(text, file=self.stream, flush=True)
 
     def plan(self, estimates: dict[str, float | None]) -> None:
-        """Announce what will run, with the durations of the last runs where known."""
-        self.pending = dict(estimates)
+        """Announce what will run, with the durations of the last runs where known.
+
+        The durations are scaled by the machine's load (:func:`load_share`) and the line
+        says so.
+        """
+        self.load = load_share(min(self.jobs, max(1, len(estimates))), load=self._load,
+                               cores=self._cores)
+        share = self.load.share
+        self.pending = {k: (None if e is None else e / share) for k, e in estimates.items()}
+        self.last = dict(estimates)
         if not estimates:
             return
         known = [e for e in estimates.values() if e is not None]
-        guess = f", about {clock(sum(known) / self.jobs)} by the last runs" if known else ""
+        guess = ""
+        if known:
+            # the work spread over the processes, but never less than the longest problem
+            idle = max(max(known), sum(known) / self.load.processes)
+            guess = f", about {clock(idle / share)} by the last runs"
+            guess += (f" ({clock(idle)} on an idle machine; {self.load.words()})"
+                      if share < 1 else f" ({self.load.words()})")
         unknown = len(estimates) - len(known)
         more = f" ({unknown} never timed)" if unknown and known else ""
         self._print(f"running {len(estimates)} problem(s) on {self.jobs} processes"
@@ -184,7 +275,8 @@ class Progress:
 
     def _beat(self, name: str, now: float) -> None:
         self.last_beat[name] = now
-        t0, exp = self.running[name]
+        t0, _ = self.running[name]
+        exp = self.last.get(name)
         text, left = self._inside(name, now)
         of = f", took {clock(exp)} last time" if exp else ""
         eta = f", about {clock(left)} left in it" if left is not None else ""

@@ -51,6 +51,7 @@ from workbench.app.report.progress import (
     pss_mb,
     rss_mb,
 )
+from workbench.app.report.tables import telling_order
 from workbench.core.files import write_atomic
 from workbench.study._result import CORES_ENV, PROGRESS_ENV
 
@@ -111,7 +112,8 @@ class Outcome:
         Its document section (None when it failed before producing a result).
     summary : dict
         ``comparisons`` and ``comparisons_ok`` (counts), ``functions_built``, ``models``
-        (names), ``headline`` (the first comparisons as plain rows), ``notes``.
+        (names), ``headline`` (every comparison as a plain row, most telling first:
+        :func:`~workbench.app.report.tables.telling_order`), ``notes``.
     error, traceback : str
         Why it failed or timed out.
     cached : bool
@@ -156,7 +158,7 @@ def _summary(run: Any) -> dict[str, Any]:
         "functions_built": len(res.build_log),
         "models": list(dict.fromkeys(m.name for m in run.models)),
         "headline": [[c.quantity, c.reference, c.workbench, c.deviation, c.tolerance,
-                      bool(c.ok), c.source] for c in comps],
+                      bool(c.ok), c.source, c.headline] for c in telling_order(comps)],
     }
 
 

@@ -10,7 +10,7 @@ problem module may define ``SUMMARY`` (plain words) to replace its entry here.
 
 from __future__ import annotations
 
-__all__ = ["SUMMARIES", "CAPTIONS", "ERRATA", "FINDINGS", "INTRO"]
+__all__ = ["SUMMARIES", "CAPTIONS", "COVER", "ERRATA", "FINDINGS", "INTRO"]
 
 INTRO = (
     "The workbench writes each pendulum model once, as a CasADi expression graph in "
@@ -181,6 +181,16 @@ CAPTIONS: dict[tuple[str, str], str] = {
     ("work_precision", "convergence_orders"): (
         "Convergence orders: error against step size, with the fitted slopes."),
 }
+
+COVER: list[tuple[str, str]] = [
+    ("swingup_double_spherical_cart", "swingup"),
+    ("swingup_spherical_cart", "swingup"),
+    ("stable_manifold_s2", "stable_manifold_fig1"),
+    ("swingup_3d_pendulum", "minimum_effort"),
+    ("relative_equilibria", "relative_equilibria"),
+]
+"""Figures for the first page, by ``(problem, figure)``, the first one available first: a
+swing-up to balance (what the workbench is for) and the stable manifold of paper 002."""
 
 ERRATA: list[tuple[str, str, str]] = [
     ("000", "Prop. 9 (and (4.18), (5.18)): the attitude of a relative equilibrium is "
