@@ -24,7 +24,7 @@ from typing import NoReturn
 
 from workbench.app.export_cli import add_export_c_parser
 from workbench.core.errors import WorkbenchError
-from workbench.core.files import writable_dir, write_atomic
+from workbench.core.files import writable_dir, writable_file, write_atomic
 from workbench.core.validate import output_path
 from workbench.study._result import PROGRESS_ENV, Result, format_result, to_jsonable
 
@@ -56,9 +56,10 @@ def _problems():  # imported lazily: the engine does not depend on the problem c
 def _writable_json(path: str) -> Path:
     """``--json PATH`` checked before any problem runs, without writing anything."""
     p = output_path("--json", path, error=CLIError)
-    if p.is_dir():
-        raise CLIError(f"--json: {path!r} is a directory, expected a file path")
-    writable_dir(p.parent, name="--json", error=CLIError)
+    # a directory, FIFO, socket or device (or a link to one) is refused; a link is
+    # written through, so its target's folder is the one that must be writable
+    target = writable_file(p, name="--json", error=CLIError)
+    writable_dir(target.parent, name="--json", error=CLIError)
     return p
 
 
