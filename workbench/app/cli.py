@@ -73,6 +73,18 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _jobs(text: str) -> int:
+    """``--jobs N``: a whole number from 1 to the report's bound (checked before any work)."""
+    from workbench.app.report.runner import MAX_JOBS  # the report's modules load on use
+
+    value = _positive_int(text)
+    if value > MAX_JOBS:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number from 1 to {MAX_JOBS} (problems run at the same time; "
+            f"at most one process per problem is used); got {text!r}")
+    return value
+
+
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -263,8 +275,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="output directory (default: reports/out/ of the repository)")
     p_rep.add_argument("--no-progress", action="store_true",
                        help="do not show per-problem progress on stderr")
-    p_rep.add_argument("--jobs", type=_positive_int, default=None, metavar="N",
-                       help="problems run at the same time (default: the number of cores)")
+    p_rep.add_argument("--jobs", type=_jobs, default=None, metavar="N",
+                       help="problems run at the same time (default: the number of cores; "
+                       "at most one process per problem to run, and 256)")
     p_rep.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
                        help="time limit of one problem in CPU seconds (default 600 quick, "
                        "1200 full); also stopped after 3 times as long in wall time")
