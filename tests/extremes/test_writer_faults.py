@@ -31,6 +31,7 @@ import os
 import re
 import stat
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -251,8 +252,29 @@ def test_a_fifo_socket_or_directory_is_refused_and_kept(tmp_path, kind, via_link
     assert _listing(tmp_path) == sorted(["thing", *(["link"] if via_link else [])])
 
 
+@pytest.fixture
+def dev_guarded(monkeypatch):
+    """A writer that regressed must not replace /dev/null for the whole machine (as root
+    it could): a temporary file or a rename in /dev fails the test instead."""
+    real_mkstemp, real_replace = tempfile.mkstemp, os.replace
+
+    def in_dev(path) -> bool:
+        return (os.path.realpath(path) + "/").startswith("/dev/")
+
+    def mkstemp(*args, dir=None, **kwargs):
+        assert dir is None or not in_dev(dir), f"a temporary file in {dir}"
+        return real_mkstemp(*args, dir=dir, **kwargs)
+
+    def replace(src, dst):
+        assert not in_dev(dst), f"{dst} replaced"
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(os, "replace", replace)
+
+
 @pytest.mark.parametrize("via_link", [False, True])
-def test_a_device_is_refused_and_kept(tmp_path, via_link):
+def test_a_device_is_refused_and_kept(tmp_path, via_link, dev_guarded):
     """/dev/null (a character device) is never replaced by a regular file, even as root."""
     before = os.stat("/dev/null")
     assert stat.S_ISCHR(before.st_mode)
@@ -324,7 +346,7 @@ def test_cli_json_through_a_link_writes_its_target(tmp_path, monkeypatch, capsys
 
 @pytest.mark.parametrize("kind", ["fifo", "device", "link to fifo"])
 def test_cli_json_to_a_fifo_or_device_is_refused_before_any_work(tmp_path, monkeypatch,
-                                                                 capsys, kind):
+                                                                 capsys, kind, dev_guarded):
     solved: list = []
     cli = _tiny_problems(monkeypatch, solved)
     path = tmp_path / "out.json"
