@@ -189,6 +189,21 @@ def test_lane_width_is_bounded_by_the_stack():
                        compiler=NO_COMPILER)
 
 
+def test_the_default_lane_width_narrows_to_the_bounds_and_says_so(tmp_path):
+    """Given no lane_width, a function too large for the default 2 gets the widest allowed
+    (1 here, by the stack), named in the compiled function; given 2, it is refused."""
+    x = ca.SX.sym("x", 100_000)
+    f = ca.Function("first", [x], [x[0] - x[-1]], ["x"], ["y"])
+    assert max_lane_width(f) == 1
+    X = np.random.default_rng(1).normal(size=(3, 100_000))
+    ev = BatchEvaluator(f, 3, compilation="c", parallelization="lanes", cache_dir=tmp_path)
+    assert ev.compiled.name == "first_lanes1x3"
+    np.testing.assert_array_equal(ev(X)[:, 0], X[:, 0] - X[:, -1])
+    with pytest.raises(ModelError, match="widest allowed for it is 1"):
+        BatchEvaluator(f, 3, compilation="c", parallelization="lanes", lane_width=2,
+                       cache_dir=tmp_path)
+
+
 def test_lane_width_only_with_lanes():
     with pytest.raises(ModelError, match="lane_width applies to parallelization='lanes' only"):
         BatchEvaluator(_double(), 4, compilation="c", lane_width=4, compiler=NO_COMPILER)

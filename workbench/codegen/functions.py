@@ -38,6 +38,7 @@ from workbench.codegen.lanes import (
     _width_value,
     check_lane_width,
     lanes_source,
+    max_lane_width,
 )
 from workbench.core._evaluator import Evaluator
 from workbench.core.errors import ModelError
@@ -378,7 +379,7 @@ def _build(name: str, code: str, opt: Optimization, compiler: str,
                             opt, tuple(subs), with_jacobian)
 
 
-def _compile_lanes(one: ca.Function, n: int, shared: tuple[str, ...], width: int,
+def _compile_lanes(one: ca.Function, n: int, shared: tuple[str, ...], width: int | None,
                    opt: Optimization, compiler: str,
                    cache_dir: str | os.PathLike | None, subs: tuple[str, ...],
                    t0: float) -> CompiledFunction:
@@ -389,6 +390,8 @@ def _compile_lanes(one: ca.Function, n: int, shared: tuple[str, ...], width: int
         except RuntimeError as exc:
             raise ModelError(f"parallelization 'lanes' needs {one.name()} as straight-line "
                              f"SX code; casadi cannot expand it: {exc}") from None
+    if width is None:  # the default: one register, or the widest the bounds allow
+        width = min(4 if opt is Optimization.NATIVE else 2, max(max_lane_width(one), 1))
     width = _lane_width(one, width)  # the function's size is known only once expanded
     name = f"{one.name()}_lanes{width}x{n}"
     code = lanes_source(one, n, name=name, shared=shared, width=width)
@@ -432,11 +435,12 @@ class BatchEvaluator:
     lane_width : int, optional
         States per instruction of :attr:`Parallelization.LANES` only (default: 4 with
         ``O3-native``, one AVX2 register of doubles; 2 otherwise, one SSE2 register of
-        the x86-64 baseline): a power of two up to ``MAX_LANE_WIDTH`` (8) whose product
+        the x86-64 baseline; or the widest the bounds allow for the function, if
+        narrower): a power of two up to ``MAX_LANE_WIDTH`` (8) whose product
         with the function's instructions and whose stack frame are within
-        ``LANE_BUDGET`` and ``STACK_BUDGET`` (:func:`workbench.codegen.lanes.
-        check_lane_width`; checked before anything is compiled). The function must expand
-        to SX (straight-line code).
+        ``LANE_BUDGET`` and ``STACK_BUDGET``
+        (:func:`~workbench.codegen.lanes.check_lane_width`; checked before anything is
+        compiled). The function must expand to SX (straight-line code).
 
     Raises
     ------
@@ -480,10 +484,7 @@ class BatchEvaluator:
         if lane_width is not None and par is not Parallelization.LANES:
             raise ModelError(f"lane_width applies to parallelization='lanes' only; got "
                              f"lane_width={lane_width!r} with parallelization={par.value!r}")
-        if par is Parallelization.LANES:  # everything known without the function first
-            opt = choice(Optimization, optimization, "optimization", error=ModelError)
-            if lane_width is None:
-                lane_width = 4 if opt is Optimization.NATIVE else 2
+        if par is Parallelization.LANES and lane_width is not None:  # before any work
             try:
                 lane_width = _width_value(lane_width)
             except ModelError as exc:
@@ -494,6 +495,7 @@ class BatchEvaluator:
             t0 = time.perf_counter()
             one, subs, _ = _generable_code(fn, linear_solver, False)
             if par is Parallelization.LANES:
+                opt = choice(Optimization, optimization, "optimization", error=ModelError)
                 self.compiled = _compile_lanes(one, self.n, self.shared, lane_width,
                                                opt, compiler, cache_dir, subs, t0)
             else:
