@@ -136,8 +136,9 @@ def test_states_per_call_must_be_a_whole_number(bad):
 
 
 def test_shared_must_name_inputs():
-    with pytest.raises(ModelError, match="shared must be a sequence of input names"):
-        BatchEvaluator(_double(), 2, shared="x")
+    for bad in ("x", 3, None, [1], ("x", None)):
+        with pytest.raises(ModelError, match="shared must be a sequence of input names"):
+            BatchEvaluator(_double(), 2, shared=bad)
     with pytest.raises(ModelError, match=r"shared inputs \['q'\] are not inputs"):
         BatchEvaluator(_double(), 2, compilation="c", parallelization="lanes", shared=("q",),
                        compiler=NO_COMPILER)

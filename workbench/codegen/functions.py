@@ -236,7 +236,8 @@ def batch_function(fn: ca.Function, n: int, *, shared: Sequence[str] = (),
 def _shared_inputs(fn: ca.Function, shared: Sequence[str]) -> list[int]:
     """The indices of the inputs named in ``shared`` (each must be an input of ``fn``)."""
     names = fn.name_in()
-    if isinstance(shared, str) or not all(isinstance(s, str) for s in shared):
+    if isinstance(shared, str) or not isinstance(shared, (list, tuple)) or \
+            not all(isinstance(s, str) for s in shared):
         raise ModelError(f"shared must be a sequence of input names (e.g. ('p',)); got "
                          f"{shared!r}")
     unknown = [s for s in shared if s not in names]
