@@ -211,7 +211,7 @@ def batch_function(fn: ca.Function, n: int, *, shared: Sequence[str] = (),
         The function of one state.
     n : int
         States per call: at most :func:`workbench.codegen.lanes.max_states` (the inputs and
-        outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 1 GiB).
+        outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 128 MiB).
     shared : sequence of str
         Names of the inputs common to all states.
     parallelization : Parallelization or str
@@ -424,7 +424,7 @@ class BatchEvaluator:
         The function of one state, dense vector (column or row) inputs and outputs.
     n : int
         States per call: at most :func:`workbench.codegen.lanes.max_states` (the inputs
-        and outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 1 GiB).
+        and outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 128 MiB).
     shared : sequence of str
         Inputs common to all states (e.g. ``("p",)``).
     compilation : Compilation or str
