@@ -159,15 +159,34 @@ def test_lanes_are_refused_where_they_cannot_apply(top):
     f = top.function("f")
     with pytest.raises(ModelError, match="needs compilation='c'"):
         BatchEvaluator(f, 4, parallelization="lanes")
-    with pytest.raises(ModelError, match="width must be a power of two"):
-        BatchEvaluator(f, 4, shared=("p",), compilation="c", parallelization="lanes",
-                       lane_width=3)
+    for width in (3, 16):
+        with pytest.raises(ModelError, match=r"width must be a power of two \(1, 2, 4 or 8"):
+            BatchEvaluator(f, 4, shared=("p",), compilation="c", parallelization="lanes",
+                           lane_width=width)
     x = ca.SX.sym("x", 2, 2)
     with pytest.raises(ModelError, match="dense column vectors; input 0 has shape"):
         lanes_source(ca.Function("g", [x], [ca.trace(x)]), 4, name="g_lanes")
     y = ca.MX.sym("y")
     with pytest.raises(ModelError, match="needs an SX function"):
         lanes_source(ca.Function("h", [y], [y * 2]), 4, name="h_lanes")
+
+
+@pytest.mark.parametrize("par", list(Parallelization))
+def test_compiled_batches_take_real_rows_only(par, cache):
+    """Compiled serial and lanes batches give the closed form on real rows, and refuse
+    complex rows (which numpy would cast, dropping the imaginary part) and a matrix input
+    (which would be read column-major from the rows)."""
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("real_rows", [x], [ca.vertcat(3 * x[0], x[0] * x[1])], ["x"], ["y"])
+    X = np.random.default_rng(12).normal(size=(5, 2))
+    ev = BatchEvaluator(f, 5, compilation="c", parallelization=par, cache_dir=cache)
+    np.testing.assert_array_equal(ev(X), np.column_stack([3 * X[:, 0], X[:, 0] * X[:, 1]]))
+    with pytest.raises(ModelError, match="input 'x' is complex"):
+        ev(X + 1e-9j)
+    M = ca.SX.sym("M", 2, 2)
+    with pytest.raises(ModelError, match=r"input 'M' is a 2x2 matrix"):
+        BatchEvaluator(ca.Function("tr", [M], [ca.trace(M)], ["M"], ["t"]), 5,
+                       compilation="c", parallelization=par, cache_dir=cache)
 
 
 def test_uncompiled_path_needs_no_compiler(top):

@@ -1,4 +1,4 @@
-"""Faults while writing (issue 16): full, read-only and shared folders, interrupts, corrupt caches.
+"""Faults while writing: full, read-only and shared folders, links, FIFOs, devices, interrupts.
 
 Every writer (Result.write_json, the command line's --json, the report, the C export) goes
 through :func:`workbench.core.files.write_atomic`; these tests attack it and its users:
@@ -9,6 +9,11 @@ through :func:`workbench.core.files.write_atomic`; these tests attack it and its
   was;
 - a KeyboardInterrupt in the middle of a write leaves nothing partial;
 - a user's files next to the target (``PATH.probe``, ``PATH.partial``) are never touched;
+- a symbolic link is written through (its target replaced atomically, the link kept; a
+  dangling link creates its target only in an existing folder; a loop is refused), and a
+  FIFO, a socket, a directory or a device (``/dev/null``), at the path or at a link's
+  target, is refused before anything is written (before any problem runs, on the command
+  line) and left as it was;
 - new files and folders get the umask's mode, not 0600/0700;
 - generated C and Makefiles do not carry injected code from free-text fields;
 - a corrupt compile-cache entry is found by content hash, rebuilt with a warning;
@@ -26,6 +31,7 @@ import os
 import re
 import stat
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -152,6 +158,138 @@ def test_an_empty_or_non_path_output_is_an_error(tmp_path, bad):
 
 
 # ----------------------------------------------------------------------------------------
+# what the writer does not own: links are written through, nothing else is replaced
+
+
+def test_a_symlink_is_written_through_to_its_target_atomically(tmp_path):
+    """The link stays a link; its target (in another folder) gets the new content, through
+    a temporary file in the target's folder; nothing is left in either folder."""
+    real, links = tmp_path / "real", tmp_path / "links"
+    real.mkdir()
+    links.mkdir()
+    (real / "r.json").write_text("old")
+    link = links / "r.json"
+    link.symlink_to(Path("..") / "real" / "r.json")  # relative, as users make them
+    _result().write_json(link)
+    assert link.is_symlink() and os.readlink(link) == os.path.join("..", "real", "r.json")
+    assert json.loads((real / "r.json").read_text())["name"] == "faults"
+    assert _listing(real) == ["r.json"] and _listing(links) == ["r.json"]
+
+
+def test_a_chain_of_links_is_followed_to_its_end(tmp_path):
+    (tmp_path / "file.txt").write_text("old")
+    (tmp_path / "l2").symlink_to("file.txt")
+    (tmp_path / "l1").symlink_to("l2")
+    assert files.write_atomic(tmp_path / "l1", "new") == tmp_path / "l1"
+    assert (tmp_path / "l1").is_symlink() and (tmp_path / "l2").is_symlink()
+    assert (tmp_path / "file.txt").read_text() == "new"
+    assert not (tmp_path / "file.txt").is_symlink()
+    assert _listing(tmp_path) == ["file.txt", "l1", "l2"]
+
+
+def test_a_dangling_link_creates_its_target_only_in_an_existing_folder(tmp_path):
+    (tmp_path / "new").symlink_to("made.txt")
+    files.write_atomic(tmp_path / "new", "made")
+    assert (tmp_path / "made.txt").read_text() == "made" and (tmp_path / "new").is_symlink()
+    (tmp_path / "nowhere").symlink_to(tmp_path / "missing" / "x.txt")
+    with pytest.raises(OutputError, match=r"symbolic link to .*missing/x\.txt.*does not "
+                                          r"exist"):
+        files.write_atomic(tmp_path / "nowhere", "x")
+    assert not (tmp_path / "missing").exists()
+    assert _listing(tmp_path) == ["made.txt", "new", "nowhere"]
+
+
+def test_a_loop_of_links_is_refused(tmp_path):
+    (tmp_path / "a").symlink_to("b")
+    (tmp_path / "b").symlink_to("a")
+    with pytest.raises(OutputError, match="loop of links"):
+        files.write_atomic(tmp_path / "a", "x")
+    assert _listing(tmp_path) == ["a", "b"]
+    assert os.readlink(tmp_path / "a") == "b" and os.readlink(tmp_path / "b") == "a"
+
+
+def _socket_at(path: Path):
+    import socket
+
+    if len(os.fsencode(path)) >= 100:  # sun_path holds 108 bytes
+        pytest.skip("the temporary folder's path is too long for a unix socket")
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    sock.bind(str(path))
+    return sock
+
+
+@pytest.mark.parametrize("kind", ["fifo", "socket", "directory"])
+@pytest.mark.parametrize("via_link", [False, True])
+def test_a_fifo_socket_or_directory_is_refused_and_kept(tmp_path, kind, via_link):
+    """Refused before anything is written, naming what it is; it stays what it was."""
+    entry = tmp_path / "thing"
+    sock = None
+    if kind == "fifo":
+        os.mkfifo(entry)
+    elif kind == "socket":
+        sock = _socket_at(entry)
+    else:
+        entry.mkdir()
+    what = {"fifo": r"a FIFO \(named pipe\)", "socket": "a socket",
+            "directory": "a directory"}[kind]
+    path = entry
+    if via_link:
+        path = tmp_path / "link"
+        path.symlink_to(entry)
+    try:
+        with pytest.raises(OutputError, match=rf"is {what}, expected a file path") as info:
+            files.write_atomic(path, "x")
+        with pytest.raises(OutputError, match=rf"is {what}"):
+            _result().write_json(path)
+    finally:
+        if sock is not None:
+            sock.close()
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+    if via_link:
+        assert "symbolic link to" in str(info.value) and path.is_symlink()
+    test = {"fifo": stat.S_ISFIFO, "socket": stat.S_ISSOCK, "directory": stat.S_ISDIR}[kind]
+    assert test(os.lstat(entry).st_mode)
+    assert _listing(tmp_path) == sorted(["thing", *(["link"] if via_link else [])])
+
+
+@pytest.fixture
+def dev_guarded(monkeypatch):
+    """A writer that regressed must not replace /dev/null for the whole machine (as root
+    it could): a temporary file or a rename in /dev fails the test instead."""
+    real_mkstemp, real_replace = tempfile.mkstemp, os.replace
+
+    def in_dev(path) -> bool:
+        return (os.path.realpath(path) + "/").startswith("/dev/")
+
+    def mkstemp(*args, dir=None, **kwargs):
+        assert dir is None or not in_dev(dir), f"a temporary file in {dir}"
+        return real_mkstemp(*args, dir=dir, **kwargs)
+
+    def replace(src, dst):
+        assert not in_dev(dst), f"{dst} replaced"
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(os, "replace", replace)
+
+
+@pytest.mark.parametrize("via_link", [False, True])
+def test_a_device_is_refused_and_kept(tmp_path, via_link, dev_guarded):
+    """/dev/null (a character device) is never replaced by a regular file, even as root."""
+    before = os.stat("/dev/null")
+    assert stat.S_ISCHR(before.st_mode)
+    path = Path("/dev/null")
+    if via_link:
+        path = tmp_path / "null"
+        path.symlink_to("/dev/null")
+    with pytest.raises(OutputError, match="is a character device, expected a file path"):
+        files.write_atomic(path, "x")
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+    assert _listing(tmp_path) == (["null"] if via_link else [])
+
+
+# ----------------------------------------------------------------------------------------
 # the command line
 
 
@@ -178,6 +316,55 @@ def test_cli_json_on_a_full_disk_is_one_line_and_nothing_partial(tmp_path, monke
     assert code == 2
     assert len(err.splitlines()) == 1 and "No space left" in err and "Traceback" not in err
     assert _listing(tmp_path) == ["out.json.probe"]
+
+
+def _tiny_problems(monkeypatch, solved: list):
+    from workbench.app import cli
+
+    class Tiny:
+        def solve(self, quick=False):
+            solved.append(quick)
+            return _result()
+
+    monkeypatch.setattr(cli, "_problems", lambda: type(
+        "P", (), {"names": staticmethod(lambda: ["tiny"]),
+                  "load": staticmethod(lambda name: Tiny())}))
+    return cli
+
+
+def test_cli_json_through_a_link_writes_its_target(tmp_path, monkeypatch, capsys):
+    solved: list = []
+    cli = _tiny_problems(monkeypatch, solved)
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "out.json").write_text("stale")
+    (tmp_path / "out.json").symlink_to(Path("data") / "out.json")
+    assert cli.main(["run", "tiny", "--json", str(tmp_path / "out.json")]) == 0
+    assert (tmp_path / "out.json").is_symlink()
+    assert json.loads((tmp_path / "data" / "out.json").read_text())["values"]["x"] == 1.0
+    assert _listing(tmp_path) == ["data", "data/out.json", "out.json"]
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "link to fifo"])
+def test_cli_json_to_a_fifo_or_device_is_refused_before_any_work(tmp_path, monkeypatch,
+                                                                 capsys, kind, dev_guarded):
+    solved: list = []
+    cli = _tiny_problems(monkeypatch, solved)
+    path = tmp_path / "out.json"
+    if kind == "device":
+        path = Path("/dev/null")
+    elif kind == "link to fifo":
+        os.mkfifo(tmp_path / "fifo")
+        path.symlink_to("fifo")
+    else:
+        os.mkfifo(path)
+    code = cli.main(["run", "tiny", "--json", str(path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and solved == [], "refused before the problem ran"
+    what = "a character device" if kind == "device" else r"a FIFO \(named pipe\)"
+    assert len(err.splitlines()) == 1 and re.search(rf"--json: .*is {what}", err), err
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    if kind != "device":
+        assert stat.S_ISFIFO(os.stat(path).st_mode)
 
 
 @pytest.mark.parametrize("argv", [["run", "pendulum3d_invariants", "--json", ""],

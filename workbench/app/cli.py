@@ -24,7 +24,7 @@ from typing import NoReturn
 
 from workbench.app.export_cli import add_export_c_parser
 from workbench.core.errors import WorkbenchError
-from workbench.core.files import writable_dir, write_atomic
+from workbench.core.files import writable_dir, writable_file, write_atomic
 from workbench.core.validate import output_path
 from workbench.study._result import PROGRESS_ENV, Result, format_result, to_jsonable
 
@@ -56,9 +56,10 @@ def _problems():  # imported lazily: the engine does not depend on the problem c
 def _writable_json(path: str) -> Path:
     """``--json PATH`` checked before any problem runs, without writing anything."""
     p = output_path("--json", path, error=CLIError)
-    if p.is_dir():
-        raise CLIError(f"--json: {path!r} is a directory, expected a file path")
-    writable_dir(p.parent, name="--json", error=CLIError)
+    # a directory, FIFO, socket or device (or a link to one) is refused; a link is
+    # written through, so its target's folder is the one that must be writable
+    target = writable_file(p, name="--json", error=CLIError)
+    writable_dir(target.parent, name="--json", error=CLIError)
     return p
 
 
@@ -69,6 +70,18 @@ def _positive_int(text: str) -> int:
         value = 0
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1; got {text!r}")
+    return value
+
+
+def _jobs(text: str) -> int:
+    """``--jobs N``: a whole number from 1 to the report's bound (checked before any work)."""
+    from workbench.app.report.runner import MAX_JOBS  # the report's modules load on use
+
+    value = _positive_int(text)
+    if value > MAX_JOBS:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number from 1 to {MAX_JOBS} (problems run at the same time; "
+            f"at most one process per problem is used); got {text!r}")
     return value
 
 
@@ -262,8 +275,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="output directory (default: reports/out/ of the repository)")
     p_rep.add_argument("--no-progress", action="store_true",
                        help="do not show per-problem progress on stderr")
-    p_rep.add_argument("--jobs", type=_positive_int, default=None, metavar="N",
-                       help="problems run at the same time (default: the number of cores)")
+    p_rep.add_argument("--jobs", type=_jobs, default=None, metavar="N",
+                       help="problems run at the same time (default: the number of cores; "
+                       "at most one process per problem to run, and 256)")
     p_rep.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
                        help="time limit of one problem in CPU seconds (default 600 quick, "
                        "1200 full); also stopped after 3 times as long in wall time")

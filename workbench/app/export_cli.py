@@ -18,7 +18,9 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from workbench.core.errors import WorkbenchError
+from workbench.codegen.spec import MAX_SAMPLES
+from workbench.core.errors import ParameterError, WorkbenchError
+from workbench.core.validate import count
 
 __all__ = ["add_export_c_parser", "main", "run_export_c"]
 
@@ -63,7 +65,7 @@ def add_export_c_parser(subparsers: argparse._SubParsersAction) -> argparse.Argu
                    help="C compiler of the check build (default: gcc)")
     p.add_argument("--verify", type=int, default=10_000, metavar="N",
                    help="compare the compiled code with casadi on N seeded states "
-                        "(default: 10000; 0 skips)")
+                        f"(default: 10000; 0 skips; at most {MAX_SAMPLES})")
     p.add_argument("--bench", action="store_true",
                    help="also print the median nanoseconds per call, measured in C")
     p.set_defaults(func=run_export_c)
@@ -96,8 +98,10 @@ def run_export_c(args: argparse.Namespace) -> int:
         return _fail("export-c needs a controller NAME (see 'workbench export-c --list')", 2)
     if not args.out:
         return _fail("export-c needs --out DIR (the output directory)", 2)
-    if args.verify < 0:
-        return _fail(f"--verify must be >= 0; got {args.verify}", 2)
+    try:  # bounded before anything is built or drawn
+        count("--verify", args.verify, minimum=0, maximum=MAX_SAMPLES, error=ParameterError)
+    except ParameterError as exc:
+        return _fail(f"{exc} (seeded states compared with casadi; 0 skips the check)", 2)
     try:
         controller = exports.build(args.name)
         binding = codegen.Binding(args.binding)

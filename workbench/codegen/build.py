@@ -37,7 +37,7 @@ import numpy as np
 from workbench.codegen.csource import CFLAGS_WARN, CSources
 from workbench.core.errors import ModelError, WorkbenchError
 from workbench.core.files import apply_umask
-from workbench.core.validate import choice
+from workbench.core.validate import choice, count
 
 __all__ = [
     "CACHE_ENV",
@@ -440,6 +440,10 @@ class BenchResult:
         return f"<pre>{escape(str(self))}</pre>"
 
 
+BENCH_CALLS = 10 ** 8
+"""Most calls of one :func:`bench_c` in all its batches (10 s at 100 ns per call)."""
+
+
 def bench_c(compiled: CompiledController, *, calls: int = 20_000, batches: int = 501
             ) -> BenchResult:
     """Run the compiled benchmark program.
@@ -450,14 +454,26 @@ def bench_c(compiled: CompiledController, *, calls: int = 20_000, batches: int =
         A compiled controller.
     calls : int
         Calls per batch. Short batches (the default lasts well under a millisecond) let
-        the median over batches discard the ones a busy machine preempted.
+        the median over batches discard the ones a busy machine preempted; ``calls *
+        batches <= BENCH_CALLS``.
     batches : int
         Number of batches (1 to 1001); the median over batches is reported.
 
     Returns
     -------
     BenchResult
+
+    Raises
+    ------
+    ModelError
+        ``calls`` or ``batches`` out of range (checked before the program runs).
     """
+    batches = count("batches", batches, maximum=1001, error=ModelError)
+    try:
+        calls = count("calls", calls, maximum=BENCH_CALLS // batches, error=ModelError)
+    except ModelError as exc:
+        raise ModelError(f"{exc} (calls per batch: at most BENCH_CALLS = {BENCH_CALLS} calls "
+                         f"in all over the {batches} batches)") from None
     out = _run([str(compiled.directory / "bench"), str(int(calls)), str(int(batches))],
                cwd=compiled.directory, what=f"benchmark of {compiled.sources.name}").stdout
     vals = dict(re.findall(r"(\w+)=(\S+)", out))

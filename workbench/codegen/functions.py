@@ -31,13 +31,19 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from workbench.codegen._solves import LinearSolver, generable
 from workbench.codegen.build import Optimization, build_cached
-from workbench.codegen.lanes import lanes_source
+from workbench.codegen.lanes import (
+    _check_states,
+    _width_value,
+    check_lane_width,
+    lanes_source,
+    max_lane_width,
+)
 from workbench.core._evaluator import Evaluator
-from workbench.core._solve import solve_spd
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike
-from workbench.core.validate import choice, count
+from workbench.core.validate import choice
 
 __all__ = [
     "BatchEvaluator",
@@ -99,31 +105,6 @@ class Parallelization(str, Enum):
     def _missing_(cls, value: object) -> Parallelization:
         raise ModelError(f"parallelization must be one of {[p.value for p in cls]}; got "
                          f"{value!r}")
-
-
-class LinearSolver(str, Enum):
-    """Replacement of the linear solves casadi cannot write as C.
-
-    Attributes
-    ----------
-    QR
-        casadi's sparse QR (``"qr"``): any nonsingular matrix.
-    LDL
-        casadi's sparse LDL^T (``"ldl"``): symmetric matrices only (mass matrices).
-    DENSE_LDL
-        A dense LDL^T without pivoting written as scalar (SX) operations, so that the
-        whole function becomes straight-line C: the fastest, for symmetric positive
-        definite matrices only (mass matrices); the matrix is never checked.
-    """
-
-    QR = "qr"
-    LDL = "ldl"
-    DENSE_LDL = "dense_ldl"
-
-    @classmethod
-    def _missing_(cls, value: object) -> LinearSolver:
-        raise ModelError(f"linear_solver must be one of {[s.value for s in cls]} (or a "
-                         f"LinearSolver); got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -216,104 +197,6 @@ class CompiledFunction:
     __repr__ = __str__
 
 
-_HELPER = "wb_generable_solve_"
-"""Prefix of the functions that hold the replacement solves (never inlined again)."""
-
-
-def _targets(outputs: list[ca.MX]) -> tuple[list[ca.MX], list[ca.MX]]:
-    """The linear-solve nodes and the outputs of calls to MX functions in a graph."""
-    seen: set[int] = set()
-    stack, solves, calls = list(outputs), [], []
-    while stack:
-        e = stack.pop()
-        key = e.__hash__()
-        if key in seen:
-            continue
-        seen.add(key)
-        if e.is_op(ca.OP_SOLVE):
-            solves.append(e)
-        elif e.is_output() and e.dep(0).is_op(ca.OP_CALL):
-            g = e.dep(0).which_function()
-            if g.is_a("MXFunction") and not g.name().startswith(_HELPER):
-                calls.append(e)
-        stack.extend(e.dep(i) for i in range(e.n_dep()))
-    return solves, calls
-
-
-def _dense_ldl_solve(n: int, m: int) -> ca.Function:
-    """``(A, B) -> A^{-1} B`` by L D L^T without pivoting, in scalar operations (SX).
-
-    The symbolic solve is :func:`workbench.core.solve_spd`, the one the SX replay of a
-    model with symmetric positive definite solves writes (``sx_function(spd=True)``).
-    """
-    A, B = ca.SX.sym("A", n, n), ca.SX.sym("B", n, m)
-    return ca.Function(f"dense_ldl_solve_{n}x{m}", [A, B], [solve_spd(A, B)])
-
-
-def _replacement(solver: LinearSolver, n: int, m: int) -> ca.Function:
-    """``(A, B) -> A^{-1} B`` with the replacement solver, as a named function."""
-    if solver is LinearSolver.DENSE_LDL:
-        return _dense_ldl_solve(n, m)
-    A, B = ca.MX.sym("A", n, n), ca.MX.sym("B", n, m)
-    return ca.Function(f"{_HELPER}{solver.value}_{n}x{m}", [A, B],
-                       [ca.solve(A, B, solver.value)])
-
-
-def generable(fn: ca.Function, linear_solver: LinearSolver | str = LinearSolver.QR
-              ) -> tuple[ca.Function, tuple[str, ...]]:
-    """``fn`` with every linear solve of its graph replaced by ``linear_solver``.
-
-    Only needed for MX functions whose solves use a plugin casadi cannot write as C; SX
-    functions and functions without solves are returned unchanged. Calls of nested MX
-    functions are inlined (their values are kept; a custom Jacobian attached to one is
-    replaced by automatic differentiation of its inlined graph). With
-    :attr:`LinearSolver.DENSE_LDL` the result is expanded to one SX function (straight-line
-    code) when the rest of the graph allows it.
-
-    Parameters
-    ----------
-    fn : casadi.Function
-        The function.
-    linear_solver : LinearSolver or str
-        The replacement (see :class:`LinearSolver`).
-
-    Returns
-    -------
-    tuple of (casadi.Function, tuple of str)
-        The function (same name, inputs and outputs) and a description of each
-        replacement.
-    """
-    solver = choice(LinearSolver, linear_solver, "linear_solver", error=ModelError)
-    if not fn.is_a("MXFunction"):
-        return fn, ()
-    args = fn.mx_in()
-    outs = fn.call(args, True, False)
-    replaced = []
-    for _ in range(100):  # each round inlines one level of nested MX functions
-        solves, calls = _targets(outs)
-        if not solves and not calls:
-            break
-        new = [c.dep(0).which_function().call(
-            [c.dep(0).dep(k) for k in range(c.dep(0).n_dep())], True, False)[c.which_output()]
-            for c in calls]
-        for s in solves:
-            A = s.dep(1).T if s.info().get("tr", False) else s.dep(1)
-            b = s.dep(0)
-            replaced.append(f"{A.shape[0]}x{A.shape[1]}")
-            new.append(_replacement(solver, A.shape[0], b.shape[1])(A, b))
-        outs = ca.graph_substitute(outs, calls + solves, new)
-    if not replaced:
-        return fn, ()
-    out = ca.Function(fn.name(), args, outs, fn.name_in(), fn.name_out())
-    if solver is LinearSolver.DENSE_LDL:
-        try:
-            out = out.expand()
-        except RuntimeError:
-            pass  # a node that cannot be expanded: keep the MX graph
-    return out, (f"{len(replaced)} linear solve(s) ({', '.join(replaced)}) -> "
-                 f"{solver.value}",)
-
-
 def batch_function(fn: ca.Function, n: int, *, shared: Sequence[str] = (),
                    parallelization: Parallelization | str = Parallelization.SERIAL
                    ) -> ca.Function:
@@ -327,7 +210,8 @@ def batch_function(fn: ca.Function, n: int, *, shared: Sequence[str] = (),
     fn : casadi.Function
         The function of one state.
     n : int
-        States per call.
+        States per call: at most :func:`workbench.codegen.lanes.max_states` (the inputs and
+        outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 128 MiB).
     shared : sequence of str
         Names of the inputs common to all states.
     parallelization : Parallelization or str
@@ -337,16 +221,55 @@ def batch_function(fn: ca.Function, n: int, *, shared: Sequence[str] = (),
     -------
     casadi.Function
         Named ``<name>_batch<n>``.
+
+    Raises
+    ------
+    ModelError
+        ``n`` is not a whole number in range, or ``shared`` names no input.
     """
-    n = count("n", n, error=ModelError)
     par = choice(Parallelization, parallelization, "parallelization", error=ModelError)
+    reduce_in = _shared_inputs(fn, shared)
+    n = _check_states(fn, n, shared)
+    return fn.map(f"{fn.name()}_batch{n}", par.value, n, reduce_in, [])
+
+
+def _shared_inputs(fn: ca.Function, shared: Sequence[str]) -> list[int]:
+    """The indices of the inputs named in ``shared`` (each must be an input of ``fn``)."""
     names = fn.name_in()
+    if isinstance(shared, str) or not isinstance(shared, (list, tuple)) or \
+            not all(isinstance(s, str) for s in shared):
+        raise ModelError(f"shared must be a sequence of input names (e.g. ('p',)); got "
+                         f"{shared!r}")
     unknown = [s for s in shared if s not in names]
     if unknown:
         raise ModelError(f"shared inputs {unknown} are not inputs of {fn.name()} "
                          f"(inputs {names})")
-    reduce_in = [names.index(s) for s in shared]
-    return fn.map(f"{fn.name()}_batch{n}", par.value, n, reduce_in, [])
+    return [names.index(s) for s in shared]
+
+
+def _vector_layout(fn: ca.Function) -> None:
+    """Refuse inputs and outputs a batch's rows cannot hold without a layout convention.
+
+    A batch's data have one row per state. A dense vector (column or row) is that row; a
+    matrix would be read in casadi's column-major order from the row-major rows, and a
+    sparse vector would take only its structural nonzeros, so both are refused.
+    """
+    for kind, total, sp, names in (("input", fn.n_in(), fn.sparsity_in, fn.name_in),
+                                   ("output", fn.n_out(), fn.sparsity_out, fn.name_out)):
+        for i in range(total):
+            s = sp(i)
+            rows, cols = s.size()
+            if rows > 1 and cols > 1:
+                raise ModelError(
+                    f"{fn.name()}: {kind} {names(i)!r} is a {rows}x{cols} matrix; a batch "
+                    "takes one row of data per state, so every input and output must be a "
+                    "vector (a matrix would be read in casadi's column-major order): pass "
+                    f"casadi.vec of it (column-major) and reshape inside {fn.name()}")
+            if not s.is_dense():
+                raise ModelError(
+                    f"{fn.name()}: {kind} {names(i)!r} is a sparse vector ({s.nnz()} of "
+                    f"{s.numel()} entries structurally nonzero); a batch takes dense vectors "
+                    "(casadi.densify it)")
 
 
 def _generate(fn: ca.Function, with_jacobian: bool) -> str:
@@ -458,38 +381,50 @@ def _build(name: str, code: str, opt: Optimization, compiler: str,
 
 
 def _compile_lanes(one: ca.Function, n: int, shared: tuple[str, ...], width: int | None,
-                   optimization: Optimization | str, compiler: str,
+                   opt: Optimization, compiler: str,
                    cache_dir: str | os.PathLike | None, subs: tuple[str, ...],
                    t0: float) -> CompiledFunction:
     """The lane-vectorised batch of ``one`` compiled (see :mod:`workbench.codegen.lanes`)."""
-    opt = choice(Optimization, optimization, "optimization", error=ModelError)
-    if width is None:
-        width = 4 if opt is Optimization.NATIVE else 2
     if one.is_a("MXFunction"):
         try:
             one = one.expand()
         except RuntimeError as exc:
             raise ModelError(f"parallelization 'lanes' needs {one.name()} as straight-line "
                              f"SX code; casadi cannot expand it: {exc}") from None
+    if width is None:  # the default: one register, or the widest the bounds allow
+        width = min(4 if opt is Optimization.NATIVE else 2, max(max_lane_width(one), 1))
+    width = _lane_width(one, width)  # the function's size is known only once expanded
     name = f"{one.name()}_lanes{width}x{n}"
     code = lanes_source(one, n, name=name, shared=shared, width=width)
     return _build(name, code, opt, compiler, cache_dir, subs, False,
                   time.perf_counter() - t0)
 
 
+def _lane_width(fn: ca.Function, width: int) -> int:
+    """``lane_width`` checked against ``fn``'s size and the stack (named as the argument)."""
+    try:
+        return check_lane_width(fn, width)
+    except ModelError as exc:
+        raise ModelError(f"lane_width: {exc}") from None
+
+
 class BatchEvaluator:
     """Evaluate a function on many states per call, interpreted or compiled.
 
-    Each call takes, for every input not in ``shared``, an array of shape
+    Each call takes, for every input not in ``shared``, a real array of shape
     ``(n, size)`` (one row per state) and, for the shared inputs, one vector; it returns
-    one array of shape ``(n, size)`` per output (a tuple if there are several).
+    one array of shape ``(n, size)`` per output (a tuple if there are several). Complex
+    data are refused (the imaginary part would be lost), as are functions with a matrix
+    or sparse input or output (a row of data per state has no layout for them: pass
+    ``casadi.vec`` of a matrix and reshape inside the function).
 
     Parameters
     ----------
     fn : casadi.Function
-        The function of one state, dense vector inputs and outputs.
+        The function of one state, dense vector (column or row) inputs and outputs.
     n : int
-        States per call.
+        States per call: at most :func:`workbench.codegen.lanes.max_states` (the inputs
+        and outputs of one call hold at most ``MAX_BATCH_ENTRIES`` doubles, 128 MiB).
     shared : sequence of str
         Inputs common to all states (e.g. ``("p",)``).
     compilation : Compilation or str
@@ -499,9 +434,20 @@ class BatchEvaluator:
     optimization, compiler, cache_dir, linear_solver
         As in :func:`compile_function` (for :attr:`Compilation.C`).
     lane_width : int, optional
-        States per instruction of :attr:`Parallelization.LANES` (default: 4 with
+        States per instruction of :attr:`Parallelization.LANES` only (default: 4 with
         ``O3-native``, one AVX2 register of doubles; 2 otherwise, one SSE2 register of
-        the x86-64 baseline). The function must expand to SX (straight-line code).
+        the x86-64 baseline; or the widest the bounds allow for the function, if
+        narrower): a power of two up to ``MAX_LANE_WIDTH`` (8) whose product
+        with the function's instructions and whose stack frame are within
+        ``LANE_BUDGET`` and ``STACK_BUDGET``
+        (:func:`~workbench.codegen.lanes.check_lane_width`; checked before anything is
+        compiled). The function must expand to SX (straight-line code).
+
+    Raises
+    ------
+    ModelError
+        A bad option, a matrix or sparse input or output, ``n`` or ``lane_width`` out of
+        its bounds (the message names the bound).
 
     Attributes
     ----------
@@ -528,17 +474,31 @@ class BatchEvaluator:
             raise ModelError(f"fn must be a casadi.Function; got {type(fn).__name__}")
         how = choice(Compilation, compilation, "compilation", error=ModelError)
         par = choice(Parallelization, parallelization, "parallelization", error=ModelError)
-        self.fn, self.n, self.shared = fn, count("n", n, error=ModelError), tuple(shared)
+        _shared_inputs(fn, shared)
+        _vector_layout(fn)
+        self.fn, self.shared = fn, tuple(shared)
+        self.n = _check_states(fn, n, self.shared)
         self.compiled: CompiledFunction | None = None
         if par is Parallelization.LANES and how is not Compilation.C:
             raise ModelError("parallelization 'lanes' is compiled C: it needs "
                              "compilation='c'")
+        if lane_width is not None and par is not Parallelization.LANES:
+            raise ModelError(f"lane_width applies to parallelization='lanes' only; got "
+                             f"lane_width={lane_width!r} with parallelization={par.value!r}")
+        if par is Parallelization.LANES and lane_width is not None:  # before any work
+            try:
+                lane_width = _width_value(lane_width)
+            except ModelError as exc:
+                raise ModelError(f"lane_width: {exc}") from None
+            if fn.is_a("SXFunction"):
+                _lane_width(fn, lane_width)
         if how is Compilation.C:
             t0 = time.perf_counter()
             one, subs, _ = _generable_code(fn, linear_solver, False)
             if par is Parallelization.LANES:
+                opt = choice(Optimization, optimization, "optimization", error=ModelError)
                 self.compiled = _compile_lanes(one, self.n, self.shared, lane_width,
-                                               optimization, compiler, cache_dir, subs, t0)
+                                               opt, compiler, cache_dir, subs, t0)
             else:
                 batched = batch_function(one, self.n, shared=self.shared,
                                          parallelization=par)
@@ -560,13 +520,19 @@ class BatchEvaluator:
         Raises
         ------
         ModelError
-            A wrong number of arguments, or an argument of the wrong shape (naming it).
+            A wrong number of arguments, or an argument of the wrong shape, complex or
+            not numeric (naming it).
         """
         if len(args) != len(self._sizes):
             raise ModelError(f"{self.fn.name()} takes {len(self._sizes)} inputs "
                              f"{self.fn.name_in()}; got {len(args)} arguments")
         for i, a in enumerate(args):
             name = self.fn.name_in(i)
+            if np.iscomplexobj(a):  # numpy would cast to float and drop the imaginary part
+                raise ModelError(f"{self.fn.name()}: input {name!r} is complex (dtype "
+                                 f"{np.asarray(a).dtype}); a batch evaluates real numbers "
+                                 "and would drop the imaginary part: pass real data "
+                                 "(np.real(a), if the imaginary part is meant to be zero)")
             want = (self._sizes[i],) if name in self.shared else (self.n, self._sizes[i])
             if np.size(a) != int(np.prod(want)) or (
                     name not in self.shared and np.shape(a) != want):

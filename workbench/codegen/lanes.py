@@ -17,6 +17,12 @@ The library has casadi's external interface (loaded with :func:`casadi.external`
 inputs and outputs of the batch are those of ``Function.map(n)`` (one column per state;
 shared inputs once). States beyond a multiple of ``width`` run in a padded block whose
 extra lanes repeat the last state and are not written back.
+
+The width is bounded before any code is written (:func:`check_lane_width`): at most
+:data:`MAX_LANE_WIDTH`, the function's instructions times the width at most
+:data:`LANE_BUDGET` (the compiler's time and memory grow faster than that product), and
+the vectors of one block's frame (casadi's work vector, the inputs and the outputs, each
+``width`` doubles wide, on the caller's stack) at most :data:`STACK_BUDGET` bytes.
 """
 
 from __future__ import annotations
@@ -27,11 +33,34 @@ from collections.abc import Sequence
 import casadi as ca
 
 from workbench.core.errors import ModelError
+from workbench.core.validate import count
 
-__all__ = ["lanes_source", "LANE_WIDTH"]
+__all__ = ["lanes_source", "check_lane_width", "max_lane_width", "max_states", "LANE_WIDTH",
+           "MAX_LANE_WIDTH", "LANE_BUDGET", "STACK_BUDGET", "MAX_BATCH_ENTRIES"]
 
 LANE_WIDTH = 4
 """Default states per vector: one AVX2 register of doubles (two SSE2 registers)."""
+
+MAX_LANE_WIDTH = 8
+"""Widest lanes: the widest SIMD register of doubles (AVX-512, SVE-512). Wider vectors are
+split by the compiler into as many registers (no faster), while its time and memory grow
+faster than the width: the chain on a cart with two links (755 instructions) compiled at
+``-O2`` in 0.6 s at width 8, 6 s at 32 and 91 s with 1 GB at 128."""
+
+LANE_BUDGET = 2 ** 17
+"""Largest instructions x width of a lane-vectorised function (gcc at ``-O2``: 3581
+instructions at width 8, 28 648, took 6 s and 0.2 GB; at width 16, 57 296, 14.5 s and
+0.45 GB)."""
+
+STACK_BUDGET = 2 ** 20
+"""Largest frame of one block [bytes]: the work, input and output vectors live on the
+caller's stack (8 MiB for the main thread on Linux, often less for other threads)."""
+
+MAX_BATCH_ENTRIES = 2 ** 24
+"""Largest number of doubles one call of a batch holds: the inputs and outputs of all its
+states (128 MiB); more states go in several calls. casadi builds a batch in time linear
+in its size: 4 * 10^6 states of a function of 2 inputs and 2 outputs (the bound) took
+1.4 s to build and 1.1 s per call through casadi's virtual machine."""
 
 _VECTOR = {"OP_ADD": "{x} + {y}", "OP_SUB": "{x} - {y}", "OP_MUL": "{x} * {y}",
            "OP_DIV": "{x} / {y}", "OP_NEG": "-{x}", "OP_SQ": "{x} * {x}",
@@ -75,14 +104,127 @@ def _table() -> dict[int, tuple[str, str]]:
 
 
 def _dense_vectors(fn: ca.Function) -> None:
-    for kind, count, sp in (("input", fn.n_in(), fn.sparsity_in),
+    for kind, total, sp in (("input", fn.n_in(), fn.sparsity_in),
                             ("output", fn.n_out(), fn.sparsity_out)):
-        for i in range(count):
+        for i in range(total):
             s = sp(i)
             if not (s.is_dense() and s.size2() == 1):
                 raise ModelError(f"{fn.name()}: lane-vectorised C needs dense column "
                                  f"vectors; {kind} {i} has shape {s.size()} with "
                                  f"{s.nnz()} nonzeros")
+
+
+def max_states(fn: ca.Function, shared: Sequence[str] = ()) -> int:
+    """Most states one call of a batch of ``fn`` may take (:data:`MAX_BATCH_ENTRIES`).
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        The function of one state.
+    shared : sequence of str
+        Inputs given once for all states.
+
+    Returns
+    -------
+    int
+        ``(MAX_BATCH_ENTRIES - shared entries) // entries per state``, at least 1.
+    """
+    once = sum(fn.nnz_in(i) for i in range(fn.n_in()) if fn.name_in(i) in shared)
+    per_state = sum(fn.nnz_in(i) for i in range(fn.n_in()) if fn.name_in(i) not in shared)
+    per_state += sum(fn.nnz_out(i) for i in range(fn.n_out()))
+    return max(1, (MAX_BATCH_ENTRIES - once) // max(per_state, 1))
+
+
+def _check_states(fn: ca.Function, n: object, shared: Sequence[str]) -> int:
+    """``n`` as a number of states of one call of ``fn``, bounded by :func:`max_states`."""
+    limit = max_states(fn, shared)
+    try:
+        return count("n", n, maximum=limit, error=ModelError)
+    except ModelError as exc:
+        raise ModelError(f"{exc} (states per call of {fn.name()}: the inputs and outputs of "
+                         f"one call hold at most MAX_BATCH_ENTRIES = {MAX_BATCH_ENTRIES} "
+                         "doubles, 128 MiB; split larger sets into several calls)") from None
+
+
+def _width_value(width: object) -> int:
+    """``width`` checked without the function: a power of two up to MAX_LANE_WIDTH."""
+    if isinstance(width, bool) or not isinstance(width, int) or width < 1 or \
+            width & (width - 1) or width > MAX_LANE_WIDTH:
+        raise ModelError(f"width must be a power of two (1, 2, 4 or {MAX_LANE_WIDTH}: a "
+                         f"vector of doubles, at most the widest SIMD register, "
+                         f"MAX_LANE_WIDTH = {MAX_LANE_WIDTH}); got {width!r}")
+    return width
+
+
+def _frame_vectors(fn: ca.Function) -> int:
+    """Vectors on one block's stack: casadi's work, the inputs, the outputs, two more."""
+    return (fn.sz_w() + sum(max(fn.nnz_in(i), 1) for i in range(fn.n_in()))
+            + sum(max(fn.nnz_out(i), 1) for i in range(fn.n_out())) + 2)
+
+
+def _too_wide(fn: ca.Function, width: int) -> str:
+    """Why ``width`` lanes of ``fn`` exceed the bounds ("" if they do not)."""
+    ops, frame = fn.n_instructions() * width, 8 * width * _frame_vectors(fn)
+    if ops > LANE_BUDGET:
+        return (f"{fn.n_instructions()} instructions x {width} lanes = {ops} > LANE_BUDGET = "
+                f"{LANE_BUDGET} (the compiler's time and memory grow with it)")
+    if frame > STACK_BUDGET:
+        return (f"its frame of {_frame_vectors(fn)} vectors of {width} doubles is {frame} "
+                f"bytes > STACK_BUDGET = {STACK_BUDGET} bytes of stack")
+    return ""
+
+
+def max_lane_width(fn: ca.Function) -> int:
+    """The widest lanes allowed for ``fn`` (0 if even one lane exceeds the bounds).
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        An SX function of one state.
+
+    Returns
+    -------
+    int
+        The largest power of two ``w <= MAX_LANE_WIDTH`` with ``fn.n_instructions() * w
+        <= LANE_BUDGET`` and a frame of at most ``STACK_BUDGET`` bytes; 0 if none.
+    """
+    w = MAX_LANE_WIDTH
+    while w >= 1 and _too_wide(fn, w):
+        w //= 2
+    return w
+
+
+def check_lane_width(fn: ca.Function, width: object) -> int:
+    """``width`` lanes of ``fn``, checked against the bounds before any code is written.
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        An SX function of one state.
+    width : int
+        States per vector.
+
+    Returns
+    -------
+    int
+        ``width``.
+
+    Raises
+    ------
+    ModelError
+        ``width`` is not a power of two up to :data:`MAX_LANE_WIDTH`, or ``fn`` at this
+        width exceeds :data:`LANE_BUDGET` or :data:`STACK_BUDGET` (the message names the
+        bound and the widest width allowed).
+    """
+    width = _width_value(width)
+    why = _too_wide(fn, width)
+    if why:
+        widest = max_lane_width(fn)
+        hint = (f"the widest allowed for it is {widest}" if widest else
+                "no width fits: use parallelization='serial'")
+        raise ModelError(f"width {width} is too wide for lane-vectorised C of {fn.name()}: "
+                         f"{why}; {hint}")
+    return width
 
 
 def lanes_source(fn: ca.Function, n: int, *, name: str, shared: Sequence[str] = (),
@@ -100,7 +242,7 @@ def lanes_source(fn: ca.Function, n: int, *, name: str, shared: Sequence[str] = 
     shared : sequence of str
         Inputs given once for all states (as in :func:`workbench.codegen.batch_function`).
     width : int
-        States per vector, a power of two.
+        States per vector, a power of two within the bounds of :func:`check_lane_width`.
 
     Returns
     -------
@@ -111,16 +253,15 @@ def lanes_source(fn: ca.Function, n: int, *, name: str, shared: Sequence[str] = 
     ------
     ModelError
         ``fn`` is not an SX function, has a non-vector input or output, or an operation
-        this writer does not know (named: use the serial batch instead).
+        this writer does not know (named: use the serial batch instead); ``width`` or
+        ``n`` is out of its bounds (:func:`check_lane_width`, :func:`max_states`).
     """
     if not isinstance(fn, ca.Function) or not fn.is_a("SXFunction"):
         raise ModelError(f"lane-vectorised C needs an SX function (straight-line code); got "
                          f"{fn.class_name() if isinstance(fn, ca.Function) else type(fn)}")
-    if isinstance(width, bool) or not isinstance(width, int) or width < 1 or \
-            width & (width - 1):
-        raise ModelError(f"width must be a power of two (1, 2, 4, 8, ...; a vector of "
-                         f"doubles); got {width!r}")
     _dense_vectors(fn)
+    n = _check_states(fn, n, shared)
+    width = check_lane_width(fn, width)
     ops = _table()
     op_names = {int(getattr(ca, a)): a for a in dir(ca) if a.startswith("OP_")}
     is_shared = [fn.name_in(i) in shared for i in range(fn.n_in())]

@@ -28,9 +28,15 @@ from workbench.core import validate
 from workbench.core._model import Context, Model
 from workbench.core.errors import ModelError
 
-__all__ = ["Binding", "Entry", "ExportableController", "Law", "Sampler"]
+__all__ = ["Binding", "Entry", "ExportableController", "Law", "Sampler", "MAX_SAMPLES"]
 
 E3 = np.array([0.0, 0.0, 1.0])
+
+MAX_SAMPLES = 1_000_000
+"""Most test states of one :meth:`ExportableController.sample_states` (and of ``workbench
+export-c --verify``): checking 10^5 states of a small controller against casadi takes
+about 0.7 s, so the bound is about ten seconds of checking and, for a state of 100
+entries, 0.8 GB of states."""
 
 
 class Binding(str, Enum):
@@ -247,5 +253,24 @@ class ExportableController:
         return fn
 
     def sample_states(self, n: int, *, seed: int) -> np.ndarray:
-        """``n`` seeded test states, shape ``(n, nx)`` (see :attr:`sampler`)."""
-        return np.asarray(self.sampler(np.random.default_rng(seed), int(n)), dtype=float)
+        """``n`` seeded test states, shape ``(n, nx)`` (see :attr:`sampler`).
+
+        Parameters
+        ----------
+        n : int
+            Number of states, 1 to :data:`MAX_SAMPLES` (checked before any is drawn).
+        seed : int
+            Seed of the generator (>= 0).
+
+        Returns
+        -------
+        ndarray, shape=(n, nx)
+
+        Raises
+        ------
+        ModelError
+            ``n`` or ``seed`` is not a whole number in range.
+        """
+        n = validate.count("n", n, maximum=MAX_SAMPLES, error=ModelError)
+        seed = validate.count("seed", seed, minimum=0, error=ModelError)
+        return np.asarray(self.sampler(np.random.default_rng(seed), n), dtype=float)

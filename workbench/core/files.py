@@ -13,12 +13,23 @@ report) goes through :func:`write_atomic`:
   file is removed and the target is left as it was; an :class:`OSError` becomes an
   :class:`~workbench.core.errors.OutputError` whose one-line message names the path and
   the reason;
-- an empty output path is refused (it is not "the current directory").
+- an empty output path is refused (it is not "the current directory");
+- a path that is a symbolic link is written *through*: the link stays, and the file it
+  points to (the end of its chain of links) is replaced atomically, by a temporary file
+  in the target's own folder. A dangling link creates its target when the target's folder
+  exists (as ``echo > link`` does), and is refused otherwise; a loop of links is refused;
+- anything at the path (or at a link's target) that is not a regular file is refused
+  before anything is written, naming what it is: a directory, a FIFO (named pipe), a
+  socket, a character device (``/dev/null``, a terminal) or a block device. Replacing one
+  with a regular file would destroy what another program owns, and writing into it would
+  not be atomic. (Checked before the rename: an entry swapped in between by another
+  process is replaced.)
 """
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -27,7 +38,8 @@ from workbench.core._proc import proc_status
 from workbench.core.errors import OutputError, WorkbenchError
 from workbench.core.validate import output_path
 
-__all__ = ["write_atomic", "writable_dir", "make_dir", "temp_dir", "umask", "apply_umask"]
+__all__ = ["write_atomic", "writable_file", "writable_dir", "make_dir", "temp_dir", "umask",
+           "apply_umask"]
 
 
 def umask() -> int:
@@ -155,6 +167,73 @@ def temp_dir(
     return tmp
 
 
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"))
+"""What an entry that is not a regular file is, for the message."""
+
+
+def _kind(mode: int) -> str:
+    for test, what in _KINDS:
+        if test(mode):
+            return what
+    return "not a regular file"
+
+
+def writable_file(
+    path: Any, *, name: str = "path", error: type[WorkbenchError] = OutputError
+) -> Path:
+    """The regular file a write to ``path`` replaces: ``path``, or the file its link names.
+
+    Checked without writing anything. A symbolic link is followed to the end of its
+    chain: the file there is the one written (a dangling link's target is created if its
+    folder exists). Nothing that is not a regular file is ever replaced.
+
+    Parameters
+    ----------
+    path : path-like
+        The output path.
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if ``path`` cannot be written as a regular file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` itself, or (for a symbolic link) the absolute path of its target.
+
+    Raises
+    ------
+    WorkbenchError
+        Of class ``error``: an empty path; ``path`` or its link's target is a directory,
+        a FIFO, a socket or a device; a loop of links; the folder of the file to write
+        does not exist.
+    """
+    p = output_path(name, path, error=error)
+    target, what = p, f"{str(p)!r}"
+    if p.is_symlink():
+        target = Path(os.path.realpath(p))
+        what = f"{str(p)!r} (a symbolic link to {str(target)!r})"
+        if target.is_symlink():  # realpath stops where a chain of links loops
+            raise error(f"{name}: {str(p)!r} is a symbolic link in a loop of links "
+                        f"(through {str(target)!r}); nothing was written")
+    try:
+        mode = os.stat(target).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:  # e.g. a component that is a file, or no search permission
+        raise error(f"{name}: cannot write {what} ({_reason(exc)}); nothing was "
+                    f"written") from exc
+    if mode is not None and not stat.S_ISREG(mode):
+        raise error(f"{name}: {what} is {_kind(mode)}, expected a file path (only a regular "
+                    f"file is replaced); nothing was written")
+    parent = target.parent
+    if not parent.is_dir():
+        raise error(f"{name}: directory {str(parent)!r} of {what} does not exist")
+    return target
+
+
 def write_atomic(
     path: Any,
     data: bytes | str,
@@ -167,7 +246,9 @@ def write_atomic(
     Parameters
     ----------
     path : path-like
-        The target file; its folder must exist. An existing file is replaced atomically.
+        The target file; its folder must exist. An existing regular file is replaced
+        atomically; a symbolic link is written through (its target is replaced, the link
+        kept; see :func:`writable_file`).
     data : bytes or str
         The content (str is written as UTF-8).
     name : str
@@ -183,20 +264,20 @@ def write_atomic(
     Raises
     ------
     WorkbenchError
-        Of class ``error``: an empty path, a folder, a missing or read-only folder, a full
-        disk. Nothing is left behind; the target is unchanged.
+        Of class ``error``: an empty path; a directory, FIFO, socket or device (at the
+        path or at its link's target); a missing or read-only folder; a full disk.
+        Nothing is left behind; the target is unchanged.
     """
     p = output_path(name, path, error=error)
-    if p.is_dir():
-        raise error(f"{name}: {str(p)!r} is a directory, expected a file path")
-    parent = p.parent
-    if not parent.is_dir():
-        raise error(f"{name}: directory {str(parent)!r} of {str(p)!r} does not exist")
+    target = writable_file(p, name=name, error=error)
+    shown = repr(str(p)) if target == p else \
+        f"{str(p)!r} (a symbolic link to {str(target)!r})"
     payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
+                                   dir=target.parent)
     except OSError as exc:
-        raise error(f"{name}: cannot write {str(p)!r} ({_reason(exc)})") from exc
+        raise error(f"{name}: cannot write {shown} ({_reason(exc)})") from exc
     try:
         try:
             view = memoryview(payload)
@@ -205,14 +286,14 @@ def write_atomic(
             os.fchmod(fd, 0o666 & ~umask())
         finally:
             os.close(fd)
-        os.replace(tmp, p)
+        os.replace(tmp, target)
     except BaseException as exc:  # also KeyboardInterrupt: leave nothing behind
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
         if isinstance(exc, OSError):
-            raise error(f"{name}: cannot write {str(p)!r} ({_reason(exc)}); nothing was "
+            raise error(f"{name}: cannot write {shown} ({_reason(exc)}); nothing was "
                         f"written") from exc
         raise
     return p

@@ -53,9 +53,15 @@ from workbench.app.report.progress import (
 )
 from workbench.app.report.tables import telling_order
 from workbench.core.files import write_atomic
+from workbench.core.validate import count
 from workbench.study._result import CORES_ENV, PROGRESS_ENV
 
-__all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB"]
+__all__ = ["Outcome", "RunStats", "run_all", "DEFAULT_TIMEOUT", "DEFAULT_MEMORY_MB",
+           "MAX_JOBS"]
+
+MAX_JOBS = 256
+"""Most problems run at the same time (``--jobs``): each is a forked process of the report
+(hundreds of MB once it runs); the processes used are also at most the problems to run."""
 
 DEFAULT_TIMEOUT = {True: 600.0, False: 1200.0}
 """Default time limit of one problem [s of CPU time], by quick mode.
@@ -451,7 +457,10 @@ def run_all(
     catalogue : module
         ``load(name)`` gives a problem module with ``TITLE`` and ``solve``.
     jobs : int, optional
-        Problems run at the same time (default: the number of cores).
+        Problems run at the same time, 1 to :data:`MAX_JOBS` (default: the number of
+        cores). The processes used are at most the problems to run (the rest are
+        re-used from the cache); when that is fewer than asked, the progress says so, and
+        ``RunStats.jobs`` is the number used.
     timeout : float, optional
         Time limit of one problem [s of CPU time] (default :data:`DEFAULT_TIMEOUT`; also
         stopped after :data:`WALL_FACTOR` times as long in wall time).
@@ -482,9 +491,13 @@ def run_all(
     Raises
     ------
     ReportInputError
-        If ``rerun`` names something that is not a problem of ``names``.
+        If ``rerun`` names something that is not a problem of ``names``, or ``jobs`` is
+        not a whole number from 1 to :data:`MAX_JOBS`.
     """
-    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    asked = jobs
+    if jobs is not None:
+        jobs = count("--jobs", jobs, maximum=MAX_JOBS, error=ReportInputError)
+    jobs = jobs or min(os.cpu_count() or 1, MAX_JOBS)
     timeout = float(timeout or DEFAULT_TIMEOUT[bool(quick)])
     forced = _check_rerun(rerun, names)
     stream = stream or sys.stderr
@@ -496,6 +509,11 @@ def run_all(
     show = Progress(len(names), stream=stream, enabled=progress, jobs=jobs)
     done, todo = _lookup(names, quick=quick, catalogue=catalogue, cache_dir=cache_dir,
                          rerun=forced, timeout=timeout)
+    # no more processes than problems to run: the number used is the one reported
+    jobs = show.jobs = min(jobs, max(1, len(todo)))
+    if asked is not None and jobs < asked and progress:
+        print(f"--jobs {asked}: {jobs} process(es) used, one per problem to run "
+              f"({len(todo)} to run, {len(done)} re-used from the cache)", file=stream)
     for hit in done.values():
         show.finished(hit, time.monotonic() - t0)
         if on_done:
@@ -506,7 +524,7 @@ def run_all(
     show.plan({j.name: timings.get(f"{mode}/{j.name}") for j in todo})
     ctx = multiprocessing.get_context("fork")
     # cores of each problem's own pools: the cores over the problems that run at once
-    share = max(1, (os.cpu_count() or 1) // max(1, min(jobs, len(todo))))
+    share = max(1, (os.cpu_count() or 1) // jobs)
     # the forked children inherit matplotlib's loaded fonts and parser, and the modules
     # they would each import (one problem alone: its own). The first (longest) problem
     # starts before: it loads what it needs itself while this process loads them for the
