@@ -248,6 +248,36 @@ class Reduction(ReconstructionMixin):
         rv = self.model.check_state(r, name="r")
         return np.asarray(self.lift(rv, self.full.p, self._mu(mu)), dtype=float).ravel()
 
+    def field_at_lift(self, r: Any, u: Any = None, *, theta: float = 0.0,
+                      mu: float | None = None) -> np.ndarray:
+        """The reduced field from the full field at the lift of ``r`` turned by ``theta``.
+
+        ``d pi(x) [f(x, u)]`` at ``x = g_theta lift(r)``: the same for every ``theta`` (and
+        every section) when the full field is invariant, which :func:`reduce` checks and
+        this method lets one measure. At ``theta = 0`` it is the reduced model's field.
+
+        Parameters
+        ----------
+        r : array-like, shape=(n_reduced,)
+            A reduced state.
+        u : array-like, shape=(n_full_inputs,), optional
+            Input of the *full* model (default zero).
+        theta : float
+            The group element (an angle, or a translation's length).
+        mu : float, optional
+            Routh: the momentum value (default the model's).
+
+        Returns
+        -------
+        ndarray, shape=(n_reduced,)
+        """
+        rv = self.model.check_state(r, name="r")
+        theta = validate.real("theta", theta, error=ModelError)
+        uv = self.full._input(u)  # noqa: SLF001 - the full model's own input check
+        x = self.act(self.lift(rv, self.full.p, self._mu(mu)), theta)
+        xd = self.full.function("f")(x, uv, self.full.p)
+        return np.asarray(self.project_rate(x, xd), dtype=float).ravel()
+
     def _amended(self) -> tuple[Any, Any, Any]:
         S = ca.SX
         r, p = S.sym("r", self.n_r), S.sym("p", self.n_p + (self.kind is Kind.ROUTH))
@@ -355,7 +385,8 @@ def _check(red: Reduction, mu: float, rng: np.random.Generator, n_states: int,
         B1, B2 = (np.asarray(rates(xx, uu)[1], dtype=float) for xx in (x1, x2))
         scale = max(float(np.max(np.abs(a0), initial=0.0)), 1e-300)
         g = np.asarray(grad_J(x1), dtype=float).ravel()
-        fu = np.asarray(full.function("f_u")(x1, uu, p), dtype=float).reshape(-1, n_u)
+        fu = (np.asarray(full.function("f_u")(x1, uu, p), dtype=float).reshape(-1, n_u)
+              if n_u else None)
         for k in range(n_u):
             d = float(np.max(np.abs(B1[:, k] - B2[:, k]), initial=0.0))
             col = max(float(np.max(np.abs(B1[:, k]), initial=0.0)), scale)

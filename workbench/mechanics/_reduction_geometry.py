@@ -193,12 +193,12 @@ class Translation(Quotient):
         self.d0 = float(directions[self.f0][self.i0])
 
     def _drop(self, v: Any) -> Any:
-        k = v.shape[0]
-        return ca.vertcat(v[: self.i0], v[self.i0 + 1 : k])
+        # element by element: casadi slices an empty range of a 1x1 matrix as 1x0
+        return ca.vertcat(*[v[i] for i in range(v.shape[0]) if i != self.i0])
 
     def _insert(self, v: Any, value: Any) -> Any:
-        k = v.shape[0] + 1
-        return ca.vertcat(v[: self.i0], value, v[self.i0 : k - 1])
+        els = [v[i] for i in range(v.shape[0])]
+        return ca.vertcat(*els[: self.i0], value, *els[self.i0 :])
 
     def storage(self, kind: Kind) -> list[tuple[str, Any]]:  # noqa: D102
         out: list[tuple[str, Any]] = []
