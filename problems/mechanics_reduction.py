@@ -30,6 +30,11 @@ TITLE = "Reduced and Routh models of the 3D pendulum computed from its Lagrangia
 FIELD_TOL, RECON_TOL, RE_TOL = 1e-11, 1e-8, 1e-9
 BODY = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.0140, 0.1044, 0.4989]),
         "m": 1.0, "g": 9.81}  # paper 000's elliptic cylinder (Section 4.3)
+SCENE_SEED = 0
+"""Seed of the reconstruction scene: tilted 0.3 rad (rms) from hanging, |omega| ~ 0.5 rad/s.
+Its full model integrates to 1e-9 at rtol 1e-12 (a row checks it); many tumbling scenes
+are so sensitive that the full model's own error at rtol 1e-12 exceeds 1e-8 over 10 s, and
+no comparison at 1e-8 is possible there."""
 
 
 def _body(rng: np.random.Generator) -> dict:
@@ -76,22 +81,26 @@ def _fields(rng: np.random.Generator, n_bodies: int, n_states: int) -> dict[str,
     return dev
 
 
-def _reconstruction(rng: np.random.Generator, t: np.ndarray) -> dict[str, np.ndarray]:
-    body = _body(rng)
-    full = p3.full(**body)
-    x0 = full.manifold.random_point(rng)
+def _reconstruction(t: np.ndarray) -> dict[str, np.ndarray]:
+    """The elliptic cylinder released near hanging (a seeded, regular scene)."""
+    full = p3.full(**BODY)
+    lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
+    rng = np.random.default_rng(SCENE_SEED)
+    gam = BODY["rho"] / np.linalg.norm(BODY["rho"]) + 0.3 * rng.standard_normal(3)
+    x0 = lp.full_state(np.r_[gam / np.linalg.norm(gam), 0.3 * rng.standard_normal(3)])
     mu = float(full.invariants(x0)["h"])
     red = mechanics.reduce(full, "h", momentum=mu, breaking_inputs="hold_zero")
     ref = simulate(full, x0, t, rtol=1e-12, atol=1e-12).x
+    ref13 = simulate(full, x0, t, rtol=1e-13, atol=1e-13).x
     rec = red.reconstruct(simulate(red.reconstruction, red.reconstruction_state(x0), t,
                                    rtol=1e-12, atol=1e-12))
-    lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
     rec_lp = lp.reconstruct(simulate(lp.reconstruction, lp.reconstruction_state(x0), t,
                                      rtol=1e-12, atol=1e-12))
-    paper = p3.routh_reconstruction(**body, mu=mu)
+    paper = p3.routh_reconstruction(**BODY, mu=mu)
     y0 = np.r_[p3.routh_state_from_full(full, x0)[0], x0[:9], 0.0]
     pt = simulate(paper, y0, t, rtol=1e-12, atol=1e-12).x
-    return {"Routh": np.max(np.abs(rec.x - ref), axis=1),
+    return {"full model's own error (rtol 1e-12 vs 1e-13)": np.max(np.abs(ref - ref13), axis=1),
+            "Routh": np.max(np.abs(rec.x - ref), axis=1),
             "Lagrange-Poincare": np.max(np.abs(rec_lp.x - ref), axis=1),
             "phase vs (5.12)": np.abs(rec.phase - pt[:, -1]),
             "R_hor vs (5.10)": np.max(np.abs(rec.horizontal - pt[:, 6:15]), axis=1)}
@@ -137,11 +146,15 @@ def solve(*, quick: bool = False) -> Result:
     relative to the size of their terms: ``omega.J omega / 2 + m g |rho|``, ``|J Gamma|
     |omega|``),
     at random states and bodies (J with random axes, condition up to 1e3; rho, m, g, mu
-    random); at most 1e-11. (2) The full state reconstructed from the derived Routh and
-    Lagrange-Poincare models against the full model's own trajectory over 10 s at rtol
-    1e-12 (at most 1e-8), and the derived reconstruction's dynamic phase and horizontal
-    lift against paper 000's (5.10)-(5.12). (3) At every point of the relative equilibria
-    of paper 000's elliptic cylinder traced by continuation (Section 4.3), the derived
+    random); at most 1e-11; and the reduced field's independence from the lift (the
+    section against a lift turned about e3 by a random angle). (2) The full state
+    reconstructed from the derived Routh and Lagrange-Poincare models against the full
+    model's own trajectory over 10 s at rtol 1e-12 (at most 1e-8), on the elliptic cylinder
+    released near hanging (``SCENE_SEED``; the full model's own error there, rtol 1e-12
+    against 1e-13, must be at most 1e-9), and the derived reconstruction's dynamic phase
+    and horizontal lift against paper 000's (5.10)-(5.12). (3) At every point of the
+    relative equilibria of paper 000's elliptic cylinder traced by continuation (Section
+    4.3), the derived
     Routh field at ``(Gamma, 0)`` with that point's momentum, and the gradient of the
     amended potential on the sphere (at most 1e-9, the corrector's tolerance level).
     """
@@ -157,11 +170,14 @@ def solve(*, quick: bool = False) -> Result:
                     "the reduced field from the section and from a lift turned about e3")
     t = np.linspace(0.0, 10.0, 501)
     with res.timed("reconstruction over 10 s"):
-        rec = _reconstruction(rng, t)
+        rec = _reconstruction(t)
     for k, v in rec.items():
-        res.compare(f"max |reconstructed - reference| over 10 s, {k}", 0.0, float(v.max()),
-                    tolerance=RECON_TOL, source="the full model's trajectory (rtol 1e-12)"
-                    if "vs" not in k else "paper 000 Prop. 17, models.pendulum3d")
+        own = k.startswith("full")
+        res.compare(k if own else f"max |reconstructed - reference| over 10 s, {k}", 0.0,
+                    float(v.max()), tolerance=RECON_TOL / 10 if own else RECON_TOL,
+                    source="the reference must be 10x more accurate than the check" if own
+                    else "paper 000 Prop. 17, models.pendulum3d" if "vs" in k
+                    else "the full model's trajectory (rtol 1e-12)")
     with res.timed("relative equilibria"):
         n, worst_f, worst_v = _relative_equilibria(quick)
     res.compare("max |Routh field| at the relative equilibria", 0.0, worst_f, tolerance=RE_TOL,
