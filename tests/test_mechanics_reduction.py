@@ -255,3 +255,29 @@ def test_refusals_name_what_is_wrong(pendulum):
     lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
     with pytest.raises(ModelError, match="kind='routh'"):
         lp.amended_potential  # noqa: B018
+
+
+@pytest.mark.skipif(not hasattr(mechanics.System, "s1"), reason="no S^1 factor in this build")
+@pytest.mark.parametrize("kind", ["routh", "lagrange_poincare"])
+def test_shift_of_angles_reduces_and_reconstructs(kind):
+    s = mechanics.System("two_rotors")
+    a, b = s.s1("a", velocity="a_dot"), s.s1("b", velocity="b_dot")
+    s.kinetic(0.5 * a.rate**2 + 0.3 * b.rate**2 + 0.1 * a.rate * b.rate)
+    s.potential(2.0 * (1 - (a.cos * b.cos + a.sin * b.sin)))  # depends on a - b only
+    s.moment(a, s.input(1, "motor on a [N m]"))
+    s.momentum("L", shift=[a, b])
+    full = s.model()
+    with pytest.raises(ModelError, match=r"u\[0\]: it changes the momentum 'L'"):
+        mechanics.reduce(full, "L", momentum=0.0)
+    lp = mechanics.reduce(full, "L", kind="lagrange_poincare")
+    assert lp.model.n_inputs == 1  # equivariant: kept by Lagrange-Poincare
+    rng = np.random.default_rng(9)
+    x0 = full.manifold.random_point(rng)
+    mom = {"momentum": lp.momentum_of(x0)} if kind == "routh" else {}
+    red = mechanics.reduce(full, "L", kind=kind, breaking_inputs="hold_zero", **mom)
+    assert red.model.manifold.names[:1] == (["b_rel"] if kind == "routh" else ["a_dot"])
+    err, _, _ = _reconstruction_error(full, red, x0, np.linspace(0.0, 2.0, 21))
+    assert err <= 1e-8
+    r = red.model.manifold.random_point(rng)
+    np.testing.assert_allclose(red.field_at_lift(r, theta=2.1), red.field_at_lift(r),
+                               atol=1e-13)

@@ -33,10 +33,10 @@ import numpy as np
 
 from workbench.core import validate
 from workbench.mechanics._engine import Context, Model, ModelError, Parameter, ProductManifold
+from workbench.mechanics._reduction_classify import classify
 from workbench.mechanics._reduction_geometry import (
     Kind,
     Quotient,
-    classify,
     join_state,
     split_reduced,
     split_state,
