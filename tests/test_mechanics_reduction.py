@@ -20,7 +20,11 @@ from mechanics_systems import double_pendulum3d, pendulum_on_cart
 
 from models import pendulum3d as p3
 from workbench import ModelError, mechanics, simulate
-from workbench.equilibria import find_equilibrium
+from workbench.codegen import CompileOptions
+from workbench.control.ocp import OCP, TargetPoint
+from workbench.control.ocp import solve as solve_ocp
+from workbench.core.manifolds import S2, ProductManifold, Rn
+from workbench.equilibria import StepControl, ZeroProblem, continue_branch, find_equilibrium
 from workbench.linear import eigenstructure, linearize
 
 E3 = np.array([0.0, 0.0, 1.0])
@@ -218,6 +222,59 @@ def test_relative_equilibrium_from_the_routh_model_is_a_steady_rotation():
     np.testing.assert_allclose(x0[9:], mu / Jg * g, atol=1e-12)
 
 
+BODY = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.014, 0.1044, 0.4989]),
+        "m": 1.0, "g": 9.81}
+
+
+def test_continuation_in_the_momentum_traces_relative_equilibria():
+    """Zeros of the Routh field at rest over (Gamma, mu): each one, lifted with omega =
+    (mu / Gamma.J Gamma) Gamma, is an equilibrium of the Lagrange-Poincare model."""
+    full = p3.full(**BODY)
+    ro = mechanics.reduce(full, "h", momentum=0.0, breaking_inputs="hold_zero")
+    lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
+    m = ro.model
+    y, u, p = ca.MX.sym("y", 4), ca.MX.sym("u", 0), ca.MX.sym("p", m.n_params)
+    k = m.parameter_slices["mu"].start
+    F = m.function("f")(ca.vertcat(y[:3], 0, 0, 0), ca.MX(0, 1),
+                        ca.vertcat(p[:k], y[3], p[k + 1 :]))
+    fn = ca.Function("re", [y, u, p], [F, ca.jacobian(F, y)], ["y", "u", "p"], ["F", "D"])
+    prob = ZeroProblem(name="relative equilibria in mu", function=fn, u=np.zeros(0), p=m.p,
+                       manifold=ProductManifold([("Gamma", S2()), ("mu", Rn(1))]))
+    hang = BODY["rho"] / np.linalg.norm(BODY["rho"])
+    b = continue_branch(prob, np.r_[hang, 0.0], direction=np.r_[0.0, 0.0, 0.0, 1.0],
+                        max_points=25, control=StepControl(max_step=0.1))
+    assert len(b.points) == 25 and np.ptp(b.points[:, 3]) > 0.5
+    for yv in b.points:
+        g, mu = yv[:3], yv[3]
+        x = np.r_[g, mu / (g @ BODY["J"] @ g) * g]
+        assert np.max(np.abs(lp.model.rhs(x))) <= 1e-9
+
+
+def test_an_ocp_solves_on_the_reduced_model():
+    lp = mechanics.reduce(p3.full(**BODY), "h", kind="lagrange_poincare")
+    m = lp.model
+    hang = BODY["rho"] / np.linalg.norm(BODY["rho"])
+    tilted = hang + np.array([0.5, 0.0, 0.0])
+    goal = np.r_[tilted / np.linalg.norm(tilted), 0.0, 0.0, 0.0]
+    ocp = OCP(m, x0=np.r_[hang, 0.0, 0.0, 0.0], target=TargetPoint(m.manifold, goal),
+              u_lower=-5.0, u_upper=5.0, T=2.0, running_cost=lambda x, u: ca.dot(u, u),
+              name="reduced_tilt")
+    sol = solve_ocp(ocp)
+    assert sol.ok
+    np.testing.assert_allclose(sol.x[-1], goal, atol=1e-6)
+
+
+def test_the_routh_model_compiles_to_c_and_integrates_the_same(tmp_path):
+    ro = mechanics.reduce(p3.full(**BODY), "h", momentum=0.3, breaking_inputs="hold_zero")
+    x0 = ro.model.manifold.random_point(np.random.default_rng(10), scale=0.3)
+    t = np.linspace(0.0, 1.0, 11)
+    plain = simulate(ro.model, x0, t, rtol=1e-10, atol=1e-10)
+    compiled = simulate(ro.model, x0, t, rtol=1e-10, atol=1e-10, compilation="c",
+                        compile_options=CompileOptions(cache_dir=tmp_path))
+    assert compiled.options["compilation"] == "c"
+    np.testing.assert_allclose(compiled.x, plain.x, atol=1e-9)
+
+
 def test_models_accept_other_parameter_values_and_the_momentum_as_parameter(pendulum):
     body, _, _, ro = pendulum
     m2 = ro.model.with_parameters(mu=-1.0, m=2 * body["m"])
@@ -255,6 +312,22 @@ def test_refusals_name_what_is_wrong(pendulum):
     lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
     with pytest.raises(ModelError, match="kind='routh'"):
         lp.amended_potential  # noqa: B018
+    s = mechanics.System("axis_as_parameter")
+    body = s.so3("R")
+    s.rigid_body(1.0, np.eye(3), body, com=[0.0, 0.0, 0.5])
+    s.gravity(9.81)
+    s.momentum("h", rotate=s.parameter("axis", [0.0, 0.0, 1.0]))
+    with pytest.raises(ModelError, match="depends on parameters"):
+        mechanics.reduce(s, "h", kind="lagrange_poincare")
+
+
+def test_the_problem_runs_quick():
+    from problems import mechanics_reduction
+
+    res = mechanics_reduction.solve(quick=True)
+    assert res.ok, [c for c in res.comparisons if not c.ok]
+    assert max(res.values["max_deviation"].values()) <= mechanics_reduction.FIELD_TOL
+    assert res.values["relative_equilibria"]["points"] > 100
 
 
 @pytest.mark.skipif(not hasattr(mechanics.System, "s1"), reason="no S^1 factor in this build")

@@ -484,6 +484,13 @@ def reduce(source: Any, symmetry: str, *, kind: Kind | str = Kind.ROUTH,
             raise ModelError(f"momentum is a Routh value; kind='lagrange_poincare' keeps the "
                              f"group velocity (got momentum={momentum!r})")
         mu = 0.0
+    for f in der.ing.factors:
+        g = der.ing.momenta[symmetry].get(id(f))
+        if g is not None and ca.depends_on(ca.SX(g), der.ing.p):
+            raise ModelError(
+                f"the generator of {symmetry!r} on factor {f.name!r} depends on parameters; "
+                "the reduction fixes the symmetry's geometry (axis, direction), so write it "
+                "with numbers")
     rng = np.random.default_rng(seed)
     states = [full.manifold.random_point(rng) for _ in range(max(n_states, 2))]
     quotient = classify(list(der.ing.factors), der.ing.momenta[symmetry],
