@@ -28,6 +28,8 @@ from workbench.equilibria import StepControl, ZeroProblem, continue_branch, find
 from workbench.linear import eigenstructure, linearize
 
 E3 = np.array([0.0, 0.0, 1.0])
+BODY = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.014, 0.1044, 0.4989]),
+        "m": 1.0, "g": 9.81}  # paper 000's elliptic cylinder
 
 
 def _body(rng):
@@ -154,6 +156,21 @@ def test_reconstruction_reproduces_the_full_trajectory(make, symmetry, kind):
     assert rec.x.shape == (21, full.manifold.ambient_dim) and rec.phase[0] == 0.0
 
 
+def test_reconstruct_reads_the_momentum_the_trajectory_was_simulated_with():
+    full = p3.full(**BODY)
+    red = mechanics.reduce(full, "h", momentum=0.0, breaking_inputs="hold_zero")
+    lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
+    hang = BODY["rho"] / np.linalg.norm(BODY["rho"])
+    x0 = lp.full_state(np.r_[hang, 0.3, 0.2, 0.4])
+    mu = red.momentum_of(x0)
+    assert abs(mu) > 0.01  # another value than the model's 0
+    z0 = np.r_[np.asarray(red.project(x0)).ravel(), x0[:9], 0.0]
+    t = np.linspace(0.0, 2.0, 11)
+    traj = simulate(red.reconstruction.with_parameters(mu=mu), z0, t, rtol=1e-12, atol=1e-12)
+    ref = simulate(full, x0, t, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(red.reconstruct(traj).x - ref.x)) <= 1e-8
+
+
 def test_lagrange_poincare_carries_the_inputs_that_keep_the_symmetry():
     full = _quadrotor_with_yaw()
     lp = mechanics.reduce(full, "L", kind="lagrange_poincare")
@@ -198,8 +215,7 @@ def test_routh_spectrum_is_the_reduced_one_without_its_zero_mode(pendulum):
 
 
 def test_relative_equilibrium_from_the_routh_model_is_a_steady_rotation():
-    body = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.014, 0.1044, 0.4989]),
-            "m": 1.0, "g": 9.81}
+    body = BODY
     full = p3.full(**body)
     mu = 0.3
     ro = mechanics.reduce(full, "h", momentum=mu, breaking_inputs="hold_zero")
@@ -220,10 +236,6 @@ def test_relative_equilibrium_from_the_routh_model_is_a_steady_rotation():
     assert np.max(np.abs(gammas - g)) <= 1e-9
     np.testing.assert_allclose(traj.x[:, 9:], np.tile(x0[9:], (5, 1)), atol=1e-9)
     np.testing.assert_allclose(x0[9:], mu / Jg * g, atol=1e-12)
-
-
-BODY = {"J": np.diag([0.4486, 0.3943, 0.0772]), "rho": np.array([-0.014, 0.1044, 0.4989]),
-        "m": 1.0, "g": 9.81}
 
 
 def test_continuation_in_the_momentum_traces_relative_equilibria():

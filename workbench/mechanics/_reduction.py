@@ -1,7 +1,8 @@
 """Symmetry reduction of a mechanics model: Lagrange-Poincare and Routh, by lifting.
 
-For a momentum ``J`` of an abelian symmetry (a translation of R^k factors, a rotation
-about a constant axis turning an SO(3) factor: see :mod:`._reduction_geometry`), the full
+For a momentum ``J`` of an abelian symmetry (a translation of R^k factors, a shift of S^1
+angles, a rotation about a constant axis turning an SO(3) factor: see
+:mod:`._reduction_geometry`), the full
 field ``f`` is invariant: ``f(g x) = g_* f(x)``. The reduced field at a reduced state
 ``r`` is therefore the derivative of the quotient map ``pi`` along ``f`` at *any* full
 state over ``r``:
@@ -75,6 +76,19 @@ class Reduction(ReconstructionMixin):
         model's inputs, in order.
     momentum_parameter : str or None
         Name of the Routh model's momentum parameter.
+    lift : casadi.Function
+        ``(r, p, mu) -> x``: the full state over a reduced one, on the section (``p`` the
+        full model's parameters; ``mu`` ignored by Lagrange-Poincare).
+    project : casadi.Function
+        ``x -> r``: the quotient map.
+    project_rate : casadi.Function
+        ``(x, dx) -> r-dot``: its derivative along ``dx``.
+    act : casadi.Function
+        ``(x, theta) -> g_theta x``: the group action on full states.
+    eta : casadi.Function
+        ``(x, p) -> eta``: the generator (stacked velocities).
+    locked_inertia_full : casadi.Function
+        ``(x, p) -> I = eta^T M eta`` at a full state.
     """
 
     def __init__(self, full: Model, symmetry: str, kind: Kind, quotient: Quotient,

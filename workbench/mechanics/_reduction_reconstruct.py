@@ -184,8 +184,10 @@ class ReconstructionMixin:
         Parameters
         ----------
         trajectory : Trajectory or array-like, shape=(n_times, n_reconstruction)
-            A simulated trajectory of the reconstruction model (its ``t`` and ``x`` are
-            used), or its states alone (then ``t`` is their index).
+            A simulated trajectory of the reconstruction model (its ``t``, ``x`` and its
+            model's parameter values, e.g. another momentum from ``with_parameters``, are
+            used), or its states alone (then ``t`` is their index and the parameter values
+            are :attr:`reconstruction`'s).
 
         Returns
         -------
@@ -199,7 +201,10 @@ class ReconstructionMixin:
                              f"(n_times, {n}) of finite numbers; got shape {X.shape}")
         t = np.asarray(getattr(trajectory, "t", np.arange(X.shape[0])), dtype=float)
         n_r, n_c, n_p = self.n_r, int(self._der.c.shape[0]), self.n_p
-        pv = model.p
+        # the parameter values it was simulated with (a model from with_parameters)
+        used = getattr(trajectory, "model", None)
+        pv = used.p if isinstance(used, Model) and used.manifold.names == \
+            model.manifold.names and used.n_params == model.n_params else model.p
         mu = float(pv[n_p]) if self.kind is Kind.ROUTH else 0.0
         xs = ca.SX.sym("s", n)
         x_hor, _, _ = self._horizontal()(xs[:n_r], xs[n_r : n_r + n_c], pv[:n_p], mu)
