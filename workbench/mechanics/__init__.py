@@ -30,7 +30,13 @@ from workbench.mechanics._bodies import PointMass, RigidBody
 from workbench.mechanics._checks import inertia
 from workbench.mechanics._factors import Factor, RnFactor, S2Factor, SO3Factor
 from workbench.mechanics._model import check_kinetic_energy
-from workbench.mechanics._reduction import BreakingInputs, Kind, Reconstructed, Reduction, reduce
+from workbench.mechanics._reduction import (
+    BreakingInputs,
+    Reconstructed,
+    Reduction,
+    ReductionKind,
+    reduce,
+)
 from workbench.mechanics._system import E3, System
 
 __all__ = [
@@ -46,7 +52,7 @@ __all__ = [
     "E3",
     "reduce",
     "Reduction",
-    "Kind",
+    "ReductionKind",
     "BreakingInputs",
     "Reconstructed",
 ]

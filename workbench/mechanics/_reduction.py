@@ -38,6 +38,7 @@ from workbench.mechanics._reduction_classify import classify
 from workbench.mechanics._reduction_geometry import (
     Kind,
     Quotient,
+    ReductionKind,
     join_state,
     split_reduced,
     split_state,
@@ -45,7 +46,8 @@ from workbench.mechanics._reduction_geometry import (
 )
 from workbench.mechanics._reduction_reconstruct import Reconstructed, ReconstructionMixin
 
-__all__ = ["reduce", "Reduction", "Kind", "BreakingInputs", "Reconstructed", "INVARIANCE_RTOL"]
+__all__ = ["reduce", "Reduction", "ReductionKind", "BreakingInputs", "Reconstructed",
+           "INVARIANCE_RTOL"]
 
 INVARIANCE_RTOL = 1e-8
 """The reduced field from two lifts (one turned by a random group element) must agree to
@@ -64,7 +66,7 @@ class Reduction(ReconstructionMixin):
         full model plus the momentum value (``momentum_parameter``).
     full : Model
         The full mechanics model.
-    kind : Kind
+    kind : ReductionKind
         ``ROUTH`` or ``LAGRANGE_POINCARE``.
     symmetry : str
         The momentum's name.
@@ -416,7 +418,7 @@ def _check(red: Reduction, mu: float, rng: np.random.Generator, n_states: int,
     return sorted(broken)
 
 
-def reduce(source: Any, symmetry: str, *, kind: Kind | str = Kind.ROUTH,
+def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionKind.ROUTH,
            momentum: float | None = None,
            breaking_inputs: BreakingInputs | str = BreakingInputs.REFUSE,
            name: str | None = None, n_states: int = 3, seed: int = 0,
@@ -432,7 +434,7 @@ def reduce(source: Any, symmetry: str, *, kind: Kind | str = Kind.ROUTH,
         The name of a declared or detected momentum (:meth:`System.momentum`,
         :meth:`System.detect_momenta`): a translation of R^k factors or a rotation about
         a constant axis that turns an SO(3) factor.
-    kind : Kind or {"routh", "lagrange_poincare"}
+    kind : ReductionKind or {"routh", "lagrange_poincare"}
         ``"routh"``: the shape configuration and the shape velocities at a momentum value
         (the group velocity eliminated); ``"lagrange_poincare"``: the shape configuration
         with every velocity in invariant form (for a rotation with an SO(3) factor: the

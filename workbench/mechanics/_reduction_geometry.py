@@ -58,19 +58,23 @@ from typing import Any
 
 import casadi as ca
 
-__all__ = ["Kind", "Quotient", "split_state", "join_state", "split_reduced", "split_velocity",
-           "named_parts", "normal_part", "matrix", "GENERATOR_RTOL"]
+__all__ = ["ReductionKind", "Kind", "Quotient", "split_state", "join_state", "split_reduced",
+           "split_velocity", "named_parts", "normal_part", "matrix", "GENERATOR_RTOL"]
 
 GENERATOR_RTOL = 1e-10
 """A generator matches a translation or a rotation when it agrees to this relative
 tolerance at seeded random configurations."""
 
 
-class Kind(StrEnum):
+class ReductionKind(StrEnum):
     """Which reduced model: ``ROUTH`` (at a momentum value) or ``LAGRANGE_POINCARE``."""
 
     ROUTH = "routh"
     LAGRANGE_POINCARE = "lagrange_poincare"
+
+
+Kind = ReductionKind
+"""Short name used inside the reduction modules."""
 
 
 def split_state(factors: list, x: Any) -> tuple[list, list]:
