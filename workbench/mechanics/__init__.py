@@ -30,6 +30,13 @@ from workbench.mechanics._bodies import PointMass, RigidBody
 from workbench.mechanics._checks import inertia
 from workbench.mechanics._factors import Factor, RnFactor, S1Factor, S2Factor, SO3Factor
 from workbench.mechanics._model import check_kinetic_energy
+from workbench.mechanics._reduction import (
+    BreakingInputs,
+    Reconstructed,
+    Reduction,
+    ReductionKind,
+    reduce,
+)
 from workbench.mechanics._system import E3, System
 
 __all__ = [
@@ -44,4 +51,9 @@ __all__ = [
     "inertia",
     "check_kinetic_energy",
     "E3",
+    "reduce",
+    "Reduction",
+    "ReductionKind",
+    "BreakingInputs",
+    "Reconstructed",
 ]

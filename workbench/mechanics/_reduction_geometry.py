@@ -1,0 +1,178 @@
+"""The geometry of an abelian symmetry of a system: quotient coordinates, section, action.
+
+A one-parameter group ``G`` acts on the configuration (and, by its tangent map, on the
+velocities); its generator ``eta(c)`` is the velocity of each factor at unit group speed,
+the one of the declared momentum ``J = sum_f Pi_f . eta_f``. A :class:`Quotient` gives, in
+ambient coordinates and as casadi expressions:
+
+* ``quotient(c, nu, kind)``: the reduced state of a full state (invariant under ``G``):
+  the shape configuration with, for the Lagrange-Poincare kind, every velocity in an
+  invariant form (the group velocity kept), for the Routh kind only the shape velocities
+  (the group velocity eliminated);
+* ``section(r)``: a full configuration over the shape configuration of ``r``;
+* ``velocity(c, r, kind, xi)``: the full velocity at a configuration ``c`` over the shape
+  of ``r`` with the velocities of ``r`` (Routh: plus ``xi eta(c)``; ``xi`` is the group
+  velocity), affine in ``xi``;
+* ``act(theta, c, nu)``: the group element ``theta`` applied to a full state.
+
+Three geometries:
+
+* :class:`~._reduction_cyclic.Translation`: constant generators ``d_f`` on R^k factors (a
+  cart's translation, several factors together). The pivot coordinate ``(f0, i0)`` (the
+  largest entry of ``d``) is the group coordinate: shape coordinates are
+  ``x_f - (x_f0[i0] / d_f0[i0]) d_f`` with the pivot dropped, the section puts
+  ``x_f0[i0] = 0``.
+* :class:`~._reduction_cyclic.Shift`: constant rates ``c_f = +-c`` on S^1 angles (an arm
+  angle, several angles together). The first shifted angle ``p0 = (cos theta0, sin
+  theta0)`` is the group coordinate; the others are seen from it, ``p_f`` turned by
+  ``-(c_f / c_0) theta0``, with rates ``rate_f - (c_f / c_0) rate0`` (Routh); the section
+  puts ``p0 = (1, 0)``.
+* :class:`~._reduction_rotation.Rotation`: a world rotation about a constant unit axis
+  ``a`` turning a *reference* SO(3) factor ``R0`` (the first one). Shape coordinates:
+  ``Gamma = R0^T a`` on S^2 and every other turning factor seen from the reference body:
+  ``R0^T R`` (SO(3)), ``R0^T q`` (S^2), ``R0^T x`` (R^3). Invariant velocities
+  (Lagrange-Poincare): the body angular velocities, ``R0^T omega`` (S^2), ``R0^T v``
+  (R^3). Shape velocities (Routh): the velocities relative to the reference body: ``w =
+  -P(Gamma) Omega0`` with ``Gamma-dot = w x Gamma`` (the S^2 convention of the mechanics
+  layer), ``Omega - Q^T Omega0`` for ``Q = R0^T R``, ``P(q') (R0^T omega - Omega0)`` for
+  ``q' = R0^T q``, and ``R0^T v - Omega0 x x'`` for ``x' = R0^T x``. The group velocity is
+  ``xi = Gamma . Omega0``. The section is ``R0 = sigma(Gamma)`` with ``sigma(Gamma)^T a =
+  Gamma``: the smallest rotation taking ``Gamma`` to ``a`` where ``Gamma . a >= 0`` and
+  the one taking it to ``-a`` followed by a half turn about an axis normal to ``a``
+  elsewhere (two Rodrigues charts switched with ``casadi.if_else``: automatic
+  differentiation sees the active one, and the reduced field does not depend on the chart
+  because the full field is invariant; :func:`workbench.mechanics.reduce` checks that
+  numerically).
+
+A quotient by rotations with no SO(3) factor turning (S^2 factors only, or R^2/R^3
+factors) is not a manifold with global ambient coordinates (the action has fixed points:
+a link hanging straight down), and an R^2 factor turning with an SO(3) reference has no
+product-manifold quotient coordinate; both are refused with a message.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+import casadi as ca
+
+__all__ = ["ReductionKind", "Kind", "Quotient", "split_state", "join_state", "split_reduced",
+           "split_velocity", "named_parts", "normal_part", "matrix", "GENERATOR_RTOL"]
+
+GENERATOR_RTOL = 1e-10
+"""A generator matches a translation or a rotation when it agrees to this relative
+tolerance at seeded random configurations."""
+
+
+class ReductionKind(StrEnum):
+    """Which reduced model: ``ROUTH`` (at a momentum value) or ``LAGRANGE_POINCARE``."""
+
+    ROUTH = "routh"
+    LAGRANGE_POINCARE = "lagrange_poincare"
+
+
+Kind = ReductionKind
+"""Short name used inside the reduction modules."""
+
+
+def split_state(factors: list, x: Any) -> tuple[list, list]:
+    """Per-factor configurations and velocities of a full state (each factor stores both)."""
+    c, nu, k = [], [], 0
+    for f in factors:
+        nc, nv = f.config_sym.shape[0], f.velocity_sym.shape[0]
+        c.append(x[k : k + nc])
+        nu.append(x[k + nc : k + nc + nv])
+        k += nc + nv
+    return c, nu
+
+
+def join_state(c: list, nu: list) -> Any:
+    """Inverse of :func:`split_state`."""
+    return ca.vertcat(*[ca.vertcat(ci, vi) for ci, vi in zip(c, nu)])
+
+
+def split_reduced(storage: list, r: Any) -> list:
+    """The parts of a reduced state, one per ``(name, manifold)`` storage pair."""
+    parts, k = [], 0
+    for _, m in storage:
+        n = m.ambient_dim
+        parts.append(r[k : k + n])
+        k += n
+    return parts
+
+
+def split_velocity(factors: list, v: Any) -> list:
+    """Per-factor pieces of a stacked velocity."""
+    out, k = [], 0
+    for f in factors:
+        n = f.velocity_sym.shape[0]
+        out.append(v[k : k + n])
+        k += n
+    return out
+
+
+def normal_part(q: Any, v: Any) -> Any:
+    """The part of ``v`` normal to the unit vector ``q``."""
+    return v - ca.dot(q, v) * q
+
+
+def matrix(M: Any) -> Any:
+    """A 3x3 matrix from its 9 stored numbers (column by column)."""
+    return ca.reshape(M, 3, 3)
+
+
+@dataclass
+class Quotient:
+    """Base of the geometries; see the module docstring.
+
+    Attributes
+    ----------
+    factors : list of Factor
+        The system's factors, in storage order.
+    description : str
+        What the group does and which coordinates the quotient has, in words.
+    """
+
+    factors: list
+    description: str
+
+    def storage(self, kind: Kind) -> list[tuple[str, Any]]:
+        """The reduced state's ``(name, manifold factor)`` pairs in storage order."""
+        raise NotImplementedError
+
+    def quotient(self, c: list, nu: list, kind: Kind) -> list:
+        """The reduced state's parts (one per storage pair) of a full state."""
+        raise NotImplementedError
+
+    def section(self, r: list, kind: Kind) -> list:
+        """A full configuration (per factor) over the shape configuration of ``r``."""
+        raise NotImplementedError
+
+    def velocity(self, c: list, r: list, kind: Kind, xi: Any) -> list:
+        """The full velocity (per factor) at ``c`` with the velocities of ``r``; see above."""
+        raise NotImplementedError
+
+    def act(self, theta: Any, c: list, nu: list) -> tuple[list, list]:
+        """The group element ``theta`` applied to a full state."""
+        raise NotImplementedError
+
+    def _passthrough_storage(self, f: Any) -> list[tuple[str, Any]]:
+        return list(f.storage())
+
+    @staticmethod
+    def _passthrough_parts(f: Any, c: Any, v: Any) -> list:
+        return [ca.vertcat(c, v)] if len(f.storage()) == 1 else [c, v]
+
+    @staticmethod
+    def _passthrough_from(f: Any, parts: list) -> tuple[Any, Any]:
+        if len(f.storage()) == 1:
+            nc = f.config_sym.shape[0]
+            return parts[0][:nc], parts[0][nc:]
+        return parts[0], parts[1]
+
+
+def named_parts(storage: list, parts: list) -> dict:
+    """The parts of a reduced state by storage name."""
+    return {n: p for (n, _), p in zip(storage, parts)}
