@@ -12,7 +12,9 @@ build costs and peak RSS are not shared), variants interleaved and repeated (med
   of freedom as the derived model, see :func:`_pin_chain` for why not spherical joints).
   Pinocchio's field is checked against the derived model's at seeded states, once per
   ``n`` in its own process (``pin vs derived``: the largest deviation of the field relative
-  to its largest entry, then of the spectra at the hanging equilibrium).
+  to its largest entry, with Pinocchio's ABA and with its CRBA mass matrix solved densely,
+  then of the spectra at the hanging equilibrium; in brackets ABA's residual in
+  ``M ddq + nle = tau``, see :func:`child_pin_check`).
 
 Columns: CPU seconds to build the model and ``f``, to build ``f_x``, to linearise at the
 hanging equilibrium the first time (``build+lin`` is the sum: the figure of the targets),
@@ -251,15 +253,37 @@ def child_pin(n: int) -> dict:
             "aba": aba, "rss": _rss_mb()}
 
 
+def _pin_as_field(pin, pm, pd, bobs, q, v, ddq, n: int) -> tuple[dict, dict]:
+    """The derived model's state and expected field from Pinocchio's ``(q, v, ddq)``."""
+    pin.forwardKinematics(pm, pd, q, v, ddq)
+    pin.updateFramePlacements(pm, pd)
+    world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    pts = [np.r_[q[:2], 0.0]] + [pd.oMf[f].translation.copy() for f in bobs]
+    vel = [np.r_[v[:2], 0.0]] + [pin.getFrameVelocity(pm, pd, f, world).linear for f in bobs]
+    acc = [np.r_[ddq[:2], 0.0]] + [pin.getFrameClassicalAcceleration(pm, pd, f, world).linear
+                                   for f in bobs]
+    state, field = {"x": q[:2], "v": v[:2]}, {"x": v[:2], "v": ddq[:2]}
+    for i in range(n):
+        qi, qd, qdd = ((z[i + 1] - z[i]) / 0.1 for z in (pts, vel, acc))
+        w = np.cross(qi, qd)  # q-dot = w x q with w normal to q
+        state[f"link{i + 1}"] = np.r_[qi, w]
+        field[f"link{i + 1}"] = np.r_[np.cross(w, qi), np.cross(qi, qdd)]
+    return state, field
+
+
 def child_pin_check(n: int, states: int = 3) -> dict:
-    """Pinocchio's ABA against the derived model's field at the same seeded states.
+    """Pinocchio's dynamics against the derived model's field at the same seeded states.
 
     At each state (angles uniform in +-0.8 rad, rates and the cart force normal) the
     Pinocchio bobs' positions, velocities and classical accelerations give the derived
     model's state (``q_i = (p_i - p_(i-1)) / l``, ``omega_i = q_i x q_i-dot``) and its
-    expected field (``omega_i-dot = q_i x q_i-ddot``); the largest deviation relative to the
-    field's largest entry is returned, with the relative gap of the two spectra at the
-    hanging equilibrium (Pinocchio's ABA derivatives against ``linearize``).
+    expected field (``omega_i-dot = q_i x q_i-ddot``). Returned: the largest deviation of
+    the derived field relative to its largest entry, with Pinocchio's accelerations from
+    ABA (``aba_dev``) and from a dense solve with its CRBA mass matrix and
+    ``nonLinearEffects`` (``crba_dev``), ABA's own residual in that equation relative to
+    ``|nonLinearEffects|`` (``aba_residual``: ABA is the less accurate of the two when the
+    mass matrix is ill-conditioned, about 1e9 at n = 100), and the relative gap of the two
+    spectra at the hanging equilibrium (Pinocchio's ABA derivatives against ``linearize``).
     """
     import pinocchio as pin
 
@@ -270,40 +294,30 @@ def child_pin_check(n: int, states: int = 3) -> dict:
     pd = pm.createData()
     wm = chain_cart(n, max_links=n, m=0.5, masses=0.1, lengths=0.1, g=9.81)
     rng = np.random.default_rng(n)
-    dev = 0.0
+    out = {"aba_dev": 0.0, "crba_dev": 0.0, "aba_residual": 0.0}
     for _ in range(states):
         q = np.r_[rng.normal(0.0, 0.3, 2), rng.uniform(-0.8, 0.8, pm.nq - 2)]
-        v = rng.normal(0.0, 1.0, pm.nv)
-        u = rng.normal(0.0, 1.0, 2)
-        ddq = pin.aba(pm, pd, q, v, np.r_[u, np.zeros(pm.nv - 2)])
-        pin.forwardKinematics(pm, pd, q, v, ddq)
-        pin.updateFramePlacements(pm, pd)
-        world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        pts = [np.r_[q[:2], 0.0]] + [pd.oMf[f].translation.copy() for f in bobs]
-        vel = [np.r_[v[:2], 0.0]] + [pin.getFrameVelocity(pm, pd, f, world).linear
-                                     for f in bobs]
-        acc = [np.r_[ddq[:2], 0.0]] + [pin.getFrameClassicalAcceleration(pm, pd, f,
-                                                                         world).linear
-                                       for f in bobs]
-        parts, expected = {"x": q[:2], "v": v[:2]}, [v[:2], ddq[:2]]
-        for i in range(n):
-            qi, qd, qdd = ((z[i + 1] - z[i]) / 0.1 for z in (pts, vel, acc))
-            w = np.cross(qi, qd)
-            parts[f"link{i + 1}"] = np.r_[qi, w]
-            expected += [np.cross(w, qi), np.cross(qi, qdd)]
-        xw = wm.manifold.join(parts)
-        f, ref = wm.rhs(xw, u), wm.manifold.join(
-            {k: e for k, e in zip(["x", "v"], expected[:2])}
-            | {f"link{i + 1}": np.r_[expected[2 + 2 * i], expected[3 + 2 * i]]
-               for i in range(n)})
-        dev = max(dev, float(np.max(np.abs(f - ref)) / np.max(np.abs(ref))))
+        v, u = rng.normal(0.0, 1.0, pm.nv), rng.normal(0.0, 1.0, 2)
+        tau = np.r_[u, np.zeros(pm.nv - 2)]
+        M = np.triu(pin.crba(pm, pd, q))
+        M = M + np.triu(M, 1).T
+        nle = pin.nonLinearEffects(pm, pd, q, v).copy()
+        solutions = {"aba_dev": pin.aba(pm, pd, q, v, tau).copy(),
+                     "crba_dev": np.linalg.solve(M, tau - nle)}
+        res = M @ solutions["aba_dev"] + nle - tau
+        out["aba_residual"] = max(out["aba_residual"],
+                                  float(np.max(np.abs(res)) / np.max(np.abs(nle))))
+        for key, ddq in solutions.items():
+            state, field = _pin_as_field(pin, pm, pd, bobs, q, v, ddq, n)
+            f, ref = wm.rhs(wm.manifold.join(state), u), wm.manifold.join(field)
+            out[key] = max(out[key], float(np.max(np.abs(f - ref)) / np.max(np.abs(ref))))
     pin.computeABADerivatives(pm, pd, pin.neutral(pm), np.zeros(pm.nv), np.zeros(pm.nv))
     nv = pm.nv
     A = np.block([[np.zeros((nv, nv)), np.eye(nv)], [pd.ddq_dq, pd.ddq_dv]])
     lin = linearize(wm, _hanging(wm, n))
-    lam_p, lam_w = (np.sort(np.abs(np.linalg.eigvals(M).imag)) for M in (A, lin.A))
-    return {"field_dev": dev, "spectrum_dev": float(np.max(np.abs(lam_p - lam_w))
-                                                   / np.max(lam_w))}
+    lam_p, lam_w = (np.sort(np.abs(np.linalg.eigvals(X).imag)) for X in (A, lin.A))
+    out["spectrum_dev"] = float(np.max(np.abs(lam_p - lam_w)) / np.max(lam_w))
+    return out
 
 
 def run_child(variant: str, n: int, timeout: float) -> dict | None:
@@ -407,9 +421,10 @@ def main() -> None:
                                            f"{_fmt(_med(h, 'eval'), 1e6)}",
             "pin build/lin/ABA [ms]": "/".join(_fmt(_med(runs.get("pin", []), k), 1e3)
                                                for k in ("build", "lin_again", "aba")),
-            "pin vs derived field/spectrum": "/".join(
+            "pin vs derived: ABA/CRBA/spectrum (ABA resid.)": "/".join(
                 _fmt(_med(runs.get("pin_check", []), k), digits=2)
-                for k in ("field_dev", "spectrum_dev")),
+                for k in ("aba_dev", "crba_dev", "spectrum_dev"))
+            + f" ({_fmt(_med(runs.get('pin_check', []), 'aba_residual'), digits=2)})",
         })
         for v, e in errors.items():
             print(f"n = {n}, {v}: {e}")
