@@ -8,7 +8,13 @@ build costs and peak RSS are not shared), variants interleaved and repeated (med
   graph differentiated entry by entry) -- skipped above n = 50 (26 s and 2 GB at n = 50);
 * peers when installed (optional, never dependencies): sympy.physics.mechanics (Kane's method
   in angles, its own table at n = 1, 2, 3, ``--sympy-ns``) and Pinocchio (``pin``: numeric
-  ABA derivatives).
+  ABA derivatives; each link a universal joint carrying a point mass, ``2 n + 2`` degrees
+  of freedom as the derived model, see :func:`_pin_chain` for why not spherical joints).
+  Pinocchio's field is checked against the derived model's at seeded states, once per
+  ``n`` in its own process (``pin vs derived``: the largest deviation of the field relative
+  to its largest entry, with Pinocchio's ABA and with its CRBA mass matrix solved densely,
+  then of the spectra at the hanging equilibrium; in brackets ABA's residual in
+  ``M ddq + nle = tau``, see :func:`child_pin_check`).
 
 Columns: CPU seconds to build the model and ``f``, to build ``f_x``, to linearise at the
 hanging equilibrium the first time (``build+lin`` is the sum: the figure of the targets),
@@ -180,24 +186,51 @@ def child_sympy(n: int) -> dict:
     return {"build": t1 - t0, "lin": t2 - t1, "total": t2 - t0, "rss": _rss_mb()}
 
 
-def child_pin(n: int) -> dict:
-    """Pinocchio: chain on a cart (PX, PY, n spherical joints), numeric ABA derivatives."""
+def _pin_chain(n: int):
+    """Pinocchio's chain on a cart: PX, PY, then a universal joint and a point mass per link.
+
+    Why not spherical joints: a point mass has no rotational inertia, so the spin of a
+    spherical joint about its own link moves no mass. The joint-space inertia is then
+    singular (one zero eigenvalue per link at the hanging state, where every link's spin
+    axis is the chain's axis; at least the last link's spin anywhere), and ABA, which
+    divides by each joint's articulated inertia ``S^T I^A S``, returns NaN. Pinocchio's
+    examples give each bob a sphere's inertia (``Inertia.FromSphere``) on revolute joints;
+    here a universal joint (two revolutes, about ``e1`` then the turned ``e2``) carries the
+    point mass exactly: the link's configuration is a point of S^2 in two angles, as the
+    derived model's TS^2 factor, so both solve the same mechanics (``2 n + 2`` degrees of
+    freedom; the spherical version had ``3 n + 2``, its spins being mass-less) and agree
+    to rounding. The angles are singular where a link's second angle is ``+-pi/2`` (the
+    benchmark's states stay within 0.8 rad). Pinocchio's ``z`` is the workbench's ``e3``
+    (down, along gravity), so the two share one frame.
+    """
     import pinocchio as pin
 
-    t0 = _cpu()
     model = pin.Model()
-    model.gravity.linear = np.array([0.0, 0.0, -9.81])
+    model.gravity.linear = np.array([0.0, 0.0, 9.81])  # along +z = e3: down
     jx = model.addJoint(0, pin.JointModelPX(), pin.SE3.Identity(), "x")
     jy = model.addJoint(jx, pin.JointModelPY(), pin.SE3.Identity(), "y")
     model.appendBodyToJoint(jy, pin.Inertia(0.5, np.zeros(3), np.zeros((3, 3))),
                             pin.SE3.Identity())
-    parent, offset = jy, np.zeros(3)
+    parent, offset, bobs = jy, np.zeros(3), []
+    link = np.array([0.0, 0.0, 0.1])  # hanging along e3 at zero angles
     for i in range(n):
-        j = model.addJoint(parent, pin.JointModelSpherical(), pin.SE3(np.eye(3), offset),
-                           f"link{i + 1}")
-        model.appendBodyToJoint(j, pin.Inertia(0.1, np.array([0.0, 0.0, -0.1]),
-                                               np.zeros((3, 3))), pin.SE3.Identity())
-        parent, offset = j, np.array([0.0, 0.0, -0.1])
+        j = model.addJoint(parent, pin.JointModelUniversal(np.array([1.0, 0.0, 0.0]),
+                                                           np.array([0.0, 1.0, 0.0])),
+                           pin.SE3(np.eye(3), offset), f"link{i + 1}")
+        model.appendBodyToJoint(j, pin.Inertia(0.1, link, np.zeros((3, 3))),
+                                pin.SE3.Identity())
+        bobs.append(model.addFrame(pin.Frame(f"bob{i + 1}", j, pin.SE3(np.eye(3), link),
+                                             pin.FrameType.OP_FRAME)))
+        parent, offset = j, link
+    return model, bobs
+
+
+def child_pin(n: int) -> dict:
+    """Pinocchio: chain on a cart (PX, PY, n universal joints), numeric ABA derivatives."""
+    import pinocchio as pin
+
+    t0 = _cpu()
+    model, _ = _pin_chain(n)
     data = model.createData()
     t1 = _cpu()
     q, v, tau = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
@@ -210,12 +243,81 @@ def child_pin(n: int) -> dict:
         A[nv:, :nv], A[nv:, nv:] = data.ddq_dq, data.ddq_dv
         return A, data.Minv
 
-    linearise()
+    A, _ = linearise()
     t2 = _cpu()
+    if not np.all(np.isfinite(A)):
+        raise FloatingPointError("Pinocchio's ABA derivatives are not finite at hanging")
     again = _median_cpu(linearise)
     aba = _median_cpu(lambda: pin.computeABADerivatives(model, data, q, v, tau))
     return {"build": t1 - t0, "lin": t2 - t1, "total": t2 - t0, "lin_again": again,
             "aba": aba, "rss": _rss_mb()}
+
+
+def _pin_as_field(pin, pm, pd, bobs, q, v, ddq, n: int) -> tuple[dict, dict]:
+    """The derived model's state and expected field from Pinocchio's ``(q, v, ddq)``."""
+    pin.forwardKinematics(pm, pd, q, v, ddq)
+    pin.updateFramePlacements(pm, pd)
+    world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    pts = [np.r_[q[:2], 0.0]] + [pd.oMf[f].translation.copy() for f in bobs]
+    vel = [np.r_[v[:2], 0.0]] + [pin.getFrameVelocity(pm, pd, f, world).linear for f in bobs]
+    acc = [np.r_[ddq[:2], 0.0]] + [pin.getFrameClassicalAcceleration(pm, pd, f, world).linear
+                                   for f in bobs]
+    state, field = {"x": q[:2], "v": v[:2]}, {"x": v[:2], "v": ddq[:2]}
+    for i in range(n):
+        qi, qd, qdd = ((z[i + 1] - z[i]) / 0.1 for z in (pts, vel, acc))
+        w = np.cross(qi, qd)  # q-dot = w x q with w normal to q
+        state[f"link{i + 1}"] = np.r_[qi, w]
+        field[f"link{i + 1}"] = np.r_[np.cross(w, qi), np.cross(qi, qdd)]
+    return state, field
+
+
+def child_pin_check(n: int, states: int = 3) -> dict:
+    """Pinocchio's dynamics against the derived model's field at the same seeded states.
+
+    At each state (angles uniform in +-0.8 rad, rates and the cart force normal) the
+    Pinocchio bobs' positions, velocities and classical accelerations give the derived
+    model's state (``q_i = (p_i - p_(i-1)) / l``, ``omega_i = q_i x q_i-dot``) and its
+    expected field (``omega_i-dot = q_i x q_i-ddot``). Returned: the largest deviation of
+    the derived field relative to its largest entry, with Pinocchio's accelerations from
+    ABA (``aba_dev``) and from a dense solve with its CRBA mass matrix and
+    ``nonLinearEffects`` (``crba_dev``), ABA's own residual in that equation relative to
+    ``|nonLinearEffects|`` (``aba_residual``: ABA is the less accurate of the two when the
+    mass matrix is ill-conditioned, about 1e9 at n = 100), and the relative gap of the two
+    spectra at the hanging equilibrium (Pinocchio's ABA derivatives against ``linearize``).
+    """
+    import pinocchio as pin
+
+    from models.chain_cart import chain_cart
+    from workbench import linearize
+
+    pm, bobs = _pin_chain(n)
+    pd = pm.createData()
+    wm = chain_cart(n, max_links=n, m=0.5, masses=0.1, lengths=0.1, g=9.81)
+    rng = np.random.default_rng(n)
+    out = {"aba_dev": 0.0, "crba_dev": 0.0, "aba_residual": 0.0}
+    for _ in range(states):
+        q = np.r_[rng.normal(0.0, 0.3, 2), rng.uniform(-0.8, 0.8, pm.nq - 2)]
+        v, u = rng.normal(0.0, 1.0, pm.nv), rng.normal(0.0, 1.0, 2)
+        tau = np.r_[u, np.zeros(pm.nv - 2)]
+        M = np.triu(pin.crba(pm, pd, q))
+        M = M + np.triu(M, 1).T
+        nle = pin.nonLinearEffects(pm, pd, q, v).copy()
+        solutions = {"aba_dev": pin.aba(pm, pd, q, v, tau).copy(),
+                     "crba_dev": np.linalg.solve(M, tau - nle)}
+        res = M @ solutions["aba_dev"] + nle - tau
+        out["aba_residual"] = max(out["aba_residual"],
+                                  float(np.max(np.abs(res)) / np.max(np.abs(nle))))
+        for key, ddq in solutions.items():
+            state, field = _pin_as_field(pin, pm, pd, bobs, q, v, ddq, n)
+            f, ref = wm.rhs(wm.manifold.join(state), u), wm.manifold.join(field)
+            out[key] = max(out[key], float(np.max(np.abs(f - ref)) / np.max(np.abs(ref))))
+    pin.computeABADerivatives(pm, pd, pin.neutral(pm), np.zeros(pm.nv), np.zeros(pm.nv))
+    nv = pm.nv
+    A = np.block([[np.zeros((nv, nv)), np.eye(nv)], [pd.ddq_dq, pd.ddq_dv]])
+    lin = linearize(wm, _hanging(wm, n))
+    lam_p, lam_w = (np.sort(np.abs(np.linalg.eigvals(X).imag)) for X in (A, lin.A))
+    out["spectrum_dev"] = float(np.max(np.abs(lam_p - lam_w)) / np.max(lam_w))
+    return out
 
 
 def run_child(variant: str, n: int, timeout: float) -> dict | None:
@@ -275,7 +377,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.child:
         variant, n = args.child[0], int(args.child[1])
-        fn = {"sympy": child_sympy, "pin": child_pin}.get(variant)
+        fn = {"sympy": child_sympy, "pin": child_pin, "pin_check": child_pin_check}.get(variant)
         print(json.dumps(fn(n) if fn else child_casadi(variant, n)))
         return
     ns, repeat = ([5, 10, 20], 1) if args.quick else (args.ns, args.repeat)
@@ -296,6 +398,9 @@ def main() -> None:
         for _ in range(repeat):
             for v in variants:
                 runs[v].append(run_child(v, n, timeout=600.0))
+        check = run_child("pin_check", n, timeout=600.0) if "pin" in peers else None
+        if check is not None:
+            runs["pin_check"] = [check]
         d, h = runs["derived"], runs.get("printed", [])
         lin_runs[n] = [r for r in d if r and "error" not in r]
         errors = {v: r["error"] for v, rs in runs.items() for r in rs if r and "error" in r}
@@ -316,6 +421,10 @@ def main() -> None:
                                            f"{_fmt(_med(h, 'eval'), 1e6)}",
             "pin build/lin/ABA [ms]": "/".join(_fmt(_med(runs.get("pin", []), k), 1e3)
                                                for k in ("build", "lin_again", "aba")),
+            "pin vs derived: ABA/CRBA/spectrum (ABA resid.)": "/".join(
+                _fmt(_med(runs.get("pin_check", []), k), digits=2)
+                for k in ("aba_dev", "crba_dev", "spectrum_dev"))
+            + f" ({_fmt(_med(runs.get('pin_check', []), 'aba_residual'), digits=2)})",
         })
         for v, e in errors.items():
             print(f"n = {n}, {v}: {e}")
