@@ -7,19 +7,15 @@ transcribed ones (models/pendulum3d.py); see the problem's docstring for the sta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
 from models import pendulum3d as p3
-from models.furuta import furuta as furuta_model
 from models.relative_families import trace_relative_equilibria
 from workbench import mechanics
 from workbench.core import Context, Model
 from workbench.core.manifolds import SO3, TS2, ProductManifold, Rn
-from workbench.core.errors import ModelError
-from workbench.equilibria import StepControl, enumerate_equilibria
+from workbench.equilibria import StepControl
 from workbench.global_dynamics import geometric_phase_check
 from workbench.simulation import simulate
 
@@ -152,115 +148,3 @@ def relative_equilibria(quick: bool) -> tuple[int, float, float]:
             worst_v = max(worst_v, float(np.max(np.abs(g - (g @ y[:3]) * y[:3]))))
             n += 1
     return n, worst_f, worst_v
-
-
-# -- beyond the papers: the systems the workbench added ------------------------------------
-
-@dataclass
-class Row:
-    """One comparison of the section "beyond the papers" (see :func:`beyond_the_papers`)."""
-
-    quantity: str
-    reference: float
-    value: float
-    tolerance: float
-    source: str
-
-
-def _generator(red: mechanics.Reduction) -> ca.Function:
-    """``x -> d/dtheta (g_theta x)`` at ``theta = 0``: the symmetry's generator on states."""
-    x, th = ca.SX.sym("x", red.full.manifold.ambient_dim), ca.SX.sym("theta")
-    return ca.Function("generator", [x], [ca.substitute(ca.jacobian(red.act(x, th), th),
-                                                        th, 0.0)])
-
-
-def steady_motion(red: mechanics.Reduction, r: np.ndarray, u: np.ndarray | None = None,
-                  ) -> dict[str, float]:
-    """How far the full motion over a reduced equilibrium ``r`` is from a steady one.
-
-    ``x`` is the full state over ``r`` (Routh: at the reduced model's momentum value);
-    its group velocity is ``xi = J(x) / I(x)`` (``I`` the locked inertia). A relative
-    equilibrium moves along the group only: ``f(x, u) = xi (d/dtheta) g_theta x``.
-
-    Returns
-    -------
-    dict
-        ``residual`` (``max|f - xi g'(x)| / max|xi g'(x)|``), ``momentum`` (the full
-        state's ``J``), ``xi`` and the full state ``x``.
-    """
-    x = red.full_state(r)
-    uu = np.zeros(red.full.n_inputs) if u is None else np.asarray(u, dtype=float)
-    p = red.full.p
-    xi = red.momentum_of(x) / float(red.locked_inertia_full(x, p))
-    motion = xi * np.asarray(_generator(red)(x), dtype=float).ravel()
-    f = np.asarray(red.full.function("f")(x, uu, p), dtype=float).ravel()
-    return {"residual": float(np.max(np.abs(f - motion)) / np.max(np.abs(motion))),
-            "momentum": red.momentum_of(x), "xi": xi, "x": x}
-
-
-FURUTA_ALPHA = 0.9
-"""The pendulum's steady angle [rad] from the downward vertical at which the Furuta
-pendulum's momentum value is set (closed form below)."""
-
-
-def furuta() -> tuple[list[Row], dict]:
-    """The Furuta pendulum reduced by the shift of its arm angle, unforced.
-
-    Closed form (the pendulum's equation of Cazzolato and Prime (2011) at ``alpha-dot =
-    0``, ``theta-ddot = 0``; or the amended potential below): a uniform thin link of length
-    ``Lp`` and mass ``mp`` on an arm turning at ``Omega`` stands at ``alpha`` with
-
-        sin(alpha) (mp g Lp / 2 - Omega^2 (mp Lp^2 / 3) cos(alpha)) = 0,
-
-    so besides ``alpha = 0, pi``: ``cos(alpha) = 3 g / (2 Omega^2 Lp) = g / (Omega^2
-    r_eff)``, ``r_eff = 2 Lp / 3`` (the arm length drops out), at the momentum ``mu =
-    I(alpha) Omega``, ``I(alpha) = mr Lr^2 / 3 + mp Lr^2 + (mp Lp^2 / 3) sin^2(alpha)``.
-    """
-    full = furuta_model()
-    refusal = ""
-    try:
-        mechanics.reduce(full, "angular_momentum_theta", momentum=0.0)
-    except ModelError as e:
-        refusal = str(e)
-    v = {k: float(val) for k, val in full.values.items()}
-    a = FURUTA_ALPHA
-    omega = np.sqrt(3.0 * v["g"] / (2.0 * v["Lp"] * np.cos(a)))
-    inertia = v["mr"] * v["Lr"] ** 2 / 3 + v["mp"] * v["Lr"] ** 2 + v["mp"] * v["Lp"] ** 2 / 3 \
-        * np.sin(a) ** 2
-    mu = inertia * omega
-    red = mechanics.reduce(full, "angular_momentum_theta", momentum=mu,
-                           breaking_inputs="hold_zero")
-    starts = [red.model.state(alpha=t, alpha_dot=[0.0])
-              for t in np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)]
-    found = enumerate_equilibria(red.model, starts)
-    angles = [float(np.arctan2(e.x[1], e.x[0])) for e in found.equilibria]
-    expect = np.array([0.0, a, -a, np.pi])
-    dev = max(float(np.min(np.abs(np.angle(np.exp(1j * (expect - t)))))) for t in angles)
-    steady = [steady_motion(red, e.x) for e in found.equilibria]
-    tilted = [s for s, t in zip(steady, angles) if 0.1 < abs(t) < 3.0]
-    src = "closed form cos(alpha) = 3 g / (2 Omega^2 Lp) (module docstring)"
-    rows = [
-        Row("Furuta: the motor is refused by name (1 = 'u[0]' and 'motor torque' in the "
-            "message)", 1.0, float("u[0]" in refusal and "motor torque" in refusal), 0.0,
-            "reduce(..., breaking_inputs='refuse')"),
-        Row("Furuta (motor held at zero): Routh equilibria from 8 angles at rest", 4.0,
-            float(len(found.equilibria)), 0.0, "alpha = 0, pi, +-alpha* (closed form)"),
-        Row("Furuta: max |alpha - alpha*| over the Routh equilibria [rad]", 0.0, dev, 1e-12,
-            src),
-        Row("Furuta: max |Omega - Omega*| / Omega* at the tilted ones", 0.0,
-            max(abs(s["xi"] - omega) / omega for s in tilted), 1e-12, src),
-    ]
-    return rows + _steady_rows("Furuta", steady, mu), {
-        "mu": mu, "Omega": omega, "alpha": angles, "refusal": refusal,
-        "held_inputs": list(red.held_inputs), "model": red.model}
-
-
-def _steady_rows(name: str, steady: list[dict], mu: float) -> list[Row]:
-    return [
-        Row(f"{name}: max |f(x) - xi g'(x)| / |xi g'(x)| over the lifted equilibria", 0.0,
-            max(s["residual"] for s in steady), 1e-10,
-            "the full model's field at the reconstructed state (a steady motion)"),
-        Row(f"{name}: max |J(x) - mu| / |mu| over the lifted equilibria", 0.0,
-            max(abs(s["momentum"] - mu) for s in steady) / abs(mu), 1e-12,
-            "the full model's momentum"),
-    ]
