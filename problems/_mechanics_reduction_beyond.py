@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 import sympy as sp
+from matplotlib.figure import Figure
 from scipy import optimize
 
 from models.double_pendulum3d import double_pendulum3d
@@ -26,7 +27,7 @@ from workbench.core.manifolds import SO3
 from workbench.equilibria import enumerate_equilibria, find_equilibrium
 
 __all__ = ["Row", "steady_motion", "furuta", "cart", "quadrotor", "double_pendulum",
-           "beyond_the_papers", "FURUTA_ALPHA", "CART_MU", "DOUBLE_MU"]
+           "beyond_the_papers", "figure", "FURUTA_ALPHA", "CART_MU", "DOUBLE_MU"]
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -124,13 +125,68 @@ def furuta() -> tuple[list[Row], dict]:
         Row("Furuta: max |Omega - Omega*| / Omega* at the tilted ones", 0.0,
             max(abs(s["xi"] - omega) / omega for s in tilted), 1e-12, src),
     ]
-    return rows + _steady_rows("Furuta", steady, mu), {
-        "mu": mu, "Omega": omega, "alpha": angles, "refusal": refusal,
-        "held_inputs": list(red.held_inputs), "model": red.model}
+    grads = [amended_gradient(red, e.x) for e in found.equilibria]
+    # the branch: the Routh equilibria over momentum values across the pitchfork at mu_c
+    i0 = v["mr"] * v["Lr"] ** 2 / 3 + v["mp"] * v["Lr"] ** 2
+    mu_c = i0 * np.sqrt(3.0 * v["g"] / (2.0 * v["Lp"]))
+    branch, miscount, cone = [], 0, 0.0
+    for mu_k in mu_c * np.linspace(0.6, 3.1, 11):  # 1.1 mu_c the closest
+        red_k = mechanics.reduce(full, "angular_momentum_theta", momentum=float(mu_k),
+                                 breaking_inputs="hold_zero")
+        eqs = enumerate_equilibria(red_k.model, starts).equilibria
+        miscount += len(eqs) != (4 if mu_k > mu_c else 2)
+        for e in eqs:
+            t, xi = float(np.arctan2(e.x[1], e.x[0])), steady_motion(red_k, e.x)["xi"]
+            branch.append((float(mu_k), xi, t))
+            if 0.0 < abs(t) < np.pi / 2:
+                cone = max(cone, abs(np.cos(t) * xi**2 * 2.0 * v["Lp"] / (3.0 * v["g"]) - 1))
+    rows += [
+        Row("Furuta: momentum values (of 11, 0.6 to 3.1 mu_c) with a wrong number of Routh "
+            "equilibria (2 below mu_c, 4 above)", 0.0, float(miscount), 0.0,
+            "pitchfork at mu_c = I(0) sqrt(3 g / (2 Lp)) (closed form)"),
+        Row("Furuta: max |cos(alpha) Omega^2 2 Lp / (3 g) - 1| along the branch", 0.0, cone,
+            1e-12, src)]
+    return rows + _steady_rows("Furuta", steady, mu, grads), {
+        "mu": mu, "Omega": omega, "alpha": angles, "refusal": refusal, "mu_c": mu_c,
+        "branch": branch, "Lp": v["Lp"], "g": v["g"], "held_inputs": list(red.held_inputs),
+        "model": red.model}
 
 
-def _steady_rows(name: str, steady: list[dict], mu: float) -> list[Row]:
-    return [
+def figure(values: dict) -> Figure:
+    """The Furuta pendulum's relative equilibria: Routh equilibria against the closed form."""
+    fur = values["furuta"]
+    lp, g = fur["Lp"], fur["g"]
+    fig = Figure(figsize=(4.2, 3.0))
+    ax = fig.subplots()
+    b = np.asarray(fur["branch"])
+    ax.plot(b[:, 1], np.degrees(b[:, 2]), "o", ms=4, mfc="none", label="Routh equilibria")
+    om = np.sqrt(3 * g / (2 * lp)) * np.linspace(1.0, b[:, 1].max() / np.sqrt(
+        3 * g / (2 * lp)), 200)
+    alpha = np.arccos(np.minimum(3 * g / (2 * om**2 * lp), 1.0))
+    for sign in (1, -1):
+        ax.plot(om, sign * np.degrees(alpha), "k-", lw=0.8,
+                label="cos(alpha) = 3 g / (2 Omega^2 Lp)" if sign > 0 else None)
+    ax.set(xlabel="arm rate Omega = mu / I(alpha) [rad/s]", ylabel="alpha [deg]",
+           ylim=(-100.0, 250.0))
+    ax.legend(fontsize=7, loc="upper center")
+    fig.set_layout_engine("tight")
+    return fig
+
+
+def amended_gradient(red: mechanics.Reduction, r: np.ndarray) -> float:
+    """``max |N^T grad V_mu|`` at a Routh state (``N`` a basis of its tangent space)."""
+    m = red.model
+    grad = red.amended_potential.factory("grad", ["x", "p"], ["grad:V_mu:x"])
+    g = np.asarray(grad(r, m.p), dtype=float).ravel()
+    return float(np.max(np.abs(np.asarray(m.manifold.tangent_basis(r)).T @ g)))
+
+
+def _steady_rows(name: str, steady: list[dict], mu: float,
+                 gradients: list[float] | None = None) -> list[Row]:
+    extra = [] if gradients is None else [
+        Row(f"{name}: max |grad V_mu| (tangent) at the Routh equilibria", 0.0,
+            max(gradients), 1e-10, "critical points of the amended potential V + mu^2/(2 I)")]
+    return extra + [
         Row(f"{name}: max |f(x) - xi g'(x)| / |xi g'(x)| over the lifted equilibria", 0.0,
             max(s["residual"] for s in steady), 1e-10,
             "the full model's field at the reconstructed state (a steady motion)"),
@@ -385,7 +441,8 @@ def double_pendulum(n_grid: int) -> tuple[list[Row], dict]:
                 match, 1e-10, src),
             Row("double pendulum: max |xi I(phi) / mu - 1|", 0.0, dev_xi, 1e-12,
                 "locked inertia by parallel axes (closed form)"),
-            *_steady_rows("double pendulum", steady, DOUBLE_MU)]
+            *_steady_rows("double pendulum", steady, DOUBLE_MU,
+                          [amended_gradient(red, e.x) for e in found.equilibria])]
     return rows, {"angles": [a.tolist() for a in routh], "hand": [a.tolist() for a in hand],
                   "model": red.model, "xi": [s["xi"] for s in steady],
                   "equilibria": len(found.equilibria)}
