@@ -26,8 +26,9 @@ from workbench.core.errors import ModelError
 from workbench.core.manifolds import SO3
 from workbench.equilibria import enumerate_equilibria, find_equilibrium
 
-__all__ = ["Row", "steady_motion", "furuta", "cart", "quadrotor", "double_pendulum",
-           "beyond_the_papers", "figure", "FURUTA_ALPHA", "CART_MU", "DOUBLE_MU"]
+__all__ = ["Row", "steady_motion", "amended_gradient", "furuta", "cart", "quadrotor",
+           "double_pendulum", "beyond_the_papers", "figure", "planar_amended_potential", "rx",
+           "FURUTA_ALPHA", "CART_MU", "DOUBLE_MU"]
 
 E3 = np.array([0.0, 0.0, 1.0])
 
@@ -196,7 +197,7 @@ def _steady_rows(name: str, steady: list[dict], mu: float,
     ]
 
 
-def _rx(angle: float) -> np.ndarray:
+def rx(angle: float) -> np.ndarray:
     """The rotation by ``angle`` about e1."""
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
@@ -224,7 +225,7 @@ def cart() -> tuple[list[Row], dict]:
     for sym in ("p_x", "p_y"):
         red = mechanics.reduce(full, sym, momentum=CART_MU, breaking_inputs="hold_zero")
         m = red.model
-        starts = [m.state(x=[0.0], v=[0.0], R=_rx(a), Omega=[0.0, 0.0, 0.0])
+        starts = [m.state(x=[0.0], v=[0.0], R=rx(a), Omega=[0.0, 0.0, 0.0])
                   for a in (0.0, 0.6, np.pi - 0.6, np.pi)]
         found = enumerate_equilibria(m, starts)
         steady = [steady_motion(red, e.x) for e in found.equilibria]
@@ -252,7 +253,7 @@ def cart() -> tuple[list[Row], dict]:
 
 def _tilted(angle: float) -> np.ndarray:
     """``e3`` turned by ``angle`` about e1."""
-    return _rx(angle) @ E3
+    return rx(angle) @ E3
 
 
 def quadrotor(rng: np.random.Generator, n_states: int) -> tuple[list[Row], dict]:
@@ -296,7 +297,7 @@ def quadrotor(rng: np.random.Generator, n_states: int) -> tuple[list[Row], dict]
                 "fall: no relative equilibrium)", 0.0, fall, 1e-12,
                 "closed form: gravity the only external force")]
     out: dict = {"held_inputs": list(ro.held_inputs)}
-    starts = {"p_x": {"xQ": [0.3, -0.2], "vQ": [1.5, 0.2, -0.1], "R": _rx(0.2),
+    starts = {"p_x": {"xQ": [0.3, -0.2], "vQ": [1.5, 0.2, -0.1], "R": rx(0.2),
                       "Omega": [0.1, -0.2, 0.3], "q": np.r_[_tilted(0.3), 0.2, 0.0, 0.0]},
               "L_z": {"xQ_rel": [0.0, -0.15, -0.5], "vQ_rel": [0.0, 0.0, 0.0],
                       "Gamma": _tilted(0.1), "Omega": [0.0, 0.0, 5.0],
@@ -337,8 +338,8 @@ DOUBLE_MU = 0.8
 """The double 3D pendulum's angular momentum about the vertical [kg m^2/s]."""
 
 
-def _planar_amended(values: dict, mu: float) -> tuple:
-    """Paper-free closed form: ``V_mu(phi1, phi2)`` of the pair turned about e1 (sympy).
+def planar_amended_potential(values: dict, mu: float) -> tuple:
+    """The amended potential ``V_mu(phi1, phi2)`` of the pair turned about e1, by hand (sympy).
 
     Body ``i`` at ``R_i = Rx(phi_i)``: ``Gamma_i = R_i^T e3 = (0, sin phi_i, cos phi_i)``;
     the locked inertia about the vertical through the pivot is ``Gamma1.J1 Gamma1 +
@@ -398,16 +399,16 @@ def double_pendulum(n_grid: int) -> tuple[list[Row], dict]:
     ``Gamma1 = (0, sin phi1, cos phi1)``, ``Q = Rx(phi2 - phi1)``); the tilt about a
     principal axis keeps Newton's iterates in that plane. The equilibria found are compared
     with the critical points of the hand-written amended potential of the pair tilted in
-    that plane (:func:`_planar_amended`), found by scipy from an ``n_grid`` x ``n_grid``
+    that plane (:func:`planar_amended_potential`), found by scipy from an ``n_grid`` x ``n_grid``
     grid of the torus, both up to the mirror ``phi -> -phi`` (a yaw by pi).
     """
     full = double_pendulum3d()
     red = mechanics.reduce(full, "L_z", momentum=DOUBLE_MU)
-    grad, hess, inertia = _planar_amended(full.values, DOUBLE_MU)
+    grad, hess, inertia = planar_amended_potential(full.values, DOUBLE_MU)
     tilts = [(s1 + t1, s2 + t2) for s1 in (0.0, np.pi) for s2 in (0.0, np.pi)
              for t1 in (0.0, 0.5, -0.5) for t2 in (0.0, 0.5, -0.5)]
-    starts = [red.model.state(Gamma=np.r_[_rx(a).T @ E3, 0.0, 0.0, 0.0],
-                              R2_rel=_rx(b - a), Omega2_rel=[0.0, 0.0, 0.0]) for a, b in tilts]
+    starts = [red.model.state(Gamma=np.r_[rx(a).T @ E3, 0.0, 0.0, 0.0],
+                              R2_rel=rx(b - a), Omega2_rel=[0.0, 0.0, 0.0]) for a, b in tilts]
     found = enumerate_equilibria(red.model, starts)
     planar = dev_xi = 0.0
     angles, steady = [], []
@@ -415,7 +416,7 @@ def double_pendulum(n_grid: int) -> tuple[list[Row], dict]:
         g1, Q = e.parts["Gamma"][:3], SO3.matrix(e.parts["R2_rel"])
         phi = np.array([np.arctan2(g1[1], g1[2]), 0.0])
         phi[1] = phi[0] + np.arctan2(Q[2, 1], Q[1, 1])
-        planar = max(planar, abs(g1[0]), float(np.max(np.abs(Q - _rx(phi[1] - phi[0])))))
+        planar = max(planar, abs(g1[0]), float(np.max(np.abs(Q - rx(phi[1] - phi[0])))))
         s = steady_motion(red, e.x)
         dev_xi = max(dev_xi, abs(s["xi"] * inertia(*phi) / DOUBLE_MU - 1.0))
         angles.append(_canonical(phi))

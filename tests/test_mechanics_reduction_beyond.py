@@ -23,7 +23,7 @@ from models.double_pendulum3d import double_pendulum3d
 from models.furuta import furuta
 from models.pendulum3d_cart import pendulum3d_cart
 from models.quadrotor_slung_load import hover_input, quadrotor_slung_load
-from problems._mechanics_reduction_beyond import _planar_amended, _rx, steady_motion
+from problems._mechanics_reduction_beyond import planar_amended_potential, rx, steady_motion
 from workbench import ModelError, mechanics, simulate
 from workbench.core.manifolds import SO3
 from workbench.equilibria import enumerate_equilibria, find_equilibrium
@@ -125,7 +125,7 @@ def test_cart_translation_routh_moves_the_hanging_pendulum_uniformly(symmetry, h
     ro = mechanics.reduce(full, symmetry, momentum=mu, breaking_inputs="hold_zero")
     assert ro.held_inputs == (held,) and ro.model.n_inputs == 1  # the other force stays
     assert ro.model.manifold.names == ["x", "v", "R", "Omega"]
-    tilt = _rx(0.4)  # released tilted: Newton finds the hanging equilibrium
+    tilt = rx(0.4)  # released tilted: Newton finds the hanging equilibrium
     eq = find_equilibrium(ro.model, ro.model.state(x=[0.2], v=[0.0], R=tilt,
                                                    Omega=[0.0, 0.0, 0.0]))
     s = steady_motion(ro, eq.x)
@@ -222,13 +222,13 @@ def test_double_pendulum_relative_equilibria_are_the_hand_amended_potentials():
     full = double_pendulum3d()
     mu = 0.8
     ro = mechanics.reduce(full, "L_z", momentum=mu)
-    grad, hess, inertia = _planar_amended(full.values, mu)
+    grad, hess, inertia = planar_amended_potential(full.values, mu)
     from scipy import optimize
 
     ranks = {}
     for phi in [(0.0, 0.0), (0.0, np.pi), (0.4, 0.7), (0.3, -0.8), (0.6, -2.9), (3.0, -1.0)]:
-        start = ro.model.state(Gamma=np.r_[_rx(phi[0]).T @ E3, 0.0, 0.0, 0.0],
-                               R2_rel=_rx(phi[1] - phi[0]), Omega2_rel=[0.0, 0.0, 0.0])
+        start = ro.model.state(Gamma=np.r_[rx(phi[0]).T @ E3, 0.0, 0.0, 0.0],
+                               R2_rel=rx(phi[1] - phi[0]), Omega2_rel=[0.0, 0.0, 0.0])
         eq = find_equilibrium(ro.model, start)
         g1, Q = eq.parts["Gamma"][:3], SO3.matrix(eq.parts["R2_rel"])
         found = np.array([np.arctan2(g1[1], g1[2]), 0.0])
