@@ -82,8 +82,11 @@ pendulum's momentum value is set (closed form below)."""
 def furuta() -> tuple[list[Row], dict]:
     """The Furuta pendulum reduced by the shift of its arm angle, unforced.
 
-    Closed form (the pendulum's equation of Cazzolato and Prime (2011) at ``alpha-dot =
-    0``, ``theta-ddot = 0``; or the amended potential below): a uniform thin link of length
+    Closed form, by hand from the Lagrangian of models/furuta.py: with ``l = Lp / 2`` and
+    ``Jp = mp Lp^2 / 12`` the link's Lagrange equation at ``alpha-dot = 0``, ``theta-ddot
+    = 0`` (equivalently ``d V_mu / d alpha = 0`` for the amended potential ``V_mu = -mp g l
+    cos(alpha) + mu^2 / (2 I(alpha))``; cf. the pendulum equation of Cazzolato and Prime
+    (2011) with their ``J2-hat = mp l^2 + Jp``) says that a uniform thin link of length
     ``Lp`` and mass ``mp`` on an arm turning at ``Omega`` stands at ``alpha`` with
 
         sin(alpha) (mp g Lp / 2 - Omega^2 (mp Lp^2 / 3) cos(alpha)) = 0,

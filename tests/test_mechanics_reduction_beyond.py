@@ -244,3 +244,17 @@ def test_double_pendulum_relative_equilibria_are_the_hand_amended_potentials():
     # tangent dimension 10: the tilted pair is isolated; the aligned pair keeps a circle of
     # critical points (body 2 turned about the common vertical axis, a Morse-Bott circle)
     assert ranks[(0.4, 0.7)] == 10 and ranks[(0.0, 0.0)] == 9 and ranks[(0.0, np.pi)] == 9
+
+
+@pytest.mark.parametrize("kind", ["routh", "lagrange_poincare"])
+def test_furuta_reconstruction_reproduces_the_full_model(kind):
+    full = furuta()
+    x0 = full.state(theta=0.3, theta_dot=[4.0], alpha=2.0, alpha_dot=[-1.5])
+    lp = mechanics.reduce(full, FURUTA, kind="lagrange_poincare")
+    mom = {"momentum": lp.momentum_of(x0)} if kind == "routh" else {}
+    red = mechanics.reduce(full, FURUTA, kind=kind, breaking_inputs="hold_zero", **mom)
+    t = np.linspace(0.0, 2.0, 11)
+    rec = red.reconstruct(simulate(red.reconstruction, red.reconstruction_state(x0), t,
+                                   rtol=1e-12, atol=1e-12))
+    ref = simulate(full, x0, t, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(rec.x - ref.x)) <= 1e-8
