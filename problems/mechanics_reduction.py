@@ -1,4 +1,4 @@
-"""The 3D pendulum's reduced and Routh models computed from its Lagrangian vs paper 000's.
+"""Reduced and Routh models computed from the Lagrangian: paper 000's 3D pendulum and beyond.
 
 ``workbench.mechanics.reduce`` derives, from the full model on TSO(3) and its symmetry
 about gravity (the momentum ``h``), the Lagrange-Poincare model on S^2 x R^3 and the
@@ -12,6 +12,14 @@ State map of the Routh models: the derived one stores ``(Gamma, w)`` with ``Gamm
 w x Gamma`` (the S^2 factor of the mechanics layer), paper 000 stores ``(Gamma,
 Gamma-dot)``; so ``Gamma-dot = w x Gamma`` and ``Gamma-ddot = w-dot x Gamma + w x
 Gamma-dot``. The Lagrange-Poincare models share ``(Gamma, omega)``.
+
+Beyond the papers (problems/_mechanics_reduction_beyond.py): the systems the workbench
+added, reduced by their symmetries, their relative equilibria found as equilibria of the
+reduced models from structured starts and checked in the full model and against closed
+forms: the Furuta pendulum by the shift of its arm angle (the motor refused by name, then
+held at zero), the 3D pendulum on a cart by each translation, the quadrotor with a slung
+load by a translation and by yaw, the double 3D pendulum by yaw of the pair (quotient
+coordinates ``Gamma1 = R1^T e3`` and ``R1^T R2``).
 """
 
 from __future__ import annotations
@@ -20,6 +28,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from models import pendulum3d as p3
+from problems._mechanics_reduction_beyond import beyond_the_papers
+from problems._mechanics_reduction_beyond import figure as beyond_figure
 from problems._mechanics_reduction_checks import (
     BODY,
     fields,
@@ -29,7 +39,8 @@ from problems._mechanics_reduction_checks import (
 )
 from workbench.study import Result
 
-TITLE = "Reduced and Routh models of the 3D pendulum computed from its Lagrangian vs paper 000"
+TITLE = ("Reduced and Routh models computed from the Lagrangian: the 3D pendulum vs paper 000, "
+         "and the systems beyond the papers")
 FIELD_TOL, RECON_TOL, RE_TOL = 1e-11, 1e-8, 1e-9
 
 
@@ -40,7 +51,8 @@ def solve(*, quick: bool = False) -> Result:
     ----------
     quick : bool
         3 random bodies with 10 states each (instead of 8 with 40), and a coarser
-        continuation of the relative equilibria (max_step 2.0 instead of 0.5).
+        continuation of the relative equilibria (max_step 2.0 instead of 0.5), and 5
+        random states (instead of 20) for the quadrotor's free fall.
 
     Returns
     -------
@@ -67,6 +79,15 @@ def solve(*, quick: bool = False) -> Result:
     4.3), the derived
     Routh field at ``(Gamma, 0)`` with that point's momentum, and the gradient of the
     amended potential on the sphere (at most 1e-9, the corrector's tolerance level).
+    (4) Beyond the papers, for each system: the equilibria of its Routh (or, where the
+    thrust must stay on, Lagrange-Poincare) model found from structured starts, their
+    number and position against a closed form (Furuta ``cos(alpha) = 3 g / (2 Omega^2
+    Lp)``; the cart's uniform motion at ``mu / (M + m)``; the quadrotor's level flight and
+    its spinning hover with the load swung out, ``cos(beta) = (mQ + mL) g / (mQ L
+    Omega^2)``; the double pendulum's pair tilted in a principal plane against the
+    critical points of its hand-written amended potential), the amended potential's
+    gradient, and in the full model the steady motion ``|f(x) - xi g'(x)| / |xi g'(x)|``
+    (at most 1e-10) and the momentum ``|J - mu| / |mu|`` (at most 1e-12).
     """
     res = Result("mechanics_reduction", TITLE, quick=quick)
     rng = np.random.default_rng(31)
@@ -125,7 +146,18 @@ def solve(*, quick: bool = False) -> Result:
         "random state (tolerance 1e-11 dashed). Right: the full motion reconstructed from "
         "the derived Routh and Lagrange-Poincare models against the full model's, and the "
         "derived dynamic phase and horizontal lift against Prop. 17's (tolerance 1e-8)."))
-    res.use(p3.full(**BODY))
+    with res.timed("beyond the papers"):
+        rows, beyond, reduced = beyond_the_papers(rng, quick)
+    for row in rows:
+        res.compare(row.quantity, row.reference, row.value, tolerance=row.tolerance,
+                    source=row.source)
+    res.values["beyond_the_papers"] = beyond
+    res.figure("furuta_relative_equilibria", beyond_figure(beyond), caption=(
+        "The Furuta pendulum reduced by its arm angle's shift: equilibria of the Routh model "
+        "(motor held at zero) at 11 momentum values, plotted at the arm rate of the full "
+        "model's steady motion, against the closed form (hanging, upright and the tilted "
+        "pair past the pitchfork)."))
+    res.use(p3.full(**BODY), *reduced)
     res.notes.append(f"Relative equilibria checked: {n} continuation points of the elliptic "
                      "cylinder (all families L1-L4 and their ends).")
     return res.finish()

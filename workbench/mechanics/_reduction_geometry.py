@@ -30,10 +30,11 @@ Three geometries:
 * :class:`~._reduction_rotation.Rotation`: a world rotation about a constant unit axis
   ``a`` turning a *reference* SO(3) factor ``R0`` (the first one). Shape coordinates:
   ``Gamma = R0^T a`` on S^2 and every other turning factor seen from the reference body:
-  ``R0^T R`` (SO(3)), ``R0^T q`` (S^2), ``R0^T x`` (R^3). Invariant velocities
-  (Lagrange-Poincare): the body angular velocities, ``R0^T omega`` (S^2), ``R0^T v``
-  (R^3). Shape velocities (Routh): the velocities relative to the reference body: ``w =
-  -P(Gamma) Omega0`` with ``Gamma-dot = w x Gamma`` (the S^2 convention of the mechanics
+  ``R0^T R`` (SO(3)), ``R0^T q`` (S^2), ``R0^T x`` (R^3) (the double 3D pendulum by yaw of
+  the pair: ``Gamma = R1^T e3`` and the relative attitude ``R1^T R2``). Invariant
+  velocities (Lagrange-Poincare): the body angular velocities, ``R0^T omega`` (S^2),
+  ``R0^T v`` (R^3). Shape velocities (Routh): the velocities relative to the reference
+  body: ``w = -P(Gamma) Omega0`` with ``Gamma-dot = w x Gamma`` (the S^2 convention of the mechanics
   layer), ``Omega - Q^T Omega0`` for ``Q = R0^T R``, ``P(q') (R0^T omega - Omega0)`` for
   ``q' = R0^T q``, and ``R0^T v - Omega0 x x'`` for ``x' = R0^T x``. The group velocity is
   ``xi = Gamma . Omega0``. The section is ``R0 = sigma(Gamma)`` with ``sigma(Gamma)^T a =
