@@ -381,21 +381,36 @@ def choice_figure(choices: Sequence[ModelChoice], *, ncols: int = 2,
     if not choices or not all(isinstance(c, ModelChoice) for c in choices):
         raise ParameterError("choices must be a non-empty sequence of ModelChoice")
     fig, axes = _grid(len(choices), ncols, size)
+    import matplotlib as mpl
+    from matplotlib.ticker import LogLocator, NullFormatter
+
+    names = list(dict.fromkeys(lv.name for ch in choices for lv in ch.levels
+                               if lv.cpu_seconds is not None))
+    palette = mpl.colormaps["tab20" if len(names) > 10 else "tab10"]
+    colour = {n: palette(i % palette.N) for i, n in enumerate(names)}
     for ax, ch in zip(axes, choices, strict=True):
+        cpus = []
         for lv in ch.levels:
             if lv.cpu_seconds is None or lv.error is None:
                 continue
             y = max(lv.error, 1e-17)
+            cpus.append(lv.cpu_seconds)
             ax.plot(lv.cpu_seconds, y, linestyle="none", marker=_MARKERS[lv.kind],
-                    label=lv.name)
+                    color=colour[lv.name], label=lv.name)
             if lv.name == ch.choice:
                 ax.plot(lv.cpu_seconds, y, linestyle="none", marker="o", markersize=14,
                         markerfacecolor="none", markeredgecolor="k", label="chosen")
         ax.axhline(ch.tolerance, color="k", linestyle="--", linewidth=1, label="tolerance")
+        if cpus:  # at least a decade, so that the axis has a labelled major tick
+            mid = np.sqrt(min(cpus) * max(cpus))
+            half = max(np.sqrt(max(cpus) / min(cpus)) * 1.5, np.sqrt(10.0))
+            ax.set_xlim(mid / half, mid * half)
         gain = f", {ch.speedup:.1f}x less CPU" if ch.speedup else ""
         ax.set(xscale="log", yscale="log", xlabel="CPU time of a run [s]",
                ylabel="max output error", title=f"{ch.scene}: {ch.choice or 'none'}{gain}")
-        ax.title.set_fontsize(9)
+        ax.xaxis.set_major_locator(LogLocator(base=10.0))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.title.set_fontsize(8)
         ax.grid(True, alpha=0.3)
     legend_below(fig, axes, fontsize=7, max_columns=4)
     return fig
