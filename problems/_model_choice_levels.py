@@ -206,7 +206,12 @@ def pendulum_scenes(body: dict, *, horizon: float, amplitude: float, n_states: i
 
 
 def top_scenes(*, horizon: float) -> tuple[Model, dict[str, dict]]:
-    """The axisymmetric body :data:`TOP` spinning (Lagrange top) and swinging in a plane."""
+    """The axisymmetric body :data:`TOP` spinning (Lagrange top) and swinging in a plane.
+
+    The swing runs over half the horizon: its reference (rtol 1e-13 against 1e-12) drifts
+    in phase like the horizon, and at 100 s reaches 2/3 of the margin (1e-7) it must stay
+    below.
+    """
     full = p3.full(**TOP)
     lp = mechanics.reduce(full, "h", kind="lagrange_poincare")
     e3, cases = np.r_[0.0, 0.0, 1.0], special_cases(full)
@@ -216,7 +221,7 @@ def top_scenes(*, horizon: float) -> tuple[Model, dict[str, dict]]:
         "top": {"scene": Scene(full, spinning, horizon, gamma, 1e-5, n_times=401,
                                name="top spinning at 5 rad/s, Gamma"),
                 "special_cases": cases},
-        "planar": {"scene": Scene(full, swinging, horizon, gamma, 1e-5, n_times=401,
+        "planar": {"scene": Scene(full, swinging, horizon / 2, gamma, 1e-5, n_times=401,
                                   name="top swinging in a plane, Gamma"),
                    "special_cases": cases}}
 

@@ -35,8 +35,8 @@ def solve(*, quick: bool = False) -> Result:
     Parameters
     ----------
     quick : bool
-        Horizon 40 s instead of 100 s (tumbling: 4 s instead of 10 s), 3 timed repeats
-        instead of 5.
+        Horizon 40 s instead of 100 s (tumbling: a tenth, the planar swing: half of it), 3
+        timed repeats instead of 5.
 
     Returns
     -------

@@ -59,18 +59,17 @@ from workbench.study._model_choice import (
 from workbench.study._model_levels import (
     CaseMaps,
     FullLevel,
-    Integration,
     Level,
     LevelKind,
     LinearLevel,
     Prepared,
     ReductionLevel,
-    Scene,
     SpecialCase,
     Unavailable,
     default_levels,
     output_invariance,
 )
+from workbench.study._model_scene import Integration, Scene
 from workbench.study._plots import (
     MAX_SEGMENTS,
     body_axis_curves,

@@ -24,16 +24,8 @@ from workbench.core.status import StatusEnum, StatusResult
 from workbench.simulation import Method
 from workbench.simulation.accuracy._legend import legend_below
 from workbench.study._figures import _grid
-from workbench.study._model_levels import (
-    FullLevel,
-    Integration,
-    Level,
-    LevelKind,
-    Prepared,
-    Scene,
-    _Flow,
-    default_levels,
-)
+from workbench.study._model_levels import FullLevel, Level, LevelKind, Prepared, default_levels
+from workbench.study._model_scene import Integration, Scene, _Flow
 
 __all__ = ["ChoiceStatus", "LevelRun", "ModelChoice", "compare_models", "choice_figure"]
 
