@@ -203,10 +203,12 @@ def test_the_choice_is_the_cheapest_level_within_the_tolerance():
 
 def test_an_unconfirmed_reference_is_reported():
     full, lp, _, down = _pendulum()
-    scene = Scene(full, _near(lp, down, 0.3, n=1), 2.0, gamma, 1e-9)
+    scene = Scene(full, _near(lp, down, 0.3, n=1), 2.0, gamma, 1e-5)
     kw = {"symmetries": (), "repeats": 1, "reference_rtol": 1e-7, "check_rtol": 1e-5}
     ch = compare_models(scene, **kw, raise_on_failure=False)
     assert ch.status is ChoiceStatus.REFERENCE_UNCONFIRMED and ch.choice is None
+    assert ch.reference["difference"] > 0.01 * 1e-5
+    assert "the reference is unconfirmed" in ch.excluded["full"]  # it meets the tolerance
     with pytest.raises(SolverError, match="REFERENCE_UNCONFIRMED"):
         compare_models(scene, **kw)
 
@@ -225,6 +227,8 @@ def test_bad_scenes_and_knobs_are_refused():
         compare_models(scene, reference_rtol=1e-10, check_rtol=1e-12)
     with pytest.raises(ParameterError, match="include the full model"):
         compare_models(scene, [LinearLevel(full, _pendulum()[2], radius=1.0)])
+    with pytest.raises(ParameterError, match="with levels given"):
+        compare_models(scene, [FullLevel(full)], equilibria=[_pendulum()[2]])
     with pytest.raises(ParameterError, match="step is RK4's knob"):
         compare_models(scene, step=0.01)
     with pytest.raises(ParameterError, match="'cvodes' or 'rk'"):

@@ -217,13 +217,15 @@ def _prepare(level: Level, scene: Scene, knobs: Integration
     return LevelRun(level.name, level.kind, True, prep.detail, build_seconds=build), prep
 
 
-def _why_not(run: LevelRun, chosen: LevelRun | None, tol: float) -> str:
+def _why_not(run: LevelRun, chosen: LevelRun | None, tol: float, unconfirmed: str) -> str:
     if not run.applies:
         return f"does not apply: {run.detail}"
     if run.failure:
         return f"failed: {run.failure}"
     if not run.meets:
         return f"error {run.error:.2e} > tolerance {tol:.1e}"
+    if unconfirmed:
+        return f"meets the tolerance, but {unconfirmed}"
     assert chosen is not None and run.cpu_seconds is not None
     return (f"meets the tolerance but costs {run.cpu_seconds:.3g} s, "
             f"{run.cpu_seconds / chosen.cpu_seconds:.2f}x the chosen level's")
@@ -231,7 +233,7 @@ def _why_not(run: LevelRun, chosen: LevelRun | None, tol: float) -> str:
 
 def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
                    special_cases: Sequence[Level] = (), symmetries: Sequence[str] | None = None,
-                   equilibria: Sequence[Any] = (), radius: float = 0.05,
+                   equilibria: Sequence[Any] = (), radius: float | None = None,
                    method: Method | str = Method.CVODES, rtol: float = 1e-8,
                    atol: float = 1e-8, multistep: str = "adams", step: float | None = None,
                    max_steps: int = 100_000, repeats: int = 5, reference_rtol: float = 1e-12,
@@ -249,7 +251,8 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
     special_cases : sequence of Level
         Added to the levels (e.g. :class:`SpecialCase`; their assumptions are checked).
     symmetries, equilibria, radius
-        Passed to :func:`default_levels` (only when ``levels`` is None).
+        Passed to :func:`default_levels` (``radius`` default 0.05); only when ``levels`` is
+        None (given with ``levels`` they are refused, not ignored).
     method, rtol, atol, multistep, step, max_steps
         The integration of every level (:class:`Integration`).
     repeats : int
@@ -293,9 +296,13 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
         raise ParameterError(f"reference_margin must be in (0, 1]; got {reference_margin!r}")
     if not isinstance(raise_on_failure, bool):
         raise ParameterError(f"raise_on_failure must be True or False; got {raise_on_failure!r}")
-    chosen_levels = list(default_levels(scene, symmetries=symmetries, equilibria=equilibria,
-                                        radius=radius, seed=seed) if levels is None
-                         else levels) + list(special_cases)
+    if levels is not None and (symmetries is not None or len(equilibria) or radius is not None):
+        raise ParameterError("symmetries, equilibria and radius make the default levels; with "
+                             "levels given, make those levels yourself (they would be ignored)")
+    chosen_levels = list(default_levels(
+        scene, symmetries=symmetries, equilibria=equilibria,
+        radius=0.05 if radius is None else radius, seed=seed) if levels is None
+        else levels) + list(special_cases)
     bad = [lv for lv in chosen_levels if not isinstance(lv, Level)]
     if bad or not chosen_levels:
         raise ParameterError(f"levels must be a non-empty sequence of Level; got {bad or '[]'}")
@@ -329,12 +336,15 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
             run.meets = run.error <= scene.tolerance
     ok = [r for r in runs if r.meets]
     best = min(ok, key=lambda r: r.cpu_seconds) if ok else None
+    unconfirmed = ""
     if diff > margin * scene.tolerance:
         status = ChoiceStatus.REFERENCE_UNCONFIRMED
+        unconfirmed = (f"the reference is unconfirmed (rtol {reference_rtol:g} and "
+                       f"{check_rtol:g} differ by {diff:.2e} > {margin:g} x tolerance)")
     else:
         status = ChoiceStatus.CHOSEN if best is not None else ChoiceStatus.NONE_MEETS
     choice = best.name if best is not None and status is ChoiceStatus.CHOSEN else None
-    excluded = {r.name: _why_not(r, best, scene.tolerance) for r in runs
+    excluded = {r.name: _why_not(r, best, scene.tolerance, unconfirmed) for r in runs
                 if r.name != choice}
     result = ModelChoice(
         scene=scene.name, tolerance=scene.tolerance, levels=runs, choice=choice,
