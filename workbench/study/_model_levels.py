@@ -1,6 +1,7 @@
 """The levels of a model for a scene: full, reduced, Routh, special cases, linearisation.
 
-A :class:`Level` is one way of computing those outputs, cheaper or not than the full model:
+A :class:`Level` is one way of computing a scene's outputs (the quantities that matter, a
+function of the full state), cheaper or not than the full model:
 
 * :class:`FullLevel` -- the full model itself;
 * :class:`ReductionLevel` -- a Lagrange-Poincare or Routh model made by
@@ -42,9 +43,9 @@ from workbench.linear import linearize
 from workbench.mechanics import Reduction, ReductionKind, reduce
 from workbench.study._model_scene import Integration, Scene, _Flow
 
-__all__ = ["LevelKind", "Level", "Prepared", "FullLevel",
-           "ReductionLevel", "SpecialCase", "CaseMaps", "LinearLevel", "Unavailable",
-           "default_levels", "output_invariance"]
+__all__ = ["LevelKind", "Level", "Prepared", "FullLevel", "ReductionLevel", "SpecialCase",
+           "CaseMaps", "LinearLevel", "Unavailable", "default_levels", "output_invariance"]
+
 
 class LevelKind(str, Enum):
     """Kinds of model level, from the most to the least complete.
@@ -236,7 +237,7 @@ class ReductionLevel(Level):
     def prepare(self, scene: Scene, knobs: Integration) -> Prepared:  # noqa: D102
         red = self.reduction
         change = output_invariance(scene, lambda x, th: red.act(x, th), seed=self.seed)
-        n, p_full = scene.n_times, red.full.p
+        n, p_full, tol = scene.n_times, red.full.p, self.momentum_tol
         if change <= self.invariance_tol:
             model = red.model
             flow, p = _Flow(model, scene.times, knobs), model.p
@@ -245,7 +246,7 @@ class ReductionLevel(Level):
             lift = red.lift.map(n)
 
             def run() -> list[np.ndarray]:
-                return [np.asarray(lift(flow(red.state_from_full(x), p).T, p_full, mu)).T
+                return [np.asarray(lift(flow(red.state_from_full(x, tol=tol), p).T, p_full, mu)).T
                         for x in scene.states]
 
             return Prepared(run, f"{model.name} alone on {model.manifold.describe()}, lifted "
@@ -255,7 +256,7 @@ class ReductionLevel(Level):
         flow, p = _Flow(model, scene.times, knobs), model.p
 
         def run_reconstructed() -> list[np.ndarray]:
-            return [red.reconstruct(flow(red.reconstruction_state(x), p)).x
+            return [red.reconstruct(flow(red.reconstruction_state(x, tol=tol), p)).x
                     for x in scene.states]
 
         return Prepared(run_reconstructed,
@@ -484,6 +485,9 @@ def default_levels(scene: Scene, *, symmetries: Sequence[str] | None = None,
     -------
     list of Level
     """
+    if not isinstance(scene, Scene):
+        raise ParameterError(f"scene must be a workbench.study.Scene; got {type(scene).__name__}")
+    momentum_tol = validate.tolerance("momentum_tol", momentum_tol)
     full = scene.model
     der = getattr(full, "mechanics", None)
     if symmetries is None:
