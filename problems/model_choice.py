@@ -82,6 +82,15 @@ def solve(*, quick: bool = False) -> Result:
         res.notes += [f"{ch.scene}: choice {ch.choice}" + (
             f", {ch.speedup:.1f}x less CPU than full" if ch.speedup else "") + "."] + [
             f"{ch.scene}: {name}: {why}." for name, why in ch.excluded.items()]
+    ratios: dict[str, list[float]] = {}
+    for ch in choices.values():
+        full = ch.level("full").cpu_seconds
+        for lv in ch.levels:
+            if lv.cpu_seconds is not None and lv.kind.value != "full":
+                ratios.setdefault(lv.kind.value, []).append(lv.cpu_seconds / full)
+    res.notes.append("Measured CPU time over the full model's, by kind of level (all scenes): "
+                     + "; ".join(f"{k} {min(v):.2g} .. {max(v):.2g}" for k, v in ratios.items())
+                     + ". Below 1 the level is cheaper.")
     columns = ("level", "kind", "applies", "cpu_seconds", "build_seconds", "error", "meets",
                "chosen", "why_not")
     res.values = {"knobs": {**KNOBS, "repeats": repeats, "horizon": horizon},
