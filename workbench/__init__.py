@@ -11,7 +11,8 @@ grouped into rooms, each a package whose public names are re-exported here:
 - :mod:`workbench.global_dynamics` — invariant manifolds, Poincare maps, FTLE, phase;
 - :mod:`workbench.control` — feedback, Lyapunov, domains of attraction, OCP, TVLQR;
 - :mod:`workbench.codegen` — controllers exported as C;
-- :mod:`workbench.study` — results and figures of define-and-solve studies;
+- :mod:`workbench.study` — results and figures of define-and-solve studies, and the choice
+  of a model's level for a scene (:func:`compare_models`);
 - :mod:`workbench.app` — the command line and the report (above the problems; not imported here).
 """
 
@@ -19,7 +20,16 @@ from __future__ import annotations
 
 import sys as _sys
 
-from workbench import codegen, control, core, equilibria, global_dynamics, linear, simulation
+from workbench import (
+    codegen,
+    control,
+    core,
+    equilibria,
+    global_dynamics,
+    linear,
+    simulation,
+    study,
+)
 from workbench.control import (
     OCP,
     TVLQR,
@@ -96,6 +106,7 @@ from workbench.linear import (
     symmetry_directions,
 )
 from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
+from workbench.study import ModelChoice, Scene, compare_models
 
 # Module paths of the flat layout that the README documented keep working as aliases of
 # their rooms (``from workbench.manifolds import S2``, ``import workbench.ocp``).
@@ -123,6 +134,7 @@ __all__ = [
     "InvariantManifold",
     "LQRResult",
     "LinearModel",
+    "ModelChoice",
     "ManifoldError",
     "ManifoldHandling",
     "Method",
@@ -137,6 +149,7 @@ __all__ = [
     "PoincareOrbit",
     "ProductManifold",
     "Rn",
+    "Scene",
     "Section",
     "SolverError",
     "Stability",
@@ -149,6 +162,7 @@ __all__ = [
     "Trajectory",
     "WorkbenchError",
     "codegen",
+    "compare_models",
     "continue_branch",
     "control",
     "core",
@@ -178,6 +192,7 @@ __all__ = [
     "so3_log",
     "solve_ocp",
     "stable_manifold",
+    "study",
     "sweep",
     "tvlqr",
     "tvlqr_along",

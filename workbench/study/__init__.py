@@ -1,4 +1,9 @@
-"""What define-and-solve studies are made of: Result and comparisons, figures, the script runner."""
+"""What define-and-solve studies are made of: Result and comparisons, figures, the script runner.
+
+Also the choice of a model for a scene (:func:`compare_models`): the levels of a model
+(full, reduced, Routh, special cases, linearisation) run on a :class:`Scene`, timed and
+compared on its outputs, and the cheapest one within the tolerance named.
+"""
 
 from __future__ import annotations
 
@@ -44,6 +49,27 @@ from workbench.study._measures import (
     great_circle_defect,
     rotation_cover_fraction,
 )
+from workbench.study._model_choice import (
+    ChoiceStatus,
+    LevelRun,
+    ModelChoice,
+    choice_figure,
+    compare_models,
+)
+from workbench.study._model_levels import (
+    CaseMaps,
+    FullLevel,
+    Level,
+    LevelKind,
+    LinearLevel,
+    Prepared,
+    ReductionLevel,
+    SpecialCase,
+    Unavailable,
+    default_levels,
+    output_invariance,
+)
+from workbench.study._model_scene import Integration, Scene
 from workbench.study._plots import (
     MAX_SEGMENTS,
     body_axis_curves,
@@ -66,6 +92,24 @@ from workbench.study._result import (
 from workbench.study._script import run_script
 
 __all__ = [
+    "CaseMaps",
+    "ChoiceStatus",
+    "FullLevel",
+    "Integration",
+    "Level",
+    "LevelKind",
+    "LevelRun",
+    "LinearLevel",
+    "ModelChoice",
+    "Prepared",
+    "ReductionLevel",
+    "Scene",
+    "SpecialCase",
+    "Unavailable",
+    "choice_figure",
+    "compare_models",
+    "default_levels",
+    "output_invariance",
     "run_script",
     "rotation_cover_fraction",
     "CLEAR",
