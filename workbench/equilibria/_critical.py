@@ -42,7 +42,7 @@ from workbench.core.status import StatusEnum, StatusResult, raise_if
 from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import count as check_count
 from workbench.core.validate import tolerance as check_tolerance
-from workbench.equilibria._critical_function import ConfigurationFunction, potential
+from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
 from workbench.equilibria._critical_search import Homotopy, PathEnd, deflate, start_function, track
 from workbench.equilibria._critical_symmetry import Symmetry, candidates, detect_symmetry
 from workbench.equilibria._critical_topology import (
@@ -231,7 +231,7 @@ def _as_function(target: Any, manifold: ProductManifold | None,
         if manifold is not None or p is not None:
             raise ModelError("manifold and p belong to a casadi.Function target; for a model "
                              "use model.with_parameters(...)")
-        return potential(target)
+        return potential_function(target)
     if isinstance(target, ca.Function):
         if manifold is None:
             raise ModelError("a casadi.Function target needs manifold= (its configuration "
@@ -289,11 +289,21 @@ def _add(sets: list[CriticalSet], new: CriticalSet, how: str, sym: Symmetry, *,
     return True
 
 
+def _morse_bott(man: ProductManifold, sets: list[CriticalSet]) -> MorseBottCheck | None:
+    """The check, or None while some set is unclassified (or none was found)."""
+    if any(s.betti is None for s in sets):
+        return None
+    return morse_bott_check(manifold_polynomial(man), [(s.index, s.betti) for s in sets])
+
+
 def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[PathEnd],
             defl: dict[str, int]) -> tuple[CriticalStatus, str]:
     reached = sum(p.reached for p in paths)
     how = (f"{len(sets)} critical sets; {reached} of {len(paths)} homotopy paths reached t = 1"
            f", deflation found {defl['found']} more from {defl['starts']} seeded starts")
+    if not sets:
+        return CriticalStatus.MISSED, (f"{how}: none found (on an R^k factor the function may "
+                                       "have no critical point: not bounded below, not proper)")
     odd = [i for i, s in enumerate(sets) if not np.isnan(s.field_residual)
            and not s.field_residual <= defl.get("field_tol", np.inf)]
     if odd:
@@ -320,8 +330,9 @@ def critical_points(
     hessian_rtol: float = 1e-6,
     symmetry_rtol: float = 1e-9,
     max_starts: int = 4096,
-    deflation_starts: int = 4,
-    deflation_rounds: int = 2,
+    deflation_starts: int = 8,
+    deflation_rounds: int = 8,
+    max_deflation_starts: int = 64,
     max_iterations: int = 50,
     seed: int = 0,
     raise_on_failure: bool = True,
@@ -351,8 +362,12 @@ def critical_points(
         Refuse a start function with more critical points than this (``2^n`` for ``n``
         links).
     deflation_starts, deflation_rounds : int
-        Seeded random starts of the deflated Newton, and solutions sought from each; 0
-        starts turns deflation off.
+        Seeded random starts of the deflated Newton, and solutions sought from each (the
+        solves from one start stop at its first failure); 0 starts turns deflation off.
+    max_deflation_starts : int
+        While the Morse-Bott inequalities fail after ``deflation_starts`` (sets are
+        missing), deflation goes on from further seeded starts, up to this many in all
+        (reported in ``deflation["starts"]``); at least ``deflation_starts``.
     max_iterations : int
         Newton iterations per solve.
     seed : int
@@ -377,7 +392,8 @@ def critical_points(
     return _search(_as_function(target, manifold, p), model=None, tol=tol,
                    hessian_rtol=hessian_rtol, symmetry_rtol=symmetry_rtol,
                    max_starts=max_starts, deflation_starts=deflation_starts,
-                   deflation_rounds=deflation_rounds, max_iterations=max_iterations,
+                   deflation_rounds=deflation_rounds,
+                   max_deflation_starts=max_deflation_starts, max_iterations=max_iterations,
                    seed=seed, field_tol=None, raise_on_failure=raise_on_failure)
 
 
@@ -420,18 +436,18 @@ def find_all_equilibria(
     field_tol = check_tolerance("field_tol", field_tol)
     unknown = set(options) - {"tol", "hessian_rtol", "symmetry_rtol", "max_starts",
                               "deflation_starts", "deflation_rounds", "max_iterations",
-                              "seed"}
+                              "max_deflation_starts", "seed"}
     if unknown:
         raise ParameterError(f"unknown options {sorted(unknown)} for find_all_equilibria")
-    return _search(potential(model), model=model, field_tol=field_tol,
+    return _search(potential_function(model), model=model, field_tol=field_tol,
                    raise_on_failure=raise_on_failure, **options)
 
 
 def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float | None,
             raise_on_failure: bool, tol: float = 1e-11, hessian_rtol: float = 1e-6,
-            symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 4,
-            deflation_rounds: int = 2, max_iterations: int = 50,
-            seed: int = 0) -> CriticalPoints:
+            symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 8,
+            deflation_rounds: int = 8, max_deflation_starts: int = 64,
+            max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
     t0 = time.perf_counter()
     tol = check_tolerance("tol", tol)
     hessian_rtol = check_tolerance("hessian_rtol", hessian_rtol)
@@ -439,6 +455,10 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
     max_starts = check_count("max_starts", max_starts)
     deflation_starts = check_count("deflation_starts", deflation_starts, minimum=0)
     deflation_rounds = check_count("deflation_rounds", deflation_rounds)
+    max_deflation_starts = check_count("max_deflation_starts", max_deflation_starts, minimum=0)
+    if max_deflation_starts < deflation_starts:
+        raise ParameterError(f"max_deflation_starts ({max_deflation_starts}) must be at least "
+                             f"deflation_starts ({deflation_starts})")
     max_iterations = check_count("max_iterations", max_iterations)
     seed = check_count("seed", seed, minimum=0)
     man = fn.manifold
@@ -469,14 +489,20 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         paths.append(end)
         if end.reached:
             add(end.point, f"continuation from start {k} ({label})")
-    defl = {"starts": deflation_starts, "solves": 0, "found": 0}
+    defl = {"starts": 0, "solves": 0, "found": 0}
     drng = np.random.default_rng([seed, 1])
-    for k in range(deflation_starts):
-        c0 = man.random_point(drng)
+    while defl["starts"] < max_deflation_starts:
+        if defl["starts"] >= deflation_starts:
+            check = _morse_bott(man, sets)
+            if check is None or check.holds:
+                break  # extend the deflation only while the inequalities fail
+        k, c0 = defl["starts"], man.random_point(drng)
+        defl["starts"] += 1
         for _ in range(deflation_rounds):
             root = deflate(hom, known, c0, tol=abs_tol, max_iterations=max_iterations)
             defl["solves"] += 1
-            if not root.ok:
+            if not root.ok or any(float(np.max(np.abs(root.x - q))) <= point_tol
+                                  for q in known):
                 break
             if add(root.x, f"deflation from seeded start {k}"):
                 defl["found"] += 1
@@ -487,9 +513,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         for s in sets:
             s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
         defl["field_tol"] = field_tol
-    check = None
-    if sets and all(s.betti is not None for s in sets):
-        check = morse_bott_check(manifold_polynomial(man), [(s.index, s.betti) for s in sets])
+    check = _morse_bott(man, sets)
     status, message = _status(sets, check, paths, defl)
     defl.pop("field_tol", None)
     result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),

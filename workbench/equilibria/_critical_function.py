@@ -13,7 +13,7 @@ manifold (no velocities) and derives, by automatic differentiation:
   (from ``d^2/ds^2 exp(s hat(xi)) q = -|xi|^2 q`` for ``xi`` normal to ``q`` and
   ``hat(v)^2 = v v^T - |v|^2 I``).
 
-:func:`potential` reads the potential of a model made by :mod:`workbench.mechanics` (the
+:func:`potential_function` reads the potential of a model made by :mod:`workbench.mechanics` (the
 derivation it carries as ``model.mechanics``); :meth:`ConfigurationFunction.from_state`
 takes any function of a model's state (an amended potential ``V + mu^2 / (2 I)`` on the
 shape space of a Routh model), with its velocities set to zero.
@@ -33,7 +33,7 @@ from workbench.core.errors import ModelError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn, vee
 from workbench.core.types import ArrayLike, Matrix, Vector
 
-__all__ = ["ConfigurationFunction", "potential", "generalised_force", "home_point"]
+__all__ = ["ConfigurationFunction", "potential_function", "generalised_force", "home_point"]
 
 
 def generalised_force(manifold: ProductManifold, c: ca.SX, g: ca.SX) -> ca.SX:
@@ -261,7 +261,7 @@ class ConfigurationFunction:
         return f"ConfigurationFunction({self.name!r} on {self.manifold.describe()})"
 
 
-def potential(model: Model) -> ConfigurationFunction:
+def potential_function(model: Model) -> ConfigurationFunction:
     """The potential energy of a model made by :mod:`workbench.mechanics`, on its configuration.
 
     Reads the derivation the model carries (``model.mechanics``: its factors and the

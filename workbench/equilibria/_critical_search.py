@@ -263,22 +263,37 @@ def track(h: Homotopy, start: Vector, label: str, *, tol: float, max_iterations:
 
 def deflate(h: Homotopy, known: list[Vector], c0: Vector, *, tol: float,
             max_iterations: int, power: float = 2.0, shift: float = 1.0) -> Root:
-    """Newton on the deflated gauge-fixed system from ``c0`` (module docstring)."""
+    """Newton on the deflated gauge-fixed system from ``c0`` (module docstring).
+
+    The deflation factor is divided by its value at ``c0`` (Newton's steps do not change
+    with a constant factor, and with thousands of known solutions the product would
+    overflow); a converged deflated solve is polished by plain Newton on the gauge-fixed
+    system, whose status is returned, so a returned CONVERGED is a zero of ``G`` to ``tol``.
+    """
     man = h.manifold
-    roots = [np.asarray(r, dtype=float) for r in known]
+    roots = np.array(known, dtype=float).reshape(len(known), -1)
+
+    def log_factor(c: Vector) -> tuple[float, Vector]:
+        if not roots.size:
+            return 0.0, np.zeros_like(c)
+        d = c - roots
+        n2 = np.einsum("ij,ij->i", d, d)
+        mi = n2 ** (-power / 2) + shift
+        dmi = (-power * n2 ** (-power / 2 - 1))[:, None] * d
+        return float(np.sum(np.log(mi))), (dmi / mi[:, None]).sum(axis=0)
+
+    log0 = log_factor(np.asarray(c0, dtype=float))[0]
 
     def fun(c: Vector) -> tuple[Vector, Matrix]:
         G, A = h.gauged(c)
-        m, dm = 1.0, np.zeros_like(c)
-        for r in roots:
-            d = c - r
-            n2 = float(d @ d)
-            mi = n2 ** (-power / 2) + shift
-            dmi = -power * n2 ** (-power / 2 - 1) * d
-            dm = dm * mi + m * dmi
-            m *= mi
+        logm, dlog = log_factor(c)
+        m = np.exp(logm - log0)
         N = man.tangent_basis(c)
-        return m * G, m * A + np.outer(G, dm @ N)
+        return m * G, m * (A + np.outer(G, dlog @ N))
 
-    return newton_on_manifold(fun, man, c0, tol=tol, max_iterations=max_iterations,
-                              step_tol=1e-15, raise_on_failure=False)
+    root = newton_on_manifold(fun, man, c0, tol=tol, max_iterations=max_iterations,
+                              step_tol=1e-15, diagnostics=False, raise_on_failure=False)
+    if not root.ok:
+        return root
+    return newton_on_manifold(h.gauged, man, root.x, tol=tol, max_iterations=max_iterations,
+                              step_tol=1e-15, diagnostics=False, raise_on_failure=False)
