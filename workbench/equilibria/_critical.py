@@ -312,10 +312,14 @@ def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[P
             f"{max(sets[i].field_residual for i in odd):.3g}: the model has loads at rest "
             "that the potential does not contain (a spring written as a force?)")
     if check is None:
-        bad = [i for i, s in enumerate(sets) if s.betti is None]
+        degenerate = [i for i, s in enumerate(sets) if not s.morse_bott]
+        unknown = [i for i, s in enumerate(sets) if s.morse_bott and s.betti is None]
+        words = ([f"sets {degenerate} are degenerate (Hessian nullity above the dimension of "
+                  "the symmetry orbit)"] if degenerate else []) + (
+            [f"sets {unknown} are orbits of a non-abelian or screw symmetry, of unknown "
+             "topology"] if unknown else [])
         return CriticalStatus.UNCLASSIFIED, (
-            f"{how}; sets {bad} are degenerate (nullity above the orbit's dimension) or of "
-            "unknown topology, so the Morse-Bott inequalities were not checked")
+            f"{how}; {'; '.join(words)}: the Morse-Bott inequalities were not checked")
     if not check.holds:
         return CriticalStatus.MISSED, f"{how}; {check.message}"
     return CriticalStatus.CONSISTENT, f"{how}; {check.message}"

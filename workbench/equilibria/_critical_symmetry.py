@@ -237,10 +237,13 @@ class Symmetry:
                    grid: int = 6, max_iterations: int = 30) -> bool:
         """Whether ``b`` lies on the orbit of ``a`` (to ``tol`` in the max-norm).
 
-        Gauss-Newton on the times ``theta`` of the generators chosen by
-        :meth:`orbit_basis` at ``a``, from a ``grid^d`` of starts covering ``[0, 2 pi)^d``
-        of the compact ones (period 2 pi when :attr:`periodic`; twice that range
-        otherwise) and 0 for the translations.
+        Gauss-Newton on ``theta`` for ``exp(sum_k theta_k xi_k) a = b`` over the generators
+        ``xi_k`` chosen by :meth:`orbit_basis` at ``a``, from a ``grid^d`` of starts covering
+        ``[0, 2 pi)^d`` of the compact ones (period 2 pi when :attr:`periodic`; twice that
+        range otherwise) and 0 for the translations. For an abelian symmetry the exponential
+        is the composition of the generators' flows and its Jacobian their velocities; for
+        a non-abelian one (a compact connected group: its exponential is onto) the Jacobian
+        is taken by central differences.
         """
         a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
         if float(np.max(np.abs(a - b))) <= tol:
@@ -251,18 +254,24 @@ class Symmetry:
             return False
         span = 2 * np.pi if self.periodic else 4 * np.pi
         axes = [np.arange(grid) * span / grid] * len(comp) + [np.zeros(1)] * len(trans)
-        coefs = [self.generators[j].coefficients for j in gens]
+        C = np.column_stack([self.generators[j].coefficients for j in gens])
+
+        def jacobian(theta: Vector, p: Vector) -> Matrix:
+            if self.abelian:
+                return self.candidate_fields(p) @ C
+            h = 1e-6
+            return np.column_stack([
+                (self.flow(a, C @ (theta + h * e), 1.0) - self.flow(a, C @ (theta - h * e), 1.0))
+                / (2 * h) for e in np.eye(len(theta))])
+
         for start in np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(gens), -1).T:
             theta = start.copy()
             for _ in range(max_iterations):
-                p = a
-                for k, th in enumerate(theta):
-                    p = self.flow(p, coefs[k], th)
+                p = self.flow(a, C @ theta, 1.0)
                 r = p - b
                 if float(np.max(np.abs(r))) <= tol:
                     return True
-                Jm = self.candidate_fields(p) @ np.column_stack(coefs)  # commuting flows
-                step = np.linalg.lstsq(Jm, -r, rcond=None)[0]
+                step = np.linalg.lstsq(jacobian(theta, p), -r, rcond=None)[0]
                 theta = theta + step
                 if float(np.max(np.abs(step))) < 1e-15:
                     break
