@@ -18,6 +18,7 @@ import pytest
 from models import acrobot, furuta, pendulum3d
 from models.chain_cart import chain_cart
 from models.double_pendulum3d import double_pendulum3d
+from models.relative_equilibria import rotation_problem, static_equilibria
 from workbench import (
     S1,
     S2,
@@ -155,8 +156,12 @@ def test_furuta_has_two_critical_circles_and_the_acrobot_four_points():
 
 
 def test_relative_equilibria_are_critical_points_of_the_amended_potential():
-    # the Routh model's energy at rest is the amended potential -m g rho.Gamma + mu^2/(2 I)
+    # the Routh model's energy at rest is the amended potential -m g rho.Gamma + mu^2/(2 I);
+    # compared with the searches that sample sphere points (models.relative_equilibria)
     J, rho, m, g = np.diag([0.4486, 0.3943, 0.0772]), np.array([-0.014, 0.1044, 0.4989]), 1.0, 9.81
+    reduced = pendulum3d.reduced(J=J, rho=rho, m=m, g=g)
+    rotation = rotation_problem(reduced)
+    static = static_equilibria(reduced)
     for mu, count in ((0.0, 2), (3.0, 6)):
         routh = pendulum3d.routh(J=J, rho=rho, mu=mu, m=m, g=g)
         fn = ConfigurationFunction.from_state(routh, routh.function("energy"))
@@ -165,11 +170,15 @@ def test_relative_equilibria_are_critical_points_of_the_amended_potential():
         f = routh.function("f")
         for s in res.sets:
             gam = s.point
-            nu = mu / (gam @ J @ gam)
-            # paper 000: a relative equilibrium omega = nu Gamma balances the moments
-            balance = nu**2 * np.cross(J @ gam, gam) + m * g * np.cross(rho, gam)
+            k = mu / (gam @ J @ gam)  # omega = k Gamma, from mu = omega . J Gamma
+            # paper 000: a relative equilibrium balances the moments
+            balance = k**2 * np.cross(J @ gam, gam) + m * g * np.cross(rho, gam)
             assert np.max(np.abs(balance)) <= 1e-9 * max(1.0, mu**2)
+            assert np.max(np.abs(rotation.residual(np.append(gam, k)))) <= 1e-9 * max(1, mu**2)
             assert np.max(np.abs(np.asarray(f(s.state, [], routh.p)))) <= 1e-7 * max(1.0, mu**2)
+        if mu == 0.0:  # the static equilibria of the sampling search
+            assert np.allclose(res.sets[0].point, static["hanging"].parts["Gamma"], atol=1e-10)
+            assert np.allclose(res.sets[1].point, static["inverted"].parts["Gamma"], atol=1e-10)
 
 
 def test_riemannian_hessian_is_the_hessian_along_the_retraction():
