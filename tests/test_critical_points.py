@@ -31,6 +31,7 @@ from workbench import (
     SolverError,
     eigenstructure,
     linearize,
+    mechanics,
     so3_exp,
 )
 from workbench.equilibria import (
@@ -250,6 +251,18 @@ def test_a_non_abelian_symmetry_is_reported_unclassified():
     for s in res.sets:
         assert s.morse_bott and s.dimension == 2 and s.topology == "unknown"
         assert abs(abs(s.point[:3] @ s.point[3:]) - 1) <= 1e-12
+
+
+def test_a_load_at_rest_outside_the_potential_is_reported():
+    # a constant torque at the joint: the potential's critical points are not equilibria
+    s = mechanics.System("biased_pendulum")
+    a = s.s1("a")
+    s.point_mass(1.0, ca.vertcat(a.sin, 0, a.cos))
+    s.gravity(9.81)
+    s.moment(a, ca.SX(0.5))
+    res = find_all_equilibria(s.model(), raise_on_failure=False)
+    assert res.status is CriticalStatus.NOT_EQUILIBRIA and len(res) == 2
+    assert all(st.field_residual == pytest.approx(0.5, rel=1e-12) for st in res.sets)
 
 
 def test_bad_targets_and_options_are_refused():

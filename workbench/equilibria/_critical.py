@@ -297,15 +297,15 @@ def _morse_bott(man: ProductManifold, sets: list[CriticalSet]) -> MorseBottCheck
 
 
 def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[PathEnd],
-            defl: dict[str, int]) -> tuple[CriticalStatus, str]:
+            defl: dict[str, int], field_tol: float | None) -> tuple[CriticalStatus, str]:
     reached = sum(p.reached for p in paths)
     how = (f"{len(sets)} critical sets; {reached} of {len(paths)} homotopy paths reached t = 1"
            f", deflation found {defl['found']} more from {defl['starts']} seeded starts")
     if not sets:
         return CriticalStatus.MISSED, (f"{how}: none found (on an R^k factor the function may "
                                        "have no critical point: not bounded below, not proper)")
-    odd = [i for i, s in enumerate(sets) if not np.isnan(s.field_residual)
-           and not s.field_residual <= defl.get("field_tol", np.inf)]
+    odd = [] if field_tol is None else [i for i, s in enumerate(sets)
+                                        if not s.field_residual <= field_tol]
     if odd:
         return CriticalStatus.NOT_EQUILIBRIA, (
             f"{how}; sets {odd} are critical points of the potential but max |f(x, 0)| = "
@@ -516,10 +516,8 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         u0 = np.zeros(model.n_inputs)
         for s in sets:
             s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
-        defl["field_tol"] = field_tol
     check = _morse_bott(man, sets)
-    status, message = _status(sets, check, paths, defl)
-    defl.pop("field_tol", None)
+    status, message = _status(sets, check, paths, defl, field_tol)
     result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),
                             sym.notes, paths, defl, hom.evaluations,
                             time.perf_counter() - t0)

@@ -219,7 +219,8 @@ class ConfigurationFunction:
     def derivatives(self, c: ArrayLike) -> tuple[float, Vector, Matrix, Vector, Matrix]:
         """``V``, ``dV/dc``, ``d^2V/dc^2``, the generalised force and its Jacobian at ``c``."""
         V, g, H, F, J = self._eval(np.asarray(c, dtype=float).ravel(), self.p)
-        return float(V[0]), g, H, F, J
+        n = g.size  # (column outputs come back 1-D: a 1 x 1 Hessian too)
+        return float(V[0]), g, H.reshape(n, n), F, J.reshape(F.size, n)
 
     def value(self, c: ArrayLike) -> float:
         """``V(c)``."""

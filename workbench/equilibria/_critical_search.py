@@ -182,12 +182,14 @@ class Homotopy:
         """``F``, ``dF/dc N`` and ``dF/dt`` at ``(c, t)``."""
         self.evaluations += 1
         F, D, Ft, _, _ = self._ev(c, np.array([t]), self.fn.p)
+        D = D.reshape(F.size, c.size)  # column outputs come back 1-D
         return F, D @ self.manifold.tangent_basis(c), Ft
 
     def gauged(self, c: Vector) -> tuple[Vector, Matrix]:
         """``G = [F(c, 1); xi . dW]`` and its tangent Jacobian."""
         self.evaluations += 1
         F, D, _, g, Dg = self._ev(c, np.array([1.0]), self.fn.p)
+        D, Dg = D.reshape(F.size, c.size), Dg.reshape(g.size, c.size)
         N = self.manifold.tangent_basis(c)
         return np.concatenate([F, g]), np.vstack([D @ N, Dg @ N]) if g.size else D @ N
 

@@ -13,7 +13,9 @@ SO(3)    world rotations ``hat(e_i) R``, body rotations      ``exp(theta hat(a))
 =======  ==================================================  ================================
 
 and every linear combination of them (a joint rotation of several factors, a rotation that
-turns the world and the body together). The infinitesimal symmetries of ``V`` among them
+turns the world and the body together). Rotations of an R^k factor are not candidates (they
+do not commute with its translations): a function invariant under them (a "Mexican hat"
+``(|x|^2 - 1)^2``) has critical sets that are reported degenerate, not classified. The infinitesimal symmetries of ``V`` among them
 are the combinations ``xi`` with ``dV . xi = 0`` everywhere; they form a Lie algebra ``s``,
 found as the null space of the matrix ``dV(c_k) . xi_j(c_k)`` at seeded random
 configurations ``c_k`` (a linear condition, so a handful more samples than candidates
@@ -175,7 +177,8 @@ class Symmetry:
 
     def candidate_fields(self, c: Vector) -> Matrix:
         """``(ambient_dim, n_candidates)``: every candidate's velocity at ``c``."""
-        return self._fields(np.asarray(c, dtype=float))[0]
+        X = self._fields(np.asarray(c, dtype=float))[0]
+        return X.reshape(self.manifold.ambient_dim, len(self.candidates), order="F")
 
     def fields(self, c: Vector) -> Matrix:
         """``(ambient_dim, n_generators)``: the generators' velocities at ``c``."""
