@@ -15,11 +15,11 @@ SO(3)    world rotations ``hat(e_i) R``, body rotations      ``exp(theta hat(a))
 and every linear combination of them (a joint rotation of several factors, a rotation that
 turns the world and the body together). Rotations of an R^k factor are not candidates (they
 do not commute with its translations): a function invariant under them (a "Mexican hat"
-``(|x|^2 - 1)^2``) has critical sets that are reported degenerate, not classified. The infinitesimal symmetries of ``V`` among them
-are the combinations ``xi`` with ``dV . xi = 0`` everywhere; they form a Lie algebra ``s``,
-found as the null space of the matrix ``dV(c_k) . xi_j(c_k)`` at seeded random
-configurations ``c_k`` (a linear condition, so a handful more samples than candidates
-decide it).
+``(|x|^2 - 1)^2``) has critical sets that are reported degenerate, not classified. The
+infinitesimal symmetries of ``V`` among them are the combinations ``xi`` with
+``dV . xi = 0`` everywhere; they form a Lie algebra ``s``, found as the null space of the
+matrix ``dV(c_k) . xi_j(c_k)`` at seeded random configurations ``c_k`` (a linear
+condition, so a handful more samples than candidates decide it).
 
 When ``s`` splits into a compact part (rotations and shifts) and translations, and the
 compact part is abelian, its group is a torus: every orbit of it is a torus ``T^d`` (a
