@@ -71,9 +71,13 @@ from workbench.core import (
     vee,
 )
 from workbench.equilibria import (
+    ConfigurationFunction,
+    CriticalPoints,
     StepControl,
     continue_branch,
+    critical_points,
     enumerate_equilibria,
+    find_all_equilibria,
     find_equilibrium,
 )
 from workbench.global_dynamics import (
@@ -128,6 +132,8 @@ __all__ = [
     "TVLQR",
     "BuildLog",
     "Collocation",
+    "ConfigurationFunction",
+    "CriticalPoints",
     "Eigenstructure",
     "Evaluator",
     "HermiteSimpson",
@@ -164,11 +170,13 @@ __all__ = [
     "codegen",
     "compare_models",
     "continue_branch",
+    "critical_points",
     "control",
     "core",
     "eigenstructure",
     "enumerate_equilibria",
     "equilibria",
+    "find_all_equilibria",
     "find_equilibrium",
     "geometric_feedback",
     "geometric_phase_check",

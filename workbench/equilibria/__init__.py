@@ -1,4 +1,4 @@
-"""Equilibria: Newton on manifolds, equilibrium search, branches and continuation."""
+"""Equilibria: Newton on manifolds, equilibrium search, all critical sets, continuation."""
 
 from __future__ import annotations
 
@@ -16,6 +16,15 @@ from workbench.equilibria._continuation import (
     locate_on_branch,
     switch_branch,
 )
+from workbench.equilibria._critical import (
+    CriticalPoints,
+    CriticalSet,
+    CriticalStatus,
+    critical_points,
+    find_all_equilibria,
+)
+from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
+from workbench.equilibria._critical_topology import MorseBottCheck
 from workbench.equilibria._equilibria import (
     Equilibrium,
     EquilibriumSet,
@@ -32,9 +41,14 @@ from workbench.equilibria._roots import (
 __all__ = [
     "Branch",
     "BranchSwitch",
+    "ConfigurationFunction",
+    "CriticalPoints",
+    "CriticalSet",
+    "CriticalStatus",
     "EndReason",
     "Equilibrium",
     "EquilibriumSet",
+    "MorseBottCheck",
     "PointKind",
     "Root",
     "RootStatus",
@@ -43,9 +57,12 @@ __all__ = [
     "ZeroProblem",
     "continue_branch",
     "correct_point",
+    "critical_points",
     "enumerate_equilibria",
+    "find_all_equilibria",
     "find_equilibrium",
     "locate_on_branch",
     "newton_on_manifold",
+    "potential_function",
     "switch_branch",
 ]

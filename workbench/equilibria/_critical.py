@@ -1,0 +1,524 @@
+"""All critical sets of a function on a configuration space, without guesses.
+
+For a model made by :mod:`workbench.mechanics` the equilibria at rest with zero input are the
+critical points of the potential ``V`` on the configuration manifold ``Q`` (a product of
+S^1, S^2, SO(3) and R^k), and the relative equilibria are the critical points of the
+amended potential of a Routh reduction. :func:`critical_points` finds every critical set of
+any such function (:class:`ConfigurationFunction`); :func:`find_all_equilibria` applies it
+to a model's potential and returns full states at rest, usable by ``linearize``.
+
+The method (details in :mod:`._critical_search`): the symmetries of ``V`` among the
+rotations, shifts and translations of the factors are found first
+(:mod:`._critical_symmetry`); a start function with known, isolated critical points (the
+"sign patterns" of the gravity height functions: each link up or down) is deformed into
+``V`` by continuation, the last correction fixing a gauge on the symmetry orbits; deflated
+Newton from seeded starts looks for sets the paths missed. Each distinct critical set is
+classified by the Riemannian Hessian at a point of it: its index (negative eigenvalues),
+its nullity, and the dimension of the symmetry orbit through it. When the nullity equals
+the orbit's dimension the set is nondegenerate in the normal directions (Morse-Bott) and,
+for an abelian symmetry, it *is* the orbit: a torus ``T^d``, times ``R^j`` for free
+translations. The sets are then checked against the Morse-Bott inequalities
+(:mod:`._critical_topology`).
+
+Free translations (the chain's cart: ``V`` does not depend on its position) are handled as a
+quotient: the gauge fixes the free coordinates at 0, each critical set is
+``(a critical point of the quotient) x R^j``, and as ``R^j`` is contractible the mod-2
+Betti numbers of both the sets and ``Q`` are those of the quotient.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.core._model import Model
+from workbench.core.errors import ModelError, ParameterError
+from workbench.core.manifolds import ProductManifold
+from workbench.core.status import StatusEnum, StatusResult, raise_if
+from workbench.core.types import ArrayLike, Vector
+from workbench.core.validate import count as check_count
+from workbench.core.validate import tolerance as check_tolerance
+from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
+from workbench.equilibria._critical_search import Homotopy, PathEnd, deflate, start_function, track
+from workbench.equilibria._critical_symmetry import Symmetry, candidates, detect_symmetry
+from workbench.equilibria._critical_topology import (
+    MorseBottCheck,
+    manifold_polynomial,
+    morse_bott_check,
+    topology_name,
+    torus_polynomial,
+)
+
+__all__ = ["CriticalStatus", "CriticalSet", "CriticalPoints", "critical_points",
+           "find_all_equilibria"]
+
+
+class CriticalStatus(StatusEnum):
+    """How a search for all critical sets ended; the value is a readable message.
+
+    Attributes
+    ----------
+    CONSISTENT
+        Every set is Morse-Bott with a known topology and the Morse-Bott inequalities hold.
+    UNCLASSIFIED
+        Some set is degenerate (nullity above its orbit's dimension) or its orbit's
+        topology is not known (a non-abelian or screw symmetry): no Morse-Bott check.
+    MISSED
+        The Morse-Bott inequalities fail: sets were missed (or an index is wrong).
+    NOT_EQUILIBRIA
+        A critical set of the potential is not an equilibrium of the model (a load at rest
+        that is not in the potential).
+    """
+
+    CONSISTENT = ("every critical set is Morse-Bott with a known topology and the Morse-Bott "
+                  "inequalities hold")
+    UNCLASSIFIED = ("some critical set is degenerate or of unknown topology: the Morse-Bott "
+                    "check could not be made")
+    MISSED = "the Morse-Bott inequalities fail: critical sets were missed"
+    NOT_EQUILIBRIA = "a critical point of the potential is not an equilibrium of the model"
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:  # noqa: D102
+        return frozenset({"CONSISTENT"})
+
+
+@dataclass
+class CriticalSet:
+    """One connected critical set, represented by a point of it.
+
+    Attributes
+    ----------
+    point : ndarray, shape=(config_ambient_dim,)
+        A configuration on the set (the gauge point found first).
+    state : ndarray
+        The state it stands for (a model state at rest for :func:`find_all_equilibria`).
+    value : float
+        ``V`` on the set.
+    index : int
+        Negative eigenvalues of the Riemannian Hessian (on the normal space).
+    nullity : int
+        Its zero eigenvalues.
+    dimension : int
+        The set's dimension: the orbit's when Morse-Bott, else the nullity (an upper bound).
+    orbit_dimension, compact_dimension, translation_dimension : int
+        Of the symmetry orbit through the point (compact: rotations and shifts).
+    orbit : list of str
+        The symmetry generators that move the point.
+    morse_bott : bool
+        ``nullity == orbit_dimension``: the set is the orbit, nondegenerate normally.
+    topology : str
+        ``"point"``, ``"circle"``, ``"2-torus"``, ``"point x R^2"``..., or ``"unknown"``.
+    betti : tuple of int or None
+        Its mod-2 Poincare polynomial (None when the topology is unknown).
+    hessian_eigenvalues : ndarray
+        Of the Riemannian Hessian in the manifold's tangent coordinates.
+    residual : float
+        ``max |K^T dV|`` at the point.
+    field_residual : float
+        ``max |f(state, 0)|`` of the model (nan without a model).
+    points : list of ndarray
+        Every gauge point found on the set.
+    found_by : list of str
+        How each point was found.
+    """
+
+    point: Vector
+    state: Vector
+    value: float
+    index: int
+    nullity: int
+    dimension: int
+    orbit_dimension: int
+    compact_dimension: int
+    translation_dimension: int
+    orbit: list[str]
+    morse_bott: bool
+    topology: str
+    betti: tuple[int, ...] | None
+    hessian_eigenvalues: Vector
+    residual: float
+    field_residual: float = float("nan")
+    points: list[Vector] = field(default_factory=list)
+    found_by: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data (no arrays but the point and state)."""
+        return {"value": self.value, "index": self.index, "nullity": self.nullity,
+                "dimension": self.dimension, "topology": self.topology,
+                "betti": list(self.betti) if self.betti else None,
+                "morse_bott": self.morse_bott, "orbit": self.orbit,
+                "residual": self.residual, "field_residual": self.field_residual,
+                "found_by": self.found_by, "point": self.point.tolist(),
+                "state": self.state.tolist()}
+
+
+@dataclass
+class CriticalPoints(StatusResult):
+    """Every critical set found, with the Morse-Bott check and how each set was found.
+
+    Attributes
+    ----------
+    function : str
+    manifold : ProductManifold
+        The configuration space.
+    sets : list of CriticalSet
+        By increasing value.
+    check : MorseBottCheck or None
+        None when some set is unclassified.
+    status : CriticalStatus
+    message : str
+    symmetry : list of str
+        The generators of the symmetry found (compact first, then translations).
+    symmetry_notes : list of str
+    paths : list of PathEnd
+        One per start of the homotopy.
+    deflation : dict
+        ``starts``, ``solves`` and ``found`` of the deflation stage.
+    evaluations : int
+        Evaluations of the homotopy graph.
+    wall_time : float
+        Seconds.
+    """
+
+    function: str
+    manifold: ProductManifold
+    sets: list[CriticalSet]
+    check: MorseBottCheck | None
+    status: CriticalStatus
+    message: str
+    symmetry: list[str]
+    symmetry_notes: list[str]
+    paths: list[PathEnd]
+    deflation: dict[str, int]
+    evaluations: int
+    wall_time: float
+
+    def __len__(self) -> int:
+        return len(self.sets)
+
+    @property
+    def indices(self) -> list[int]:
+        """The sets' indices, in the order of :attr:`sets`."""
+        return [s.index for s in self.sets]
+
+    @property
+    def states(self) -> list[Vector]:
+        """The sets' representative states."""
+        return [s.state for s in self.sets]
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data."""
+        return {"function": self.function, "status": self.status.code,
+                "message": self.message, "sets": [s.summary() for s in self.sets],
+                "check": self.check.summary() if self.check else None,
+                "symmetry": self.symmetry, "paths_reached": sum(p.reached for p in self.paths),
+                "paths": len(self.paths), "deflation": dict(self.deflation),
+                "evaluations": self.evaluations, "wall_time": self.wall_time}
+
+
+def _as_function(target: Any, manifold: ProductManifold | None,
+                 p: ArrayLike | None) -> ConfigurationFunction:
+    if isinstance(target, ConfigurationFunction):
+        if manifold is not None or p is not None:
+            raise ModelError("manifold and p belong to a casadi.Function target; a "
+                             "ConfigurationFunction carries its own")
+        return target
+    if isinstance(target, Model):
+        if manifold is not None or p is not None:
+            raise ModelError("manifold and p belong to a casadi.Function target; for a model "
+                             "use model.with_parameters(...)")
+        return potential_function(target)
+    if isinstance(target, ca.Function):
+        if manifold is None:
+            raise ModelError("a casadi.Function target needs manifold= (its configuration "
+                             "space)")
+        return ConfigurationFunction(manifold, target, p=() if p is None else p)
+    raise ModelError(f"target must be a Model made by workbench.mechanics, a "
+                     f"ConfigurationFunction or a casadi.Function; got {type(target).__name__}")
+
+
+def _classify(fn: ConfigurationFunction, sym: Symmetry, c: Vector, scale: float,
+              hessian_rtol: float, rtol: float) -> CriticalSet:
+    V, _, _, F, _ = fn.derivatives(c)
+    H = fn.riemannian_hessian(c)
+    lam = np.linalg.eigvalsh(H) if H.size else np.zeros(0)
+    thr = hessian_rtol * max(float(np.max(np.abs(lam), initial=0.0)), scale)
+    index = int(np.sum(lam < -thr))
+    nullity = int(np.sum(np.abs(lam) <= thr))
+    comp, trans = sym.orbit_basis(c, rtol=rtol)
+    d_c, d_t = len(comp), len(trans)
+    N = fn.manifold.tangent_basis(c)
+    X = sym.fields(c)[:, comp + trans]
+    inside = True
+    if X.size:
+        T = np.linalg.lstsq(N, X, rcond=None)[0]
+        inside = bool(np.all(np.linalg.norm(H @ T, axis=0)
+                             <= 10 * thr * np.maximum(np.linalg.norm(T, axis=0), 1e-300)))
+    mb = nullity == d_c + d_t and inside
+    known = mb and sym.classified
+    return CriticalSet(
+        point=c.copy(), state=fn.state(c), value=V, index=index, nullity=nullity,
+        dimension=d_c + d_t if mb else nullity, orbit_dimension=d_c + d_t,
+        compact_dimension=d_c, translation_dimension=d_t,
+        orbit=[sym.generators[j].description for j in comp + trans], morse_bott=mb,
+        topology=topology_name(d_c, d_t) if known else "unknown",
+        betti=torus_polynomial(d_c) if known else None, hessian_eigenvalues=lam,
+        residual=float(np.max(np.abs(F), initial=0.0)), points=[c.copy()])
+
+
+def _add(sets: list[CriticalSet], new: CriticalSet, how: str, sym: Symmetry, *,
+         value_tol: float, point_tol: float) -> bool:
+    """Merge ``new`` into the set whose orbit holds it, or append it; True when new."""
+    for s in sets:
+        if (s.index, s.nullity) != (new.index, new.nullity) or \
+                abs(s.value - new.value) > value_tol:
+            continue
+        if any(float(np.max(np.abs(q - new.point))) <= point_tol for q in s.points):
+            s.found_by.append(how)
+            return False
+        if s.orbit_dimension and sym.same_orbit(s.point, new.point, tol=point_tol):
+            s.points.append(new.point)
+            s.found_by.append(how)
+            return False
+    new.found_by.append(how)
+    sets.append(new)
+    return True
+
+
+def _morse_bott(man: ProductManifold, sets: list[CriticalSet]) -> MorseBottCheck | None:
+    """The check, or None while some set is unclassified (or none was found)."""
+    if any(s.betti is None for s in sets):
+        return None
+    return morse_bott_check(manifold_polynomial(man), [(s.index, s.betti) for s in sets])
+
+
+def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[PathEnd],
+            defl: dict[str, int], field_tol: float | None) -> tuple[CriticalStatus, str]:
+    reached = sum(p.reached for p in paths)
+    how = (f"{len(sets)} critical sets; {reached} of {len(paths)} homotopy paths reached t = 1"
+           f", deflation found {defl['found']} more from {defl['starts']} seeded starts")
+    if not sets:
+        return CriticalStatus.MISSED, (f"{how}: none found (on an R^k factor the function may "
+                                       "have no critical point: not bounded below, not proper)")
+    odd = [] if field_tol is None else [i for i, s in enumerate(sets)
+                                        if not s.field_residual <= field_tol]
+    if odd:
+        return CriticalStatus.NOT_EQUILIBRIA, (
+            f"{how}; sets {odd} are critical points of the potential but max |f(x, 0)| = "
+            f"{max(sets[i].field_residual for i in odd):.3g}: the model has loads at rest "
+            "that the potential does not contain (a spring written as a force?)")
+    if check is None:
+        degenerate = [i for i, s in enumerate(sets) if not s.morse_bott]
+        unknown = [i for i, s in enumerate(sets) if s.morse_bott and s.betti is None]
+        words = ([f"sets {degenerate} are degenerate (Hessian nullity above the dimension of "
+                  "the symmetry orbit)"] if degenerate else []) + (
+            [f"sets {unknown} are orbits of a non-abelian or screw symmetry, of unknown "
+             "topology"] if unknown else [])
+        return CriticalStatus.UNCLASSIFIED, (
+            f"{how}; {'; '.join(words)}: the Morse-Bott inequalities were not checked")
+    if not check.holds:
+        return CriticalStatus.MISSED, f"{how}; {check.message}"
+    return CriticalStatus.CONSISTENT, f"{how}; {check.message}"
+
+
+def critical_points(
+    target: Any,
+    *,
+    manifold: ProductManifold | None = None,
+    p: ArrayLike | None = None,
+    tol: float = 1e-11,
+    hessian_rtol: float = 1e-6,
+    symmetry_rtol: float = 1e-9,
+    max_starts: int = 4096,
+    deflation_starts: int = 8,
+    deflation_rounds: int = 8,
+    max_deflation_starts: int = 64,
+    max_iterations: int = 50,
+    seed: int = 0,
+    raise_on_failure: bool = True,
+) -> CriticalPoints:
+    """Every critical set of a smooth function on a product of S^1, S^2, SO(3) and R^k.
+
+    No guess is needed: see the module docstring for the method.
+
+    Parameters
+    ----------
+    target : Model, ConfigurationFunction or casadi.Function
+        A model made by :mod:`workbench.mechanics` (its potential), a
+        :class:`ConfigurationFunction` (any function: an amended potential), or a
+        ``casadi.Function`` ``(c, p) -> V`` with ``manifold`` (and ``p``).
+    manifold : ProductManifold, optional
+        The configuration space of a casadi.Function target.
+    p : array-like, optional
+        Parameter values of a casadi.Function target.
+    tol : float
+        Newton's residual tolerance, relative to the scale of ``V`` (the largest ``|dV|``
+        at the sampled configurations).
+    hessian_rtol : float
+        A Hessian eigenvalue is zero when below ``hessian_rtol`` times the largest one.
+    symmetry_rtol : float
+        Tolerance of the symmetry detection (:func:`detect_symmetry`).
+    max_starts : int
+        Refuse a start function with more critical points than this (``2^n`` for ``n``
+        links).
+    deflation_starts, deflation_rounds : int
+        Seeded random starts of the deflated Newton, and solutions sought from each (the
+        solves from one start stop at its first failure); 0 starts turns deflation off.
+    max_deflation_starts : int
+        While the Morse-Bott inequalities fail after ``deflation_starts`` (sets are
+        missing), deflation goes on from further seeded starts, up to this many in all
+        (reported in ``deflation["starts"]``); at least ``deflation_starts``.
+    max_iterations : int
+        Newton iterations per solve.
+    seed : int
+        Seed of the symmetry samples and of the deflation starts.
+    raise_on_failure : bool
+        Raise :class:`SolverError` unless the status is CONSISTENT.
+
+    Returns
+    -------
+    CriticalPoints
+        The sets by increasing value, the Morse-Bott check, the status.
+
+    Raises
+    ------
+    ModelError
+        A target that is not one of the three kinds.
+    ParameterError
+        Bad options; a constant function (every point critical); too many starts.
+    SolverError
+        When not CONSISTENT and ``raise_on_failure``.
+    """
+    return _search(_as_function(target, manifold, p), model=None, tol=tol,
+                   hessian_rtol=hessian_rtol, symmetry_rtol=symmetry_rtol,
+                   max_starts=max_starts, deflation_starts=deflation_starts,
+                   deflation_rounds=deflation_rounds,
+                   max_deflation_starts=max_deflation_starts, max_iterations=max_iterations,
+                   seed=seed, field_tol=None, raise_on_failure=raise_on_failure)
+
+
+def find_all_equilibria(
+    model: Model,
+    *,
+    params: dict[str, ArrayLike] | None = None,
+    field_tol: float = 1e-9,
+    raise_on_failure: bool = True,
+    **options: Any,
+) -> CriticalPoints:
+    """All equilibria at rest (zero input) of a mechanics model, without guesses.
+
+    They are the critical sets of the potential on the configuration manifold
+    (:func:`critical_points`); each set's ``state`` is a full model state with zero
+    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there.
+
+    Parameters
+    ----------
+    model : Model
+        Made by :mod:`workbench.mechanics`.
+    params : dict, optional
+        Parameter values overriding the model's.
+    field_tol : float
+        Largest accepted ``max |f(x, 0)|`` at a representative (status NOT_EQUILIBRIA
+        above: a load at rest the potential does not contain).
+    raise_on_failure : bool
+        Raise unless CONSISTENT.
+    **options
+        Passed to :func:`critical_points` (``tol``, ``hessian_rtol``, ``seed``, ...).
+
+    Returns
+    -------
+    CriticalPoints
+    """
+    if not isinstance(model, Model):
+        raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    if params:
+        model = model.with_parameters(**params)
+    field_tol = check_tolerance("field_tol", field_tol)
+    unknown = set(options) - {"tol", "hessian_rtol", "symmetry_rtol", "max_starts",
+                              "deflation_starts", "deflation_rounds", "max_iterations",
+                              "max_deflation_starts", "seed"}
+    if unknown:
+        raise ParameterError(f"unknown options {sorted(unknown)} for find_all_equilibria")
+    return _search(potential_function(model), model=model, field_tol=field_tol,
+                   raise_on_failure=raise_on_failure, **options)
+
+
+def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float | None,
+            raise_on_failure: bool, tol: float = 1e-11, hessian_rtol: float = 1e-6,
+            symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 8,
+            deflation_rounds: int = 8, max_deflation_starts: int = 64,
+            max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
+    t0 = time.perf_counter()
+    tol = check_tolerance("tol", tol)
+    hessian_rtol = check_tolerance("hessian_rtol", hessian_rtol)
+    symmetry_rtol = check_tolerance("symmetry_rtol", symmetry_rtol)
+    max_starts = check_count("max_starts", max_starts)
+    deflation_starts = check_count("deflation_starts", deflation_starts, minimum=0)
+    deflation_rounds = check_count("deflation_rounds", deflation_rounds)
+    max_deflation_starts = check_count("max_deflation_starts", max_deflation_starts, minimum=0)
+    if max_deflation_starts < deflation_starts:
+        raise ParameterError(f"max_deflation_starts ({max_deflation_starts}) must be at least "
+                             f"deflation_starts ({deflation_starts})")
+    max_iterations = check_count("max_iterations", max_iterations)
+    seed = check_count("seed", seed, minimum=0)
+    man = fn.manifold
+    rng = np.random.default_rng(seed)
+    n_samples = 2 * len(candidates(man)) + 6
+    samples = [man.random_point(rng) for _ in range(n_samples)]
+    scale = max(float(np.linalg.norm(fn.gradient(c))) for c in samples)
+    if not scale > 0:
+        raise ParameterError(f"{fn.name} has zero gradient at {n_samples} random "
+                             "configurations: it is constant, every configuration is critical")
+    sym = detect_symmetry(man, fn.gradient, samples, rtol=symmetry_rtol)
+    start = start_function(fn, scale, max_starts=max_starts)
+    hom = Homotopy(fn, start, sym)
+    abs_tol = tol * scale
+    sets: list[CriticalSet] = []
+    known: list[Vector] = []
+    value_tol = 1e-7 * scale
+    point_tol = 1e-6
+
+    def add(c: Vector, how: str) -> bool:
+        cs = _classify(fn, sym, c, scale, hessian_rtol, 1e-8)
+        known.append(c)
+        return _add(sets, cs, how, sym, value_tol=value_tol, point_tol=point_tol)
+
+    paths = []
+    for k, (c0, label) in enumerate(zip(start.points, start.labels)):
+        end = track(hom, c0, label, tol=abs_tol, max_iterations=max_iterations)
+        paths.append(end)
+        if end.reached:
+            add(end.point, f"continuation from start {k} ({label})")
+    defl = {"starts": 0, "solves": 0, "found": 0}
+    drng = np.random.default_rng([seed, 1])
+    while defl["starts"] < max_deflation_starts:
+        if defl["starts"] >= deflation_starts:
+            check = _morse_bott(man, sets)
+            if check is None or check.holds:
+                break  # extend the deflation only while the inequalities fail
+        k, c0 = defl["starts"], man.random_point(drng)
+        defl["starts"] += 1
+        for _ in range(deflation_rounds):
+            root = deflate(hom, known, c0, tol=abs_tol, max_iterations=max_iterations)
+            defl["solves"] += 1
+            if not root.ok or any(float(np.max(np.abs(root.x - q))) <= point_tol
+                                  for q in known):
+                break
+            if add(root.x, f"deflation from seeded start {k}"):
+                defl["found"] += 1
+    sets.sort(key=lambda s: s.value)
+    if model is not None:
+        f = model.function("f")
+        u0 = np.zeros(model.n_inputs)
+        for s in sets:
+            s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
+    check = _morse_bott(man, sets)
+    status, message = _status(sets, check, paths, defl, field_tol)
+    result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),
+                            sym.notes, paths, defl, hom.evaluations,
+                            time.perf_counter() - t0)
+    return raise_if(result, raise_on_failure)
