@@ -17,9 +17,16 @@ grouped into rooms, each a package whose public names are re-exported here:
 
 from __future__ import annotations
 
-import sys as _sys
-
-from workbench import codegen, control, core, equilibria, global_dynamics, linear, simulation
+from workbench import (
+    _moved,
+    codegen,
+    control,
+    core,
+    equilibria,
+    global_dynamics,
+    linear,
+    simulation,
+)
 from workbench.control import (
     OCP,
     TVLQR,
@@ -97,16 +104,10 @@ from workbench.linear import (
 )
 from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
 
-# Module paths of the flat layout that the README documented keep working as aliases of
-# their rooms (``from workbench.manifolds import S2``, ``import workbench.ocp``).
-for _old, _module in {
-    "manifolds": manifolds,
-    "errors": errors,
-    "symbolic": symbolic,
-    "ocp": ocp,
-}.items():
-    _sys.modules.setdefault(f"{__name__}.{_old}", _module)
-del _old, _module
+# The module paths of 0.1.0's flat layout: the documented ones (``workbench.manifolds``,
+# ``.errors``, ``.symbolic``, ``.ocp``) stay as silent aliases of their rooms, the others warn
+# until 0.3.0, and those that cannot return say where their names went (see _moved.py).
+_moved.install()
 
 __all__ = [
     "OCP",
@@ -155,6 +156,7 @@ __all__ = [
     "eigenstructure",
     "enumerate_equilibria",
     "equilibria",
+    "errors",
     "find_equilibrium",
     "geometric_feedback",
     "geometric_phase_check",
@@ -166,7 +168,9 @@ __all__ = [
     "linear",
     "linearize",
     "linearize_ambient",
+    "manifolds",
     "lqr",
+    "ocp",
     "pbh",
     "pbh_second_order",
     "poincare_map",
@@ -176,6 +180,7 @@ __all__ = [
     "simulation",
     "so3_exp",
     "so3_log",
+    "symbolic",
     "solve_ocp",
     "stable_manifold",
     "sweep",
