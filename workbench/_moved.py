@@ -232,7 +232,7 @@ def _warn(message: str) -> None:
     g = frame.f_globals
     warnings.warn_explicit(message, DeprecationWarning, frame.f_code.co_filename,
                            frame.f_lineno, module=g.get("__name__", "<unknown>"),
-                           registry=g.setdefault("__warningregistry__", {}), module_globals=g)
+                           registry=g.setdefault("__warningregistry__", {}))
 
 
 def _alias_target(path: str) -> str | None:
