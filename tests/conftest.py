@@ -1,4 +1,5 @@
-"""Shared test helpers: one allclose with explicit tolerances, seeded generators; the skips
+"""Shared test helpers: one allclose with explicit tolerances (``ulps`` for rounding-level
+ones), seeded generators; the skips
 of the report tests whose tools (Chromium, poppler-utils) are not installed."""
 
 from __future__ import annotations
@@ -25,6 +26,16 @@ def assert_close(actual, expected, *, atol: float, rtol: float = 0.0, what: str 
         f"{what}: max deviation {float(np.max(dev)):.3e} exceeds atol={atol:g}, rtol={rtol:g} "
         f"(by {worst:.3e})"
     )
+
+
+def ulps(n: float, data) -> float:
+    """``n`` units in the last place of the data's magnitude (its largest absolute entry).
+
+    The absolute tolerance of a result that only rounding separates from its exact value:
+    stated as a count of ulps of the numbers involved, it holds at every magnitude, where a
+    fixed ``atol=1e-15`` is 4.5 ulps of 1.0 and less than one of 8.0.
+    """
+    return n * float(np.spacing(np.max(np.abs(np.asarray(data, dtype=float)))))
 
 
 @pytest.fixture
