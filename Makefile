@@ -18,15 +18,19 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
 # The fast subset of the tests that `make test-newest` runs on the newest declared Python,
-# in its own virtual environment (a few minutes: the engine's mathematics, the numerics that
-# depend on numpy's and scipy's versions, the public API).
+# in its own virtual environment: the engine's mathematics room by room, where numpy's and
+# scipy's versions show (rounding, SVDs, Riccati and eigen solvers, continuation), and the
+# public API (about a minute on 2 shared cores; the whole suite takes over ten).
 NEWEST_PYTHON ?= $(eval NEWEST_PYTHON := $(call runnable,$(NEWEST)))$(NEWEST_PYTHON)
 NEWEST_VENV   := .venv-$(NEWEST)
-FAST_TESTS    := tests/test_manifolds.py tests/test_model.py tests/test_simulate.py \
-                 tests/test_integrators.py tests/test_linearize.py tests/test_eigen.py \
-                 tests/test_lqr.py tests/test_equilibria.py tests/test_mechanics_models.py \
-                 tests/extremes/test_extreme_properties.py tests/test_api_paths.py \
-                 tests/test_pythons.py tests/test_structure.py
+FAST_TESTS    := tests/test_manifolds.py tests/test_model.py tests/test_evaluator.py \
+                 tests/test_validate.py tests/test_status.py tests/test_mechanics_models.py \
+                 tests/test_simulate.py tests/test_integrators.py tests/test_linearize.py \
+                 tests/test_eigen.py tests/test_lqr.py tests/test_controllability.py \
+                 tests/test_symbolic.py tests/test_equilibria.py tests/test_continuation.py \
+                 tests/test_relative_equilibria.py tests/test_invariant_manifolds.py \
+                 tests/test_poincare.py tests/extremes/test_extreme_properties.py \
+                 tests/test_api_paths.py tests/test_pythons.py tests/test_structure.py
 
 # One BLAS thread: the workbench's matrices are small (at most a few hundred rows), and on
 # the 2 shared cores multi-threaded OpenBLAS made an 84x86 SVD take 30 ms to 1.4 s instead
