@@ -5,14 +5,15 @@
 PYTHONS := 3.11 3.12 3.13
 NEWEST  := $(lastword $(PYTHONS))
 
-# A Python $(1) that runs: python$(1) on PATH, else pyenv's own install of it. A pyenv shim
-# of a version pyenv has not selected is on PATH but does not run ("pyenv: python3.13:
-# command not found"): it is passed over.
-runnable = $(shell for c in python$(1) $$(ls -d "$$(pyenv root 2>/dev/null)"/versions/$(1).*/bin/python$(1) 2>/dev/null | sort -rV); do "$$c" -c '' >/dev/null 2>&1 && { command -v "$$c"; break; }; done)
+# The first Python of the versions $(1) that runs, as the path of its own executable:
+# python3.X on PATH, else pyenv's own install of it. A pyenv shim of a version pyenv has not
+# selected is on PATH but does not run ("pyenv: python3.13: command not found"): it is
+# passed over.
+runnable = $(shell for v in $(1); do for c in python$$v $$(ls -d "$$(pyenv root 2>/dev/null)"/versions/$$v.*/bin/python$$v 2>/dev/null | sort -rV); do "$$c" -c 'import sys; print(sys.executable)' 2>/dev/null && exit 0; done; done)
 
 # The interpreter that creates .venv: the first of Python 3.11, 3.12, 3.13 that runs
 # (override with `make PYTHON=python3.12 ...`; looked up only when a target needs it, once).
-PYTHON ?= $(eval PYTHON := $(firstword $(foreach v,$(PYTHONS),$(call runnable,$(v)))))$(PYTHON)
+PYTHON ?= $(eval PYTHON := $(call runnable,$(PYTHONS)))$(PYTHON)
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
@@ -43,7 +44,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 # venv's python resolves to the interpreter that made it). A venv made with another
 # interpreter than the one asked for now (make PYTHON=...) is made again: its stamp target is
 # then phony, so its recipe runs, and the recipe removes the old venv first.
-py_id = $(shell $(1) -c 'import os, sys; print(sys.version.split()[0], os.path.realpath(sys.executable))' 2>/dev/null)
+py_id = $(if $(1),$(shell $(1) -c 'import os, sys; print(sys.version.split()[0], os.path.realpath(sys.executable))' 2>/dev/null))
 ifneq ($(filter-out clean test-deps test-newest $(NEWEST_VENV)/.installed,$(or $(MAKECMDGOALS),all)),)
 ifneq ($(call py_id,$(BIN)/python),$(call py_id,$(PYTHON)))
 .PHONY: $(STAMP)
@@ -106,7 +107,8 @@ test-deps:
 	    && command -v pdftotext >/dev/null 2>&1 \
 	    && [ -f /usr/share/fonts/truetype/dejavu/DejaVuMathTeXGyre.ttf ]; then :; else \
 	  cannot() { if [ "$(TEST_DEPS_STRICT)" = 1 ]; then echo "error: $$1"; exit 1; fi; \
-	    case "$$1" in apt-get\ could*) echo "$$1";; esac; exit 0; }; \
+	    case "$$1" in apt-get\ could*) echo "$$1; the tests that need them are skipped";; esac; \
+	    exit 0; }; \
 	  command -v apt-get >/dev/null 2>&1 || cannot "the report tests need chromium and poppler-utils, and apt-get is not available to install them"; \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
 	  echo "installing chromium, poppler-utils and the DejaVu fonts (text and math) with apt-get"; \
