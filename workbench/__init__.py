@@ -38,7 +38,7 @@ from workbench.control import (
     OCPStatus,
     TargetPoint,
     TargetSet,
-    ocp,
+    ocp,  # noqa: F401 (the documented alias workbench.ocp)
     solve_ocp,
     tvlqr,
     tvlqr_along,
@@ -60,9 +60,9 @@ from workbench.core import (
     SolverError,
     Symbolic,
     WorkbenchError,
-    errors,
+    errors,  # noqa: F401 (the documented alias workbench.errors)
     hat,
-    manifolds,
+    manifolds,  # noqa: F401 (the documented alias workbench.manifolds)
     so3_exp,
     so3_log,
     vee,
@@ -99,7 +99,7 @@ from workbench.linear import (
     pbh,
     pbh_second_order,
     second_order_form,
-    symbolic,
+    symbolic,  # noqa: F401 (the documented alias workbench.symbolic)
     symmetry_directions,
 )
 from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
@@ -156,7 +156,6 @@ __all__ = [
     "eigenstructure",
     "enumerate_equilibria",
     "equilibria",
-    "errors",
     "find_equilibrium",
     "geometric_feedback",
     "geometric_phase_check",
@@ -168,9 +167,7 @@ __all__ = [
     "linear",
     "linearize",
     "linearize_ambient",
-    "manifolds",
     "lqr",
-    "ocp",
     "pbh",
     "pbh_second_order",
     "poincare_map",
@@ -180,7 +177,6 @@ __all__ = [
     "simulation",
     "so3_exp",
     "so3_log",
-    "symbolic",
     "solve_ocp",
     "stable_manifold",
     "sweep",
