@@ -231,6 +231,19 @@ def test_the_changelog_records_every_moved_path():
         assert f"`{alias}`" in deprecated, alias
 
 
+def test_code_and_docs_cite_no_tracker_issue():
+    """History lives in CHANGELOG.md: a user cannot open the tracker an "issue 18" points to.
+
+    Docstrings and comments say what the code does and why.
+    """
+    cite = re.compile(r"\b[Ii]ssues?\s*#?\s*\d+")
+    files = [p for folder in ("workbench", "models", "problems")
+             for p in sorted((ROOT / folder).rglob("*.py"))] + PAGES
+    found = [f"{p.relative_to(ROOT)}:{i}: {line.strip()}" for p in files
+             for i, line in enumerate(p.read_text().splitlines(), start=1) if cite.search(line)]
+    assert not found, "tracker issues cited (say what and why instead):\n" + "\n".join(found)
+
+
 # -- against the 0.1.0 sources, where the history is present -------------------------------
 
 
