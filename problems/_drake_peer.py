@@ -25,7 +25,7 @@ RECORDED = {
     "origin": {"cpu_seconds": 7.2, "iterations": 121, "cost": 5.2289},
     "free": {"cpu_seconds": 7.67, "iterations": None, "cost": None},
 }
-"""Drake 1.51 IPOPT on this machine class, as recorded in issue 17 (not measured here)."""
+"""Drake 1.51 IPOPT on this machine class, as recorded once (not measured here)."""
 
 KNOTS = 41
 U_MAX = 10.0

@@ -1,4 +1,4 @@
-"""Numerical extremes: what the workbench does at the edges of its domain (issue 11).
+"""Numerical extremes: what the workbench does at the edges of its domain.
 
 The workbench is pushed to where numerical methods break: a pendulum almost balanced on
 its pivot, an inertia with a condition number of 10^8, spins of a thousand radians per
@@ -25,7 +25,7 @@ from problems._extremes import (
 from workbench.study import CORRECT, Cases, Panel, Result, line_figure
 
 TITLE = ("Numerical extremes: near balance, ill-conditioned inertia, fast and slow motion, "
-         "singular continuation, large chains, bad input (issue 11)")
+         "singular continuation, large chains, bad input")
 
 
 def solve(*, quick: bool = False) -> Result:

@@ -19,7 +19,7 @@ commutes with linear maps). The derived body moment is not: off SO(3) it enters 
 vee((R^T R hat(u) + hat(u) R^T R)/2) (workbench.mechanics._forces), and the collocation
 stages leave SO(3) by the local error. So the optimal costs agree to the transcription's
 accuracy, not to the solver's: measured 2.4e-5 (minimum effort) and 5e-7 (minimum time)
-relative at N = 60; with the exact moment weight R^-T hat(u)/2, tried in issue 18, the same
+relative at N = 60; with the exact moment weight R^-T hat(u)/2, tried once, the same
 re-solves agreed to 1.9e-9 and 1.3e-8, which confirms the mechanism. The check holds the
 difference to 1e-4: a wrong model or target set moves the cost by far more.
 """

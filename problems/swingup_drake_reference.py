@@ -1,6 +1,6 @@
 """Drake's swing-up, posed exactly as Drake poses it, solved by the workbench and by Drake.
 
-The problem (issue 17): a spherical pendulum on a cart, tip mass 0.1 kg on a massless
+The problem, Drake's own: a spherical pendulum on a cart, tip mass 0.1 kg on a massless
 link of 0.1 m, cart 0.5 kg in the horizontal plane under a horizontal force u in R^2,
 g = 9.81 (:func:`models.chain_cart.chain_cart` with n = 1). 41 knots with equal
 intervals, cost integral u'u dt (trapezoid over the knots) + T, |u_i| <= 10 N, T in
@@ -15,8 +15,8 @@ planar swing is Drake's discretisation in angles: started from Drake's own solut
 Drake is installed) it must converge to Drake's optimal cost, a check that the two NLPs
 are the same. The rotation about the vertical is a symmetry of both cases; the OCP finds
 and gauges it (the solutions say so). Drake's figures are measured in the same run when
-``pydrake`` imports (``pip install '.[peers]'``), else the figures recorded in issue 17
-are reported, labelled as recorded.
+``pydrake`` imports (``pip install '.[peers]'``), else the figures recorded with Drake 1.51
+on this machine class (``problems/_drake_peer.py``) are reported, labelled as recorded.
 """
 
 from __future__ import annotations
@@ -61,8 +61,8 @@ def solve(*, quick: bool = False) -> Result:
     Parameters
     ----------
     quick : bool
-        The workbench's solves are the same; Drake is not run (its figures recorded in
-        issue 17 are quoted, labelled as recorded), so the check that the Lie-group NLP
+        The workbench's solves are the same; Drake is not run (its recorded figures
+        are quoted, labelled as recorded), so the check that the Lie-group NLP
         started from Drake's optimum returns Drake's cost is made in full mode only.
         ``benchmarks/bench_drake_swingup.py`` measures both sides interleaved.
 
@@ -83,7 +83,7 @@ def solve(*, quick: bool = False) -> Result:
     if not live:
         res.notes.append(
             f"Drake was not run ({'quick mode' if quick else 'pydrake not installed'}): its "
-            "figures are those recorded in issue 17 (Drake 1.51 on this machine class), "
+            "figures are those recorded with Drake 1.51 on this machine class, "
             "labelled as recorded. The full mode, with Drake installed, measures Drake in the "
             "same run and checks that the Lie-group NLP started from Drake's optimum returns "
             "Drake's cost; benchmarks/bench_drake_swingup.py times both sides interleaved.")
@@ -117,14 +117,14 @@ def solve_case(res: Result, case: str, plant: Any, *, quick: bool = False) -> No
                     source="same NLP (planar swing: local coordinates = Drake's angles)")
     else:
         why = "quick mode" if quick else "drake not installed"
-        values["drake"] = peer.RECORDED[case] | {"source": f"RECORDED in issue 17, {why}"}
+        values["drake"] = peer.RECORDED[case] | {"source": f"RECORDED (Drake 1.51), {why}"}
     drake = values["drake"]
     drake_cpu = drake.get("cpu", drake.get("cpu_seconds"))
     values["cpu_ratio_drake_over_workbench"] = drake_cpu / row["solve_cpu_seconds"]
     if case == "origin":
         res.compare("cart origin: cost <= Drake's recorded 5.2289 (excess)", 0.0,
                     max(0.0, ours.objective - peer.RECORDED["origin"]["cost"]),
-                    tolerance=0.0, source="issue 17 (Drake 1.51, same problem and guess)")
+                    tolerance=0.0, source="recorded: Drake 1.51, same problem and guess")
         res.figure("swingup", plot_swingup(
             ours, [("link direction q1", lambda X: X[:, 4:7])],
             title=f"Drake's problem, cart at the origin: cost {ours.objective:.4f}, "

@@ -18,9 +18,8 @@ grouped into rooms, each a package whose public names are re-exported here:
 
 from __future__ import annotations
 
-import sys as _sys
-
 from workbench import (
+    _moved,
     codegen,
     control,
     core,
@@ -41,7 +40,7 @@ from workbench.control import (
     OCPStatus,
     TargetPoint,
     TargetSet,
-    ocp,
+    ocp,  # noqa: F401 (the documented alias workbench.ocp)
     solve_ocp,
     tvlqr,
     tvlqr_along,
@@ -63,9 +62,9 @@ from workbench.core import (
     SolverError,
     Symbolic,
     WorkbenchError,
-    errors,
+    errors,  # noqa: F401 (the documented alias workbench.errors)
     hat,
-    manifolds,
+    manifolds,  # noqa: F401 (the documented alias workbench.manifolds)
     so3_exp,
     so3_log,
     vee,
@@ -106,22 +105,16 @@ from workbench.linear import (
     pbh,
     pbh_second_order,
     second_order_form,
-    symbolic,
+    symbolic,  # noqa: F401 (the documented alias workbench.symbolic)
     symmetry_directions,
 )
 from workbench.simulation import Method, Multistep, SweepResult, Trajectory, grid, simulate, sweep
 from workbench.study import ModelChoice, Scene, compare_models
 
-# Module paths of the flat layout that the README documented keep working as aliases of
-# their rooms (``from workbench.manifolds import S2``, ``import workbench.ocp``).
-for _old, _module in {
-    "manifolds": manifolds,
-    "errors": errors,
-    "symbolic": symbolic,
-    "ocp": ocp,
-}.items():
-    _sys.modules.setdefault(f"{__name__}.{_old}", _module)
-del _old, _module
+# The module paths of 0.1.0's flat layout: the documented ones (``workbench.manifolds``,
+# ``.errors``, ``.symbolic``, ``.ocp``) stay as silent aliases of their rooms, the others warn
+# until 0.3.0, and those that cannot return say where their names went (see _moved.py).
+_moved.install()
 
 __all__ = [
     "OCP",

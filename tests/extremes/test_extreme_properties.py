@@ -20,7 +20,7 @@ from scipy.linalg import eigh
 
 from models import pendulum3d as p3
 from models.relative_equilibria import alpha, rotation_problem, slice_zeros
-from tests.conftest import assert_close
+from tests.conftest import assert_close, ulps
 from workbench import S1, S2, SO3, TS2, linearize, simulate, so3_exp, so3_log
 from workbench.core.manifolds import hat
 
@@ -247,7 +247,8 @@ def test_projection_lands_is_idempotent_and_nearest(seed, log_scale, which):
         x[3:] = rng.standard_normal(3)
     p = factor.project(x)
     assert factor.belongs(p, tol=1e-14)
-    assert_close(factor.project(p), p, atol=1e-15, what="projection is idempotent")
+    # rounding only: 32 ulps of the point (SO3's SVD: worst of 20000 seeded draws 15)
+    assert_close(factor.project(p), p, atol=ulps(32, p), what="projection is idempotent")
     if which == "SO3":
         M = SO3.matrix(x)
         for _ in range(5):  # no other rotation is closer

@@ -11,7 +11,7 @@ from the application layer, ``workbench export-c NAME --out DIR``; the engine on
     res.compiled.function()                           # casadi.external, usable in simulate
 
 Any casadi Function (a model's right-hand side, a closed loop, a batch of states) compiles
-the same way, as an explicit speed-for-build-time knob (issue 17)::
+the same way, as an explicit speed-for-build-time knob::
 
     from workbench.codegen import BatchEvaluator, compile_function
     ev = BatchEvaluator(model.function("f"), 1000, shared=("p",), compilation="c")

@@ -144,8 +144,8 @@ class _Flow:
     """Flow over one sample and its sensitivities (CVODES, Adams, functional iteration).
 
     Open loop over one sample the models are not stiff; casadi's defaults (BDF, Newton)
-    were used until issue 18 (the Stepper row of ``benchmarks/bench_corrector.py`` times
-    the same change on the same model).
+    are not needed (the Stepper row of ``benchmarks/bench_corrector.py`` times both on the
+    same model).
     """
 
     def __init__(self, model: Model, rtol: float) -> None:

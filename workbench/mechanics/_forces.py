@@ -20,7 +20,7 @@ torque ``tau`` on an S^1 angle ``p``   ``p``                  ``tau J p / |p|^2`
 generalised force on ``Omega`` is ``vee((R^T R hat(M_b) + hat(M_b) R^T R) / 2)``, so at the
 stages of a collocation, which leave SO(3) by the local error, it differs from ``M_b`` by
 that much. The exact weight ``R^-T hat(M_b) / 2`` (and its polynomial approximation
-``R (2I - R^T R) hat(M_b) / 2``) was tried in issue 18: it made the full and reduced 3D
+``R (2I - R^T R) hat(M_b) / 2``) was tried: it made the full and reduced 3D
 pendulum transcriptions agree to 1e-9, but the quadrotor's transport OCP then took 779
 Ipopt iterations and failed instead of converging in 41, so the weight stays linear in
 ``R``; ``q x (tau x q) / |q|^2`` is the
@@ -28,8 +28,8 @@ part of ``tau`` normal to ``q``, for every ``|q|``: the moment's virtual work on
 ``delta q = eta x q`` is ``tau . (I - q q^T/|q|^2) eta`` off the sphere as on it, so its
 authority does not fade when an optimiser's ambient iterate has ``|q| < 1``; with the
 weight ``tau x q`` it would scale like ``|q|^2`` and swing-ups in ambient coordinates
-collapsed to ``q -> 0``, issue 17. The torque on an angle is scaled alike: ``J p . tau J p
-/ |p|^2 = tau`` for every ``p != 0``.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
+collapsed to ``q -> 0``. The torque on an angle is scaled alike: ``J p . tau J p / |p|^2 =
+tau`` for every ``p != 0``.) A Rayleigh function ``D(c, nu) >= 0`` adds ``-dD/dnu``.
 """
 
 from __future__ import annotations

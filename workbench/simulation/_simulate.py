@@ -292,8 +292,8 @@ def simulate(
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
     corrector : Corrector or str, optional
         CVODES' corrector iteration, ``"functional"`` (no Jacobian; default with Adams) or
-        ``"newton"`` (default with BDF); see :class:`Corrector`. Before issue 18 Adams ran
-        with Newton; pass ``corrector="newton"`` for the old behaviour.
+        ``"newton"`` (default with BDF); see :class:`Corrector`. Adams with Newton, casadi's
+        own default, is ``corrector="newton"``.
     max_steps : int
         CVODES' limit on internal steps per output interval; a long horizon between two
         output times may need more (the failure says so and names this knob).

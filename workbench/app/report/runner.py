@@ -74,7 +74,7 @@ WALL_FACTOR = 3.0
 
 DEFAULT_MEMORY_MB = 1300.0
 """Default budget of the peak memories of the problems run at the same time [MB] (with the
-report's own process, about 200 MB, under the 1.5 GB of issue 18)."""
+report's own process, about 200 MB, under the report's 1.5 GB target for its peak)."""
 
 SMALL_MB = 300.0
 """Problems whose last peak was at most this [MB] run beside any other (most of the report's

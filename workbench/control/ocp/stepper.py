@@ -40,8 +40,8 @@ class Stepper:
         ``"adams"`` (default; non-stiff) or ``"bdf"`` (stiff), as in ``simulate``.
     corrector : Corrector or str, optional
         ``"functional"`` (default with Adams: no Jacobian) or ``"newton"`` (default with
-        BDF), as in ``simulate``. Until issue 18 the stepper used casadi's defaults, BDF with
-        Newton (``benchmarks/bench_corrector.py`` times both on the double cart).
+        BDF), as in ``simulate``. casadi's defaults, BDF with Newton, cost more on these
+        non-stiff models (``benchmarks/bench_corrector.py`` times both on the double cart).
     """
 
     def __init__(self, model: Model, *, rtol: float = 1e-10, atol: float = 1e-10,
