@@ -17,6 +17,7 @@ from models.chain_cart import chain_cart, link_state
 from workbench.control.ocp import (
     OCP,
     Collocation,
+    Direct,
     Guess,
     ManifoldHandling,
     MultipleShooting,
@@ -54,8 +55,9 @@ def ocp() -> OCP:
     return cart_ocp()
 
 
-COARSE = {"defect_tol": None}
-"""At N = 10 (and 20) the transcription does not follow the dynamics closely enough for the
+COARSE = {"defect_tol": None, "strategy": Direct()}
+"""One Ipopt solve from the given guess (the strategy Direct), and: at N = 10 (and 20) the
+transcription does not follow the dynamics closely enough for the
 default defect_tol (local defect ~2.4 at N = 10, 1e-3 at N = 20);
 the tests below compare NLPs and their solutions with each other, so they turn the refusal
 off explicitly. test_defaults_refuse.py checks that the default refuses."""
@@ -63,13 +65,13 @@ off explicitly. test_defaults_refuse.py checks that the default refuses."""
 
 @pytest.fixture(scope="module")
 def base(ocp):
-    """The N = 10 Legendre solution from the deterministic geodesic guess.
+    """The N = 10 Legendre solution from the deterministic geodesic guess (ambient, direct).
 
     N = 10 is too coarse to follow the dynamics (local defect ~2.4, so the default
     ``defect_tol`` refuses it: tests/extremes/test_defaults_refuse.py); these tests read the
     NLP's own equations, so the refusal is turned off explicitly.
     """
-    return solve(ocp, Collocation(N=10), defect_tol=None)
+    return solve(ocp, Collocation(N=10), handling=ManifoldHandling.AMBIENT, **COARSE)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +85,8 @@ def trajectory(ocp):
     the geodesic guess reaches the two-swing minimum (cost 5.33, local defect 1e-3; 5.18
     at N = 40, 5.14 at N = 80); the comparisons below are made there.
     """
-    s = solve(ocp, Collocation(N=20))  # the default defect_tol (1e-2) accepts it
+    # the default defect_tol (1e-2) accepts it
+    s = solve(ocp, Collocation(N=20), handling=ManifoldHandling.AMBIENT, strategy=Direct())
     assert s.status.ok and s.error["local_defect"] < 1e-2
     return s
 
@@ -229,30 +232,43 @@ def test_collocation_solution_satisfies_dynamics_bounds_and_terminal_chart(ocp, 
     assert "Solve_Succeeded" in base.message and "iterations" in base.message
 
 
-def test_radau_ambient_leaves_a_residual_lie_group_does_not(ocp, trajectory):
+def test_radau_ambient_leaves_a_residual_projected_and_lie_group_do_not(ocp, trajectory):
     base = trajectory
-    radau = solve(ocp, Collocation(N=20, scheme=Scheme.RADAU), guess=base, **COARSE)
+    radau = Collocation(N=20, scheme=Scheme.RADAU)
+    ambient = solve(ocp, radau, handling=ManifoldHandling.AMBIENT, guess=base,
+                    manifold_tol=None, **COARSE)
+    projected = solve(ocp, radau, handling=ManifoldHandling.PROJECTED, guess=base, **COARSE)
     lie = solve(ocp, Collocation(N=20), handling=ManifoldHandling.LIE_GROUP, guess=base,
                 **COARSE)
     # Radau IIA does not conserve quadratic invariants: a drift of the order of its local
     # error (2e-3 at h = T/20), Gauss-Legendre's is the NLP's tolerance (3e-11)
-    assert 100 * base.error["manifold_residual"] < radau.error["manifold_residual"] < 0.1
-    assert lie.error["manifold_residual"] < 1e-8
-    for s in (radau, lie):
+    assert 100 * base.error["manifold_residual"] < ambient.error["manifold_residual"] < 0.1
+    # the projected nodes and the Lie group's are on the manifold to the default 1e-10
+    assert projected.error["manifold_residual"] <= 1e-10
+    assert lie.error["manifold_residual"] <= 1e-10
+    for s in (ambient, projected, lie):
         assert s.status.ok
         assert s.objective == pytest.approx(base.objective, rel=3e-2)
+    # with the default manifold_tol the ambient nodes' drift is not a success
+    again = solve(ocp, radau, handling=ManifoldHandling.AMBIENT, guess=base,
+                  raise_on_failure=False, **COARSE)
+    assert again.status is OCPStatus.OFF_MANIFOLD
+    assert again.error["manifold_limit"] == 1e-10
+    assert "manifold" in again.message and "Try next" in again.message
 
 
 def test_shooting_agrees_with_collocation(ocp, trajectory):
-    for handling in ManifoldHandling:
+    for handling in ManifoldHandling:  # RK4's ambient nodes drift by its local error
         s = solve(ocp, MultipleShooting(N=20, steps=1), handling=handling, guess=trajectory,
+                  manifold_tol=None if handling is ManifoldHandling.AMBIENT else 1e-10,
                   **COARSE)
         assert s.status.ok
         assert s.objective == pytest.approx(trajectory.objective, rel=3e-2)
 
 
 def test_mx_graph_gives_the_same_solution(ocp, base):
-    s = solve(ocp, Collocation(N=10), graph=Symbolic.MX, guess=base, **COARSE)
+    s = solve(ocp, Collocation(N=10), graph=Symbolic.MX, guess=base,
+              handling=ManifoldHandling.AMBIENT, **COARSE)
     assert s.objective == pytest.approx(base.objective, rel=1e-7)
     assert np.allclose(s.x, base.x, atol=1e-5)
 
@@ -268,7 +284,8 @@ def test_resimulation_error_falls_with_N(ocp, trajectory):
 
 
 def test_warm_start_of_the_same_transcription_is_immediate_and_cached(ocp, base):
-    again = solve(ocp, Collocation(N=10), guess=base, **COARSE)
+    again = solve(ocp, Collocation(N=10), guess=base, handling=ManifoldHandling.AMBIENT,
+                  **COARSE)
     assert again.cost["iterations"] <= 3
     assert again.cost["transcription_cached"]
     assert again.objective == pytest.approx(base.objective, rel=1e-9)
@@ -277,7 +294,7 @@ def test_warm_start_of_the_same_transcription_is_immediate_and_cached(ocp, base)
 def test_homotopy_in_the_bound_reuses_the_build(ocp, base):
     last, path = homotopy(ocp, Collocation(N=10),
                               steps=[{"u_lower": -b, "u_upper": b} for b in (8.0, 6.0)],
-                              guess=base, **COARSE)
+                              guess=base, handling=ManifoldHandling.AMBIENT, **COARSE)
     assert all(p.cost["transcription_cached"] for p in path)
     assert np.all(np.abs(last.u) <= 6.0 + 1e-8)
     assert last.objective >= base.objective - 1e-6  # tighter bound, no cheaper optimum nearby

@@ -8,10 +8,12 @@
 >>> sol.status, sol.message                                      # doctest: +SKIP
 """
 
+from workbench.control.ocp.auto import Auto, Direct
 from workbench.control.ocp.compiled import Compiled
 from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.hermite_simpson import HermiteSimpson
+from workbench.control.ocp.initial import StructuredGuess, energy_pumping, structured_guesses
 from workbench.control.ocp.local import ProductLocal, local_for
 from workbench.control.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
 from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
@@ -29,7 +31,9 @@ from workbench.control.ocp.transcription import (
 
 __all__ = [
     "OCP",
+    "Auto",
     "Collocation",
+    "Direct",
     "Compiled",
     "Guess",
     "HermiteSimpson",
@@ -42,6 +46,7 @@ __all__ = [
     "ProductLocal",
     "Scheme",
     "Stepper",
+    "StructuredGuess",
     "Symmetry",
     "TargetPoint",
     "TargetSet",
@@ -49,10 +54,12 @@ __all__ = [
     "coarse_to_fine",
     "homotopy",
     "detect_symmetry",
+    "energy_pumping",
     "local_for",
     "multistart",
     "refine",
     "solve",
+    "structured_guesses",
     "sx_function",
     "transcribe",
 ]

@@ -40,6 +40,8 @@ class OCPStatus(StatusEnum):
     FAILED = "Ipopt failed"
     INACCURATE = ("Ipopt converged, but the transcribed trajectory does not follow the "
                   "dynamics to defect_tol (local defect against CVODES on each interval)")
+    OFF_MANIFOLD = ("Ipopt converged, but the nodes are off the manifold by more than "
+                    "manifold_tol (ambient nodes drift by the scheme's local error)")
 
     @classmethod
     def from_ipopt(cls, status: str) -> OCPStatus:
@@ -107,6 +109,17 @@ class OCPSolution(StatusResult):
         How a continuous symmetry of the problem was handled: ``"none"`` (no symmetry
         found), the symmetry and its phase condition with the condition's multiplier (zero
         when the gauge only picks one optimum of a circle), or why it was not used.
+    g : ndarray
+        The NLP's constraint values at the returned point.
+    attempts : list of dict
+        Every solve the strategy made, in order: ``attempt``, ``what`` (the role: a
+        relaxation, an on-manifold solve, a continuation step), ``guess`` (how it was
+        made), ``transcription``, ``handling``, ``status``, ``iterations``,
+        ``objective``, ``cpu_seconds``, ``build_seconds``. One entry for ``Direct``.
+    diagnosis : dict or None
+        For a failure, what went wrong in numbers (see
+        :func:`workbench.control.ocp.diagnose.diagnose`): primal and dual infeasibility,
+        the node manifold residual, the worst constraint and its knot, the advice.
     """
 
     status: OCPStatus
@@ -126,6 +139,9 @@ class OCPSolution(StatusResult):
     lam_x: np.ndarray = field(repr=False)
     lam_g: np.ndarray = field(repr=False)
     gauge: str = "none"
+    g: np.ndarray | None = field(default=None, repr=False)
+    attempts: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    diagnosis: dict[str, Any] | None = field(default=None, repr=False)
 
     @property
     def first_order_hold(self) -> bool:
@@ -144,12 +160,21 @@ class OCPSolution(StatusResult):
         c = self.cost
         defect = (f", local defect {self.error['local_defect']:.1e}"
                   if "local_defect" in self.error else "")
-        return (
+        text = (
             f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
             f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
             f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s"
             f"{defect}; symmetry: {self.gauge} [{self.describe()}]"
         )
+        if len(self.attempts) > 1:
+            text += (f"; attempt {self.attempts[-1]['attempt']} of the strategy "
+                     f"({len(self.attempts)} solves, "
+                     f"{sum(a['cpu_seconds'] for a in self.attempts):.2f} s CPU in all)")
+        if self.diagnosis is not None:
+            from workbench.control.ocp.diagnose import describe_diagnosis
+
+            text += ". Diagnosis: " + describe_diagnosis(self.diagnosis)
+        return text
 
     def __str__(self) -> str:
         """The one-line :attr:`message` (status, iterations, times, cost, defect)."""
@@ -251,4 +276,6 @@ class OCPSolution(StatusResult):
             "gauge": self.gauge,
             "cost": dict(self.cost),
             "error": dict(self.error),
+            "attempts": [dict(a) for a in self.attempts],
+            "diagnosis": self.diagnosis,
         }

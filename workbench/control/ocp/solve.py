@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -24,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.compiled import Compiled
+from workbench.control.ocp.diagnose import diagnose
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solution import OCPSolution, OCPStatus
@@ -38,7 +40,8 @@ from workbench.core import validate
 from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError, SolverError
 
-__all__ = ["OCPStatus", "OCPSolution", "solve", "transcribe"]
+__all__ = ["OCPStatus", "OCPSolution", "Settings", "settings", "solve", "solve_direct",
+           "transcribe", "DEFAULT_HANDLING", "MANIFOLD_TOL"]
 
 
 WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-6, "warm_start_bound_push": 1e-9,
@@ -49,6 +52,14 @@ WARM_START = {"warm_start_init_point": "yes", "mu_init": 1e-6, "warm_start_bound
 DEFECT_TOL = 1e-2
 """Default ``defect_tol`` of :func:`solve`: the largest accepted local defect (relative to
 ``max(1, max |x|)``); a converged solve above it is INACCURATE, not SUCCESS."""
+
+
+DEFAULT_HANDLING = ManifoldHandling.PROJECTED
+"""The handling of a solve that names none: every node on the manifold, ambient cost."""
+
+MANIFOLD_TOL = 1e-10
+"""Default ``manifold_tol`` of :func:`solve`: the largest accepted constraint residual of the
+nodes of a converged solve; above it the status is OFF_MANIFOLD, not SUCCESS."""
 
 
 @lru_cache(maxsize=64)
@@ -112,7 +123,7 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
 
 
 def transcribe(ocp: OCP, method: TranscriptionMethod, *,
-               handling: ManifoldHandling = ManifoldHandling.AMBIENT,
+               handling: ManifoldHandling = DEFAULT_HANDLING,
                graph: Symbolic = Symbolic.SX, ipopt: dict[str, Any] | None = None,
                ) -> tuple[Transcription, bool]:
     """The transcription of ``ocp`` (built on first use, cached on the OCP).
@@ -146,43 +157,107 @@ def transcribe(ocp: OCP, method: TranscriptionMethod, *,
     return tr, True
 
 
+@dataclass(frozen=True)
+class Settings:
+    """The numeric settings of one solve, validated once (passed between attempts).
+
+    Attributes
+    ----------
+    ipopt : dict
+        Ipopt's options (validated).
+    user_ipopt : bool
+        Whether the caller gave Ipopt options (then no warm-start options are added).
+    defect_tol : float or None
+        See :func:`solve`.
+    manifold_tol : float or None
+        See :func:`solve`.
+    compiled : Compiled or None
+        See :func:`solve`.
+    """
+
+    ipopt: dict[str, Any]
+    user_ipopt: bool
+    defect_tol: float | None
+    manifold_tol: float | None
+    compiled: Compiled | None
+
+    def replace(self, **changes: Any) -> Settings:
+        """A copy with some fields changed (``max_iter=`` changes Ipopt's limit)."""
+        ipopt = dict(self.ipopt)
+        if "max_iter" in changes:
+            ipopt["max_iter"] = int(changes.pop("max_iter"))
+        return Settings(**{**self.__dict__, "ipopt": ipopt, **changes})
+
+
+def settings(*, tol: float = 1e-8, max_iter: int = 1000, print_level: int = 0,
+             ipopt_options: dict[str, Any] | None = None,
+             defect_tol: float | None = DEFECT_TOL,
+             manifold_tol: float | None = MANIFOLD_TOL,
+             compiled: Compiled | None = None) -> Settings:
+    """Validate :func:`solve`'s numeric options into a :class:`Settings`."""
+    opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
+    if defect_tol is not None:
+        defect_tol = validate.tolerance("defect_tol", defect_tol)
+    if manifold_tol is not None:
+        manifold_tol = validate.tolerance("manifold_tol", manifold_tol)
+    if compiled is not None and not isinstance(compiled, Compiled):
+        raise ParameterError(f"compiled must be a Compiled(...) or None; got {compiled!r}")
+    return Settings(opts, ipopt_options is not None, defect_tol, manifold_tol, compiled)
+
+
 @validate.arguments(ocp=validate.instance(OCP, "an OCP"))
 def solve(
     ocp: OCP,
     method: TranscriptionMethod | None = None,
     *,
-    handling: ManifoldHandling = ManifoldHandling.AMBIENT,
+    handling: ManifoldHandling | None = None,
     graph: Symbolic = Symbolic.SX,
     guess: Guess | OCPSolution | None = None,
+    strategy: Any = None,
     tol: float = 1e-8,
     max_iter: int = 1000,
     print_level: int = 0,
     ipopt_options: dict[str, Any] | None = None,
     raise_on_failure: bool = True,
     defect_tol: float | None = DEFECT_TOL,
+    manifold_tol: float | None = MANIFOLD_TOL,
     compiled: Compiled | None = None,
 ) -> OCPSolution:
     """Transcribe and solve an OCP with Ipopt (exact Hessian).
+
+    With no guess, no handling and no strategy, the default strategy
+    (:class:`~workbench.control.ocp.auto.Auto`) builds its initial guesses from the model
+    and the OCP (the directions the inputs drive, energy-pumping swings), solves each in
+    an ambient relaxation polished on the manifold, and falls back on continuation in the
+    input bound, the terminal condition and the horizon; the solution records every
+    attempt (:attr:`OCPSolution.attempts`). ``strategy=Direct()`` makes one solve.
 
     Parameters
     ----------
     ocp : OCP
         The problem.
-    method : Collocation or MultipleShooting, optional
+    method : Collocation, MultipleShooting or HermiteSimpson, optional
         The transcription (default ``Collocation(N=40, degree=3)``).
-    handling : ManifoldHandling
-        ``AMBIENT`` or ``LIE_GROUP`` (see :mod:`workbench.control.ocp.transcription`).
+    handling : ManifoldHandling, optional
+        ``PROJECTED`` (the default: ambient intervals, nodes projected onto the manifold),
+        ``LIE_GROUP`` (local exponential coordinates) or ``AMBIENT`` (nodes free in the
+        ambient space: on the manifold at convergence only for Gauss-Legendre collocation of
+        fields that conserve its quadratic constraints); see
+        :mod:`workbench.control.ocp.transcription`. The default strategy uses ``AMBIENT``
+        as a relaxation before its on-manifold solve.
     graph : Symbolic
         ``SX`` (scalar graph, fastest) or ``MX``.
     guess : Guess or OCPSolution, optional
         Initial guess; a solution of the *same* transcription also warm-starts the
-        multipliers. Default: :meth:`Guess.geodesic` (deterministic great circles). The
-        guess vector is moved into the variable bounds before the solve (as Ipopt would);
-        the problem's data are never changed.
+        multipliers. Default: the strategy's structured guesses (``Direct``:
+        :meth:`Guess.geodesic`). The guess vector is moved into the variable bounds before
+        the solve (as Ipopt would); the problem's data are never changed.
+    strategy : Auto or Direct, optional
+        How to solve: ``Auto()`` (default) or ``Direct()`` (one Ipopt solve from the guess).
     tol : float
         Ipopt's tolerance.
     max_iter : int
-        Ipopt's iteration limit.
+        Ipopt's iteration limit (of each attempt).
     print_level : int
         Ipopt's print level (0 = quiet).
     ipopt_options : dict, optional
@@ -196,6 +271,10 @@ def solve(
         solution that is no trajectory of the model) and, with ``raise_on_failure``, a
         SolverError quotes the measured defect. On by default (:data:`DEFECT_TOL`);
         ``None`` explicitly asks for a report only.
+    manifold_tol : float or None
+        Largest accepted manifold residual of the nodes of a converged solve (default
+        :data:`MANIFOLD_TOL` = 1e-10); above it the status is OFF_MANIFOLD. ``None`` asks
+        for a report only.
     compiled : Compiled, optional
         Compile the NLP's functions with the system compiler, cached by hash (see
         :mod:`workbench.control.ocp.compiled`): faster iterations for a one-off build.
@@ -208,28 +287,99 @@ def solve(
     Raises
     ------
     SolverError
-        If Ipopt does not converge and ``raise_on_failure``; ``.solution`` holds the result.
+        If no attempt converged and ``raise_on_failure``; ``.solution`` holds the result,
+        whose message gives the diagnosis (infeasibilities, manifold residual, the worst
+        constraint and its knot, what to try next).
     """
-    method = method or Collocation()
-    opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
-    if defect_tol is not None:
-        defect_tol = validate.tolerance("defect_tol", defect_tol)
-    tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=opts)
-    args, opts = _start(tr, ocp, guess, opts, warm_options=ipopt_options is None)
-    out = _run(tr, ocp, built, args, opts, compiled)
-    if tr.i_gauge is not None and out.status.ok:
-        out = _check_gauge(out, tr, args, opts, ipopt_options is None, compiled)
-    if out.status.ok:
-        out.error["local_defect"] = _local_defect(out)
-        limit = (None if defect_tol is None else
-                 validate.scaled_tolerance(defect_tol, float(np.max(np.abs(out.x)))))
-        if limit is not None and not out.error["local_defect"] <= limit:
-            out.status = OCPStatus.INACCURATE
-            out.error["defect_limit"] = limit
+    from workbench.control.ocp.auto import Auto, Direct
+
+    method = check_method(method or Collocation())
+    if handling is not None and not isinstance(handling, ManifoldHandling):
+        raise ParameterError(f"handling must be a ManifoldHandling or None; got {handling!r}")
+    if guess is not None and not isinstance(guess, (Guess, OCPSolution)):
+        raise ParameterError(
+            f"guess must be a Guess or an OCPSolution; got {type(guess).__name__} (make one "
+            f"with Guess.from_samples(ocp, t, x, u) or Guess.geodesic(ocp))")
+    strategy = Auto() if strategy is None else strategy
+    if not isinstance(strategy, (Auto, Direct)):
+        raise ParameterError(f"strategy must be Auto(...) or Direct(); got {strategy!r}")
+    conf = settings(tol=tol, max_iter=max_iter, print_level=print_level,
+                    ipopt_options=ipopt_options, defect_tol=defect_tol,
+                    manifold_tol=manifold_tol, compiled=compiled)
+    out = strategy.run(ocp, method, handling=handling, graph=graph, guess=guess,
+                       settings=conf)
     if raise_on_failure and not out.status.ok:
         err = SolverError(f"OCP {ocp.name!r}: {out.message}", status=out.ipopt_status)
         err.solution = out  # type: ignore[attr-defined]
         raise err
+    return out
+
+
+def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandling,
+                 graph: Symbolic, guess: Guess | OCPSolution | None, conf: Settings, *,
+                 terminal_slack: float = 0.0) -> OCPSolution:
+    """One Ipopt solve (never raises on a solver failure): the ``Direct`` strategy.
+
+    ``terminal_slack`` relaxes the terminal equations to ``|chart| <= slack`` (data of the
+    NLP: no rebuild), for the strategies' continuation in the terminal condition.
+    """
+    tr, built = transcribe(ocp, method, handling=handling, graph=graph, ipopt=conf.ipopt)
+    opts = conf.ipopt
+    args, opts = _start(tr, ocp, guess, opts, warm_options=not conf.user_ipopt)
+    if terminal_slack:
+        rows = tr.g_kinds == "terminal"
+        args["lbg"][rows], args["ubg"][rows] = -terminal_slack, terminal_slack
+    out = _run(tr, ocp, built, args, opts, conf.compiled)
+    if tr.i_gauge is not None and out.status.ok:
+        out = _check_gauge(out, tr, args, opts, not conf.user_ipopt, conf.compiled)
+    if out.status.ok and conf.manifold_tol is not None and \
+            not out.error["manifold_residual"] <= conf.manifold_tol:
+        out = _polish(out, tr, args, opts, conf)
+    if out.status.ok:
+        out.error["local_defect"] = _local_defect(out)
+        limit = (None if conf.defect_tol is None else
+                 validate.scaled_tolerance(conf.defect_tol, float(np.max(np.abs(out.x)))))
+        if limit is not None and not out.error["local_defect"] <= limit:
+            out.status = OCPStatus.INACCURATE
+            out.error["defect_limit"] = limit
+    if not out.status.ok:
+        out.diagnosis = diagnose(out, tr, args)
+    return out
+
+
+POLISH_RESIDUAL = 1e-6
+"""Largest node residual a converged on-manifold solve is polished from (see :func:`_polish`):
+beyond it the nodes are off the manifold for a reason a tighter tolerance does not fix."""
+
+
+def _polish(out: OCPSolution, tr: Transcription, args: dict[str, Any], opts: dict[str, Any],
+            conf: Settings) -> OCPSolution:
+    """Meet ``manifold_tol`` on the nodes, or report OFF_MANIFOLD.
+
+    With ``PROJECTED`` or ``LIE_GROUP`` handling the nodes are on the manifold exactly where
+    the continuity constraints hold, so a residual above ``manifold_tol`` is the constraints'
+    own final violation: one warm-started re-solve with Ipopt's ``constr_viol_tol`` at
+    ``manifold_tol / 10`` removes it (usually in one or two iterations; recorded in
+    ``cost["polish_iterations"]``). With ``AMBIENT`` handling the nodes are free in the
+    ambient space and the residual is the scheme's: the status is OFF_MANIFOLD.
+    """
+    res = out.error["manifold_residual"]
+    if tr.handling is not ManifoldHandling.AMBIENT and res <= POLISH_RESIDUAL:
+        tight = {**WARM_START, **opts} if not conf.user_ipopt else dict(opts)
+        tight["constr_viol_tol"] = conf.manifold_tol / 10
+        again = _run(tr, out.ocp, False, {**args, "x0": out.w, "lam_x0": out.lam_x,
+                                          "lam_g0": out.lam_g}, tight, conf.compiled)
+        again.gauge = out.gauge
+        again.cost["polish_iterations"] = again.cost["iterations"]
+        for key in ("iterations", "solve_seconds", "solve_cpu_seconds"):
+            again.cost[key] += out.cost[key]
+        again.cost["build_seconds"] = out.cost["build_seconds"]
+        again.cost["transcription_cached"] = out.cost["transcription_cached"]
+        if again.status.ok and again.error["manifold_residual"] <= conf.manifold_tol:
+            return again
+        out = again if again.status.ok else out
+    out.status = OCPStatus.OFF_MANIFOLD
+    out.error["manifold_limit"] = conf.manifold_tol
     return out
 
 
@@ -243,8 +393,7 @@ def _start(tr: Transcription, ocp: OCP, guess: Guess | OCPSolution | None,
     lbw, ubw = tr.bounds(ocp)
     args: dict[str, Any] = {"lbx": lbw, "ubx": ubw, "lbg": tr.lbg.copy(),
                             "ubg": tr.ubg.copy()}
-    if isinstance(guess, OCPSolution) and guess.method == tr.method and \
-            guess.handling is tr.handling and guess.graph is tr.graph:
+    if isinstance(guess, OCPSolution) and _same_layout(guess, tr):
         args["x0"] = guess.w
         if len(guess.lam_g) == tr.ng:
             # primal-dual warm start: start close to the central path, not at mu = 0.1
@@ -263,6 +412,17 @@ def _start(tr: Transcription, ocp: OCP, guess: Guess | OCPSolution | None,
         args["p"] = np.r_[ocp.model.p, c]
         args["lbg"][tr.i_gauge] = args["ubg"][tr.i_gauge] = float(c @ args["x0"])
     return args, opts
+
+
+_AMBIENT_LAYOUT = frozenset({ManifoldHandling.AMBIENT, ManifoldHandling.PROJECTED})
+"""Handlings with the same NLP variables and constraints (a solution of one starts the other)."""
+
+
+def _same_layout(sol: OCPSolution, tr: Transcription) -> bool:
+    """Whether ``sol``'s primal (and dual) vector is a point of ``tr``'s NLP."""
+    same = sol.handling is tr.handling or {sol.handling, tr.handling} <= _AMBIENT_LAYOUT
+    return (same and sol.method == tr.method and sol.graph is tr.graph
+            and len(sol.w) == tr.nw)
 
 
 def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
@@ -292,6 +452,9 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
         "nlp_constraints": tr.ng,
         "compile": tr.compile_info.get(compiled) if compiled is not None else None,
     }
+    trace = stats.get("iterations") or {}
+    for key in ("inf_pr", "inf_du"):  # the last iterate's infeasibilities (for diagnoses)
+        cost[f"last_{key}"] = float(trace[key][-1]) if trace.get(key) else float("nan")
     error = {
         "constraint_violation": float(viol.max(initial=0.0)),
         "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in X)),
@@ -306,7 +469,7 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
         objective=float(sol["f"]), T=T, t=tr.times(T), x=X, u=U, method=tr.method,
         handling=tr.handling, graph=tr.graph, cost=cost, error=error, ocp=ocp, w=w,
         lam_x=np.asarray(sol["lam_x"], float).ravel(),
-        lam_g=np.asarray(sol["lam_g"], float).ravel(), gauge=gauge,
+        lam_g=np.asarray(sol["lam_g"], float).ravel(), gauge=gauge, g=gval,
     )
 
 

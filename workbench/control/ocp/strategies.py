@@ -18,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from workbench.control.ocp.auto import Direct
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solve import (
+    DEFAULT_HANDLING,
     OCPSolution,
     OCPStatus,
     _ipopt_options,
@@ -29,13 +31,22 @@ from workbench.control.ocp.solve import (
 )
 from workbench.control.ocp.transcription import (
     Collocation,
-    ManifoldHandling,
     TranscriptionMethod,
 )
 from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError, SolverError
 
 __all__ = ["multistart", "coarse_to_fine", "refine", "homotopy"]
+
+
+def _direct(ocp: OCP, method: TranscriptionMethod | None, **options: Any) -> OCPSolution:
+    """:func:`solve` with ``strategy=Direct()`` unless one is given.
+
+    These strategies make their own guesses (or take the caller's): each of their solves is
+    one Ipopt solve from that guess, as the strategy's record of it says.
+    """
+    options.setdefault("strategy", Direct())
+    return solve(ocp, method, **options)
 
 
 def multistart(
@@ -149,7 +160,7 @@ def multistart(
     best = done[i_best][1]
     if not isinstance(best, OCPSolution):  # a vector from a worker: complete it here
         m, w, lam_x, lam_g = best
-        best = solve(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
+        best = _direct(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
                      raise_on_failure=False, **solve_options)
     best_cost = records[i_best]["objective"]
     judged = set(counted)
@@ -206,7 +217,7 @@ def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution
         first_options.setdefault("defect_tol", None)
     if variant:
         first_options["ipopt_options"] = {**(options.get("ipopt_options") or {}), **variant}
-    first = solve(ocp, job["method"], guess=g, raise_on_failure=False, **first_options)
+    first = _direct(ocp, job["method"], guess=g, raise_on_failure=False, **first_options)
     s, path = first, [first]
     if first.status.ok and job["refine_with"]:
         s, rest = coarse_to_fine(ocp, job["refine_with"], guess=first, raise_on_failure=False,
@@ -235,7 +246,7 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
     """Solve the starts in forked processes (transcriptions built here first)."""
     from workbench.simulation import OnError, StartMethod, sweep
 
-    handling = job["options"].get("handling", ManifoldHandling.AMBIENT)
+    handling = job["options"].get("handling") or DEFAULT_HANDLING
     graph = job["options"].get("graph", Symbolic.SX)
     opts = job["options"]
     defaults = inspect.signature(solve).parameters
@@ -261,7 +272,7 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
 def _warm(ocp: OCP, method: TranscriptionMethod, w: np.ndarray, lam_x: np.ndarray,
           lam_g: np.ndarray, options: dict[str, Any]) -> OCPSolution:
     """A primal-dual point of a transcription as a solution object (to warm-start from)."""
-    handling = options.get("handling", ManifoldHandling.AMBIENT)
+    handling = options.get("handling") or DEFAULT_HANDLING
     graph = options.get("graph", Symbolic.SX)
     tr, _ = transcribe(ocp, method, handling=handling, graph=graph)
     X, U, T = tr.unpack(w)
@@ -310,7 +321,7 @@ def coarse_to_fine(
         options = dict(solve_options)
         if k < len(methods) - 1:  # coarse levels are a means: the last one is judged
             options.setdefault("defect_tol", None)
-        s = solve(ocp, m, guess=current, raise_on_failure=raise_on_failure, **options)
+        s = _direct(ocp, m, guess=current, raise_on_failure=raise_on_failure, **options)
         path.append(s)
         if not s.status.ok:
             break
@@ -332,7 +343,7 @@ def refine(solution: OCPSolution, method: TranscriptionMethod, **solve_options: 
     """
     solve_options.setdefault("handling", solution.handling)
     solve_options.setdefault("graph", solution.graph)
-    return solve(solution.ocp, method, guess=solution.guess(), **solve_options)
+    return _direct(solution.ocp, method, guess=solution.guess(), **solve_options)
 
 
 def homotopy(
@@ -370,7 +381,7 @@ def homotopy(
     current = guess
     for st in steps:
         problem = ocp.with_bounds(**st)
-        s = solve(problem, method, guess=current, **solve_options)
+        s = _direct(problem, method, guess=current, **solve_options)
         sols.append(s)
         current = s
     return sols[-1], sols

@@ -21,6 +21,7 @@ from workbench.control._tvlqr import TVLQR, closed_loop, perturbed_starts
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.problem import OCP, TargetPoint, TargetSet
 from workbench.control.ocp.solve import (
+    DEFAULT_HANDLING,
     WARM_START,
     OCPSolution,
     _ipopt_options,
@@ -28,7 +29,7 @@ from workbench.control.ocp.solve import (
     transcribe,
 )
 from workbench.control.ocp.stepper import Stepper
-from workbench.control.ocp.strategies import _warm, coarse_to_fine
+from workbench.control.ocp.strategies import _direct, _warm, coarse_to_fine
 from workbench.control.ocp.transcription import (
     Collocation,
     ManifoldHandling,
@@ -95,7 +96,7 @@ def effort_time_ocp(model: Any, x0: np.ndarray, xf: np.ndarray, *, u_max: float,
 def solve_row(ocp: OCP, method: TranscriptionMethod, guess: Guess | OCPSolution, **options: Any
               ) -> tuple[OCPSolution, dict[str, Any]]:
     """Solve (never raising) and tabulate: the solution and its :func:`solution_row`."""
-    sol = solve(ocp, method, guess=guess, raise_on_failure=False, **options)
+    sol = _direct(ocp, method, guess=guess, raise_on_failure=False, **options)
     return sol, solution_row(sol, resimulate=sol.status.ok) | {"gauge": sol.gauge}
 
 
@@ -196,7 +197,7 @@ def speed_accuracy(
             times, cpu = [], []
             sol = None
             for _ in range(max(1, repeats)):
-                sol = solve(ocp, method, handling=handling, guess=guess,
+                sol = _direct(ocp, method, handling=handling, guess=guess,
                             raise_on_failure=False, **solve_options)
                 times.append(sol.cost["solve_seconds"])
                 cpu.append(sol.cost["solve_cpu_seconds"])
@@ -499,7 +500,7 @@ def parallel_starts(ocp: OCP, guesses: Sequence[Guess], ladder: Sequence[Transcr
     if stop_below is not None and not np.isfinite(stop_below):
         raise ParameterError(f"stop_below must be a finite cost or None; got {stop_below!r}")
     rel_tol = validate.tolerance("rel_tol", rel_tol)
-    handling = solve_options.get("handling", ManifoldHandling.AMBIENT)
+    handling = solve_options.get("handling") or DEFAULT_HANDLING
     graph = solve_options.get("graph", Symbolic.SX)
     t0 = time.perf_counter()
     defaults = inspect.signature(solve).parameters
@@ -546,7 +547,7 @@ def parallel_starts(ocp: OCP, guesses: Sequence[Guess], ladder: Sequence[Transcr
     best_cost, i_best = min(ok)
     m, w, lam_x, lam_g = done[i_best][1]
     t2 = time.perf_counter()
-    best = solve(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
+    best = _direct(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
                  raise_on_failure=False, **solve_options)
     final = time.perf_counter() - t2
     for r in records:

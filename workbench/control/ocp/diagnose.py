@@ -1,0 +1,120 @@
+"""What went wrong in a failed OCP solve, in numbers, and what to try next.
+
+:func:`diagnose` reads the last iterate of a solve that did not succeed: Ipopt's primal and
+dual infeasibility (unscaled, as its iteration log prints them), the manifold residual of
+the nodes, and the worst constraint by name and knot (a collocation defect of interval
+``k``, the continuity at knot ``k``, a path constraint at knot ``k``, the terminal
+condition). From these it proposes the next thing to try, in words that name the knobs of
+:func:`~workbench.control.ocp.solve`. The advice is a reading of the numbers, not a
+guarantee; the default strategy (:class:`~workbench.control.ocp.auto.Auto`) already tries
+structured guesses and continuation before it gives up.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from workbench.control.ocp.transcription import ManifoldHandling, Transcription
+
+__all__ = ["diagnose", "describe_diagnosis"]
+
+FAR_OFF_MANIFOLD = 1e-3
+"""A node residual above this reads as "the iterates left the manifold"."""
+
+LARGE_DUAL = 1e3
+"""A dual infeasibility above this reads as "badly scaled, singular, or far from a minimum"."""
+
+
+def _where(kind: str, knot: int, N: int) -> str:
+    if kind == "defect":
+        return f"collocation defect of interval {knot} (t in [{knot}, {knot + 1}] T/{N})"
+    if kind == "continuity":
+        return f"continuity at knot {knot} of {N}"
+    if kind in ("terminal", "terminal chart domain"):
+        return f"{kind} condition (knot {N})"
+    if kind == "gauge":
+        return "gauge (phase condition of the symmetry)"
+    return f"path constraint {kind!r} at knot {knot} of {N}"
+
+
+def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any]:
+    """The numbers of a failed solve and the advice they suggest.
+
+    Parameters
+    ----------
+    sol : OCPSolution
+        The solve's result (its ``error`` and ``cost`` already filled in).
+    tr : Transcription
+        Its transcription (row kinds and knots).
+    args : dict
+        The solver's arguments (``lbg``, ``ubg``).
+
+    Returns
+    -------
+    dict
+        ``primal_infeasibility``, ``dual_infeasibility`` (of the last iterate),
+        ``manifold_residual``, ``worst_constraint`` (``{"where", "kind", "knot",
+        "violation"}``) and ``advice`` (a list of sentences).
+    """
+    viol = (np.zeros(0) if sol.g is None else
+            np.maximum(np.maximum(args["lbg"] - sol.g, sol.g - args["ubg"]), 0.0))
+    worst: dict[str, Any] = {"where": "none", "kind": None, "knot": None, "violation": 0.0}
+    if viol.size and np.any(viol > 0):
+        i = int(np.argmax(viol))
+        kind, knot = str(tr.g_kinds[i]), int(tr.g_knots[i])
+        worst = {"where": _where(kind, knot, tr.N), "kind": kind, "knot": knot,
+                 "violation": float(viol[i])}
+    inf_pr = float(sol.cost.get("last_inf_pr", np.nan))
+    inf_du = float(sol.cost.get("last_inf_du", np.nan))
+    res = float(sol.error.get("manifold_residual", np.nan))
+    advice = _advice(sol, tr, worst, inf_du, res)
+    return {"primal_infeasibility": inf_pr, "dual_infeasibility": inf_du,
+            "manifold_residual": res, "worst_constraint": worst, "advice": advice}
+
+
+def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float,
+            res: float) -> list[str]:
+    name = sol.status.name
+    out = []
+    if name == "OFF_MANIFOLD" or (tr.handling is ManifoldHandling.AMBIENT
+                                  and res > FAR_OFF_MANIFOLD):
+        out.append("the nodes are off the manifold: solve with handling=PROJECTED (the "
+                   "default) or LIE_GROUP, whose nodes stay on it")
+    if name == "INACCURATE":
+        out.append("the transcription does not follow the dynamics: more intervals N or a "
+                   "higher collocation degree")
+    if worst["kind"] in ("terminal", "terminal chart domain"):
+        out.append("the target is not reached: a longer horizon (T or its range), a larger "
+                   "input bound, or more swings in the guess (the default strategy continues "
+                   "in the bound and the terminal condition)")
+    elif worst["kind"] == "defect":
+        out.append(f"the dynamics are violated most on interval {worst['knot']}: more "
+                   f"intervals N, or a guess closer to a trajectory of the model")
+    elif worst["kind"] not in (None, "continuity", "gauge"):
+        out.append(f"the path constraint {worst['kind']!r} binds at knot {worst['knot']}: "
+                   f"check that it admits a trajectory from x0 to the target")
+    if np.isfinite(inf_du) and inf_du > LARGE_DUAL:
+        out.append(f"the dual infeasibility is {inf_du:.1e}: the problem may be badly scaled "
+                   f"(state or input units far from 1), have a singular direction (a "
+                   f"symmetry: keep gauge=True), or the guess is far from a minimum (the "
+                   f"default strategy's structured guesses)")
+    if name == "MAX_ITERATIONS" and not out:
+        out.append("raise max_iter, or start closer (a coarse solve refined: "
+                   "coarse_to_fine)")
+    if name == "INFEASIBLE" and not out:
+        out.append("Ipopt found no feasible point near this guess: another guess (the default "
+                   "strategy's), a longer horizon or a larger input bound")
+    return out or ["no specific advice: see the numbers above"]
+
+
+def describe_diagnosis(d: dict[str, Any]) -> str:
+    """One readable paragraph of a :func:`diagnose` result."""
+    w = d["worst_constraint"]
+    worst = ("none violated" if w["kind"] is None else
+             f"{w['where']}, violated by {w['violation']:.2e}")
+    return (f"primal infeasibility {d['primal_infeasibility']:.2e}, dual infeasibility "
+            f"{d['dual_infeasibility']:.2e}, node manifold residual "
+            f"{d['manifold_residual']:.2e}; worst constraint: {worst}. Try next: "
+            + "; ".join(d["advice"]) + ".")

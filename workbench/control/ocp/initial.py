@@ -1,0 +1,573 @@
+"""Initial guesses derived from the model and the OCP: the default strategy's starts.
+
+No guess here comes from an axis convention. Each is a path of the *configuration* from
+``x0`` to the target, made dynamically consistent as far as the model allows:
+
+1. **The second-order structure is read off the field.** The rows of ``f`` that do not depend
+   on the input are the kinematics (``q-dot = w x q``, ``R-dot = R hat(Omega)``,
+   ``p-dot = theta-dot J p``, ``x-dot = v``); the state entries they depend on, outside
+   themselves, are the velocities. The kinematics is linear in the velocities,
+   ``c-dot = K(c) v``.
+2. **A configuration path** ``c(s)``, ``s`` in ``[0, 1]``, factor by factor: a straight line on
+   ``R^k``, a great circle on ``S^2``, a one-parameter subgroup ``R0 exp(th hat(a))`` on
+   ``SO(3)``, a rotation by ``th`` on ``S^1``. A factor that must turn by more than a right
+   angle (a link to be inverted, an angle to be wrapped) follows the *pumping* schedule
+
+       th(s) = Theta s cos(pi k (1 - s)),
+
+   ``k`` reversals of growing amplitude (``k = 0``: the direct path); the others follow
+   ``th = Theta s``.
+3. **The great circle is the one the inputs can drive.** For a factor going to its antipode
+   the circle is not unique; its plane is the direction of the factor's largest
+   controllable motion at ``x0`` (or, failing that, at the target): the leading left
+   singular vector of the factor's rows of ``basis @ [B, AB, A^2 B, ...]`` (the block
+   columns of the Krylov matrix normalised), from the linearisation at that equilibrium. An
+   antipodal ``S^1`` angle is wrapped both ways (two guesses).
+4. **Velocities by kinematics, controls by inverse dynamics.** The velocities solve
+   ``K(c) v = dc/dt`` (least squares, minimal norm: on ``TS^2`` this keeps ``w`` tangent),
+   the controls solve ``(df_v/du) u = dv/dt - f_v(x, 0)`` (least squares), clipped into the
+   bounds (a guess, not the problem's data).
+5. **The horizon** of a free final time grows with the swings: ``T_k = (k + 1) pi / omega``
+   with ``omega`` the fastest oscillation of the linearisation at ``x0`` (clipped into the
+   allowed range); else the middle of the range.
+
+Models without this structure (no inputs, or a field whose input enters every row) get the
+geodesic guess of :meth:`~workbench.control.ocp.guess.Guess.geodesic` with the
+controllable axes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.control.ocp.expand import sx_function
+from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.local import ProductLocal
+from workbench.control.ocp.problem import OCP
+from workbench.core.errors import ManifoldError, ModelError, SolverError
+from workbench.core.manifolds import S1, S2, SO3, TS2, Rn, so3_exp, so3_log
+from workbench.core.types import Vector
+
+__all__ = ["StructuredGuess", "structured_guesses", "pumping", "energy_pumping", "Structure",
+           "structure"]
+
+INVERT_ANGLE = np.pi / 2
+"""A factor that must turn by more than this (radians) is pumped (see the module docstring)."""
+
+SAMPLES = 201
+"""Samples of a structured guess along ``[0, 1]``."""
+
+PUMP_FIRST = 0.0
+"""Where the direct path's input demand exceeds this (in units of the bounds' half-range),
+the energy-pumping guess is tried first: the inputs are too weak to follow the direct path."""
+
+
+@dataclass(frozen=True)
+class StructuredGuess:
+    """A guess with the account of how it was made.
+
+    Attributes
+    ----------
+    name : str
+        Short name, e.g. ``"pumping k=2"``.
+    guess : Guess
+        The guess.
+    description : str
+        How it was made (axes, wrap directions, horizon).
+    demand : float
+        The largest input the path asks for by inverse dynamics, in units of the bounds'
+        half-range about their middle (above 1 the path asks for more than the bounds
+        allow; the guess holds the clipped inputs); NaN where not computed.
+    """
+
+    name: str
+    guess: Guess
+    description: str
+    demand: float = float("nan")
+
+
+@dataclass
+class Structure:
+    """The second-order structure of a model's field (see the module docstring).
+
+    Attributes
+    ----------
+    config : ndarray of int
+        State entries whose rates do not depend on the input (the kinematics).
+    velocity : ndarray of int
+        The other entries the kinematics depends on.
+    kinematics : casadi.Function
+        ``(x, p) -> K`` with ``c-dot = K v`` (``len(config)`` x ``len(velocity)``).
+    drift : casadi.Function
+        ``(x, p) -> (f_v(x, 0), df_v/du)``: the velocities' rates without input and their
+        input matrix.
+    """
+
+    config: np.ndarray
+    velocity: np.ndarray
+    kinematics: ca.Function
+    drift: ca.Function
+
+
+def structure(model: Any) -> Structure | None:
+    """Read the second-order structure of ``model``'s field; ``None`` if it has none."""
+    cache = model.__dict__.setdefault("_ocp_structure", {})
+    if "value" in cache:
+        return cache["value"]
+    cache["value"] = value = _structure(model)
+    return value
+
+
+def _structure(model: Any) -> Structure | None:
+    if model.n_inputs == 0:
+        return None
+    f = sx_function(model.function("f"), spd=model.spd_solves)
+    nx = model.manifold.ambient_dim
+    x, u, p = ca.SX.sym("x", nx), ca.SX.sym("u", model.n_inputs), ca.SX.sym("p", model.n_params)
+    fx = f(x, u, p)
+    config = [i for i in range(nx) if not ca.depends_on(fx[i], u)]
+    if not config or len(config) == nx:
+        return None
+    rest = [j for j in range(nx) if j not in config]
+    fc = fx[config]
+    velocity = [j for j in rest if ca.depends_on(fc, x[j])]
+    if not velocity:
+        return None
+    xv = ca.vertcat(*[x[j] for j in velocity])
+    K = ca.jacobian(fc, xv)
+    if ca.depends_on(K, xv):  # kinematics not linear in the velocities
+        return None
+    fv = ca.vertcat(*[fx[j] for j in velocity])
+    zero = ca.substitute(fv, u, ca.DM.zeros(model.n_inputs))
+    Bv = ca.substitute(ca.jacobian(fv, u), u, ca.DM.zeros(model.n_inputs))
+    return Structure(np.array(config), np.array(velocity),
+                     ca.Function("kinematics", [x, p], [K]),
+                     ca.Function("drift", [x, p], [zero, Bv]))
+
+
+# the configuration path ---------------------------------------------------------------------
+
+
+@dataclass
+class _Turn:
+    """How one factor's configuration moves: an axis (or sign) and a total angle."""
+
+    name: str
+    kind: str  # "sphere", "rotation", "angle", "line", "geodesic"
+    angle: float = 0.0
+    axis: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    pumped: bool = False
+    note: str = ""
+
+
+def _turns(ocp: OCP, axes: dict[str, np.ndarray], wrap: float) -> list[_Turn]:
+    """Per factor, the turn from ``x0`` to the target's witness."""
+    man = ocp.model.manifold
+    x0, xf = ocp.x0, ocp.target.witness
+    out = []
+    for name, f in man.factors:
+        sl = man.slices[name]
+        a, b = x0[sl], xf[sl]
+        if isinstance(f, (S2, TS2)):
+            q0, q1 = a[:3], b[:3]
+            c = np.cross(q0, q1)
+            angle = float(np.arctan2(np.linalg.norm(c), q0 @ q1))
+            antipodal = np.linalg.norm(c) <= 1e-9 and q0 @ q1 < 0
+            if antipodal and name in axes:
+                ax = axes[name] - (axes[name] @ q0) * q0
+                note = "axis of the largest controllable motion"
+            elif np.linalg.norm(c) > 1e-9:
+                ax, note = c, "great circle"
+            else:
+                ax = np.cross(q0, np.eye(3)[int(np.argmin(np.abs(q0)))])
+                note = "no controllable direction known: a deterministic normal"
+            ax = ax / np.linalg.norm(ax)
+            out.append(_Turn(name, "sphere", angle, ax, angle > INVERT_ANGLE,
+                             f"{note} {np.round(ax, 3).tolist()}"))
+        elif isinstance(f, SO3):
+            y = so3_log(SO3.matrix(a).T @ SO3.matrix(b))
+            angle = float(np.linalg.norm(y))
+            if angle > 1e-9:  # the one-parameter subgroup through the target's witness
+                ax, note = y / angle, "the axis of log(R0^T Rf)"
+            else:
+                ax, note = np.array([1.0, 0.0, 0.0]), "no rotation"
+            out.append(_Turn(name, "rotation", angle, ax, angle > INVERT_ANGLE,
+                             f"{note} {np.round(ax, 3).tolist()}"))
+        elif isinstance(f, S1):
+            d = float(np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b))
+            if abs(abs(d) - np.pi) < 1e-6:
+                d = wrap * np.pi
+            out.append(_Turn(name, "angle", d, pumped=abs(d) > INVERT_ANGLE,
+                             note=f"turn {d:+.3f} rad"))
+        elif isinstance(f, Rn):
+            out.append(_Turn(name, "line"))
+        else:
+            out.append(_Turn(name, "geodesic"))
+    return out
+
+
+def _schedule(angle: float, k: int, s: np.ndarray, pumped: bool) -> np.ndarray:
+    return angle * s * (np.cos(np.pi * k * (1 - s)) if pumped else 1.0)
+
+
+def _path(ocp: OCP, turns: list[_Turn], k: int) -> Callable[[np.ndarray], np.ndarray]:
+    """``s -> x(s)`` (rows), configuration by the turns, the rest along the geodesic."""
+    man = ocp.model.manifold
+    x0, xf = ocp.x0, ocp.target.witness
+    local = ProductLocal(man)
+    y = local.log(x0, xf, axes={t.name: t.axis for t in turns if t.kind == "sphere"})
+
+    def at(s: np.ndarray) -> np.ndarray:
+        X = np.array([np.asarray(local.act(x0, si * y), float).ravel() for si in s])
+        for t in turns:
+            sl = man.slices[t.name]
+            th = _schedule(t.angle, k, s, t.pumped)
+            if t.kind == "sphere":
+                q0 = x0[sl][:3]
+                b = np.cross(t.axis, q0)
+                X[:, sl.start: sl.start + 3] = (np.cos(th)[:, None] * q0
+                                                + np.sin(th)[:, None] * b)
+            elif t.kind == "rotation":
+                R0 = SO3.matrix(x0[sl])
+                X[:, sl] = np.array([SO3.flat(R0 @ so3_exp(ti * t.axis)) for ti in th])
+            elif t.kind == "angle":
+                c0 = np.arctan2(x0[sl][1], x0[sl][0])
+                X[:, sl] = np.column_stack([np.cos(c0 + th), np.sin(c0 + th)])
+        return X
+
+    return at
+
+
+def _dynamic(ocp: OCP, st: Structure | None, at: Callable, T: float,
+             samples: int) -> tuple[Guess, float]:
+    """Samples of the path with kinematic velocities and inverse-dynamics controls.
+
+    Also the path's demand: its largest inverse-dynamics input relative to the bounds.
+    """
+    model = ocp.model
+    s = np.linspace(0.0, 1.0, samples)
+    X = at(s)
+    if st is None:
+        return Guess(s, X, np.zeros((samples - 1, model.n_inputs)), T,
+                     ProductLocal(model.manifold)), float("nan")
+    eps = 1e-5
+    dc = (at(np.clip(s + eps, 0, 1))[:, st.config] - at(np.clip(s - eps, 0, 1))[:, st.config])
+    dc /= ((np.clip(s + eps, 0, 1) - np.clip(s - eps, 0, 1)) * T)[:, None]
+    p = model.p
+    for i in range(samples):
+        K = np.asarray(st.kinematics(X[i], p), float)
+        X[i, st.velocity] = np.linalg.lstsq(K, dc[i], rcond=None)[0]
+    dv = np.gradient(X[:, st.velocity], s * T, axis=0)
+    U = np.zeros((samples, model.n_inputs))
+    for i in range(samples):
+        fv0, Bv = (np.asarray(v, float) for v in st.drift(X[i], p))
+        U[i] = np.linalg.lstsq(Bv, dv[i] - fv0.ravel(), rcond=None)[0]
+    half = 0.5 * (ocp.u_upper - ocp.u_lower)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.abs(U - 0.5 * (ocp.u_upper + ocp.u_lower)) / half
+    demand = float(np.max(np.where(np.isfinite(half), ratio, 0.0), initial=0.0))
+    U = np.clip(U, ocp.u_lower, ocp.u_upper)
+    return Guess(s, X, U, T, ProductLocal(model.manifold)), demand
+
+
+# where the inputs drive ---------------------------------------------------------------------
+
+
+def controllable_axes(ocp: OCP) -> tuple[dict[str, np.ndarray], str]:
+    """Per sphere factor: the axis about which its largest controllable motion turns.
+
+    Returns
+    -------
+    (dict, str)
+        Great-circle axes (world frame) by factor name, and at which equilibrium they were
+        read (``"x0"``, ``"target"`` or ``""`` when neither is an equilibrium). An SO(3)
+        factor turns about the axis of ``log(R0^T Rf)`` (a target set's witness fixes
+        ``Rf``).
+    """
+    from workbench.linear import linearize
+
+    man = ocp.model.manifold
+    for where, x in (("x0", ocp.x0), ("target", ocp.target.witness)):
+        try:
+            lin = linearize(ocp.model, x)
+        except (ModelError, ManifoldError, SolverError, ValueError):
+            continue
+        A, B, N = lin.A, lin.B, lin.basis
+        blocks, M = [], B
+        for _ in range(A.shape[0]):
+            scale = np.linalg.norm(M)
+            if not scale > 0:
+                break
+            blocks.append(M / scale)
+            M = A @ M
+        if not blocks:
+            continue
+        dX = N @ np.hstack(blocks)  # ambient displacements the inputs reach
+        axes = {}
+        for name, f in man.factors:
+            sl = man.slices[name]
+            if isinstance(f, (S2, TS2)):
+                q0 = x[sl][:3]
+                dq = dX[sl.start: sl.start + 3]
+                if np.linalg.norm(dq) > 1e-9:
+                    d = np.linalg.svd(dq)[0][:, 0]
+                    axes[name] = np.cross(q0, d)
+        return axes, where
+    return {}, ""
+
+
+def natural_frequency(ocp: OCP) -> float | None:
+    """The fastest oscillation (rad/s) of the linearisation at ``x0``, if it is an equilibrium."""
+    from workbench.linear import linearize
+
+    try:
+        lam = np.linalg.eigvals(linearize(ocp.model, ocp.x0).A)
+    except (ModelError, ManifoldError, SolverError, ValueError):
+        return None
+    w = np.abs(lam.imag)
+    return float(w.max()) if np.any(w > 1e-9) else None
+
+
+# the guesses ---------------------------------------------------------------------------------
+
+
+def pumping(ocp: OCP, *, half_swings: int, wrap: float = 1.0, T: float | None = None,
+            axes: dict[str, Vector] | None = None, where: str = "given",
+            samples: int = SAMPLES) -> StructuredGuess:
+    """The guess with ``half_swings`` reversals of the factors to invert or wrap.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem.
+    half_swings : int
+        ``k >= 0`` (0: the direct path).
+    wrap : float
+        ``+1`` or ``-1``: the sense of an antipodal angle's turn.
+    T : float, optional
+        The guess's horizon (default: see the module docstring).
+    axes : dict, optional
+        Axes by factor name (default: :func:`controllable_axes`).
+    where : str
+        Where ``axes`` were read (for the description).
+    samples : int
+        Samples along ``[0, 1]``.
+
+    Returns
+    -------
+    StructuredGuess
+    """
+    if axes is None:
+        axes, where = controllable_axes(ocp)
+    axes = {k: np.asarray(v, float) for k, v in axes.items()}
+    turns = _turns(ocp, axes, wrap)
+    if T is None:
+        lo, hi = ocp.T_range
+        omega = natural_frequency(ocp)
+        T = float(np.mean(ocp.T_range)) if omega is None else \
+            float(np.clip((half_swings + 1) * np.pi / omega, lo, hi))
+    guess, demand = _dynamic(ocp, structure(ocp.model), _path(ocp, turns, half_swings), T,
+                             samples)
+    pumped = [t for t in turns if t.pumped]
+    text = "; ".join(f"{t.name}: {t.note}" for t in turns if t.kind != "line") or "geodesic"
+    name = f"pumping k={half_swings}" if pumped and half_swings else "direct path"
+    if any(t.kind == "angle" and abs(abs(t.angle) - np.pi) < 1e-9 for t in turns):
+        name += " (+)" if wrap > 0 else " (-)"
+    return StructuredGuess(name, guess, f"{text}; T = {T:.3g} s; axes read at "
+                                        f"{where or 'no equilibrium'}; input demand "
+                                        f"{demand:.3g} x the bounds", demand)
+
+
+def structured_guesses(ocp: OCP, *, swings: int = 3) -> list[StructuredGuess]:
+    """The default strategy's starts, in order.
+
+    The direct path, the energy-pumping feedback (:func:`energy_pumping`, where it applies),
+    then paths with 1..``swings`` reversals; an antipodal angle gives each path in both
+    senses of its turn.
+    """
+    axes, where = controllable_axes(ocp)
+    turns = _turns(ocp, {k: np.asarray(v, float) for k, v in axes.items()}, 1.0)
+    pumped = any(t.pumped for t in turns)
+    senses = (1.0, -1.0) if any(t.kind == "angle" and abs(abs(t.angle) - np.pi) < 1e-9
+                                for t in turns) else (1.0,)
+    out = [pumping(ocp, half_swings=0, wrap=sense, axes=axes, where=where) for sense in senses]
+    if pumped:
+        pump = energy_pumping(ocp)
+        if pump is not None:  # first where the direct path asks for far more than allowed
+            weak = min(g.demand for g in out) > PUMP_FIRST
+            out = [pump, *out] if weak else [*out, pump]
+    for k in range(1, (swings if pumped else 0) + 1):
+        for sense in senses:
+            out.append(pumping(ocp, half_swings=k, wrap=sense, axes=axes, where=where))
+    return out
+
+
+# a feedback that pumps energy ---------------------------------------------------------------
+
+PUMP_LAWS = ((20.0, 0.0, 0.0), (20.0, 0.2, 0.0), (20.0, 0.0, 0.5), (20.0, 0.2, 0.5))
+"""``(kappa, overshoot, brake)`` of the pumping laws tried, in order (see
+:func:`energy_pumping`); the one that comes closest to the target is kept."""
+
+PUMP_SHARPNESS = 0.05
+"""``beta_i`` of the pumping law, as a fraction of the largest ``|b_i|`` seen so far."""
+
+KICK_SAMPLES = 1
+"""Samples at the upper input bounds that start the pumping (at rest ``b = 0``)."""
+
+
+def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[ca.Function, ...]:
+    """``E_p``, ``b = d(dE_p/dt)/du``, ``E_o = E - E_p`` and ``b_o = d(dE_o/dt)/du``.
+
+    ``E_p`` is the model's energy with the velocities of the other factors set to zero: for
+    a pendulum on a cart, the pendulum's energy with the cart at rest (Astrom and Furuta's
+    pumping law uses exactly this one); for the Furuta pendulum, the link's with the arm at
+    rest. ``E_o`` is what the other factors' velocities add. Both rates are affine in the
+    input, ``dE/dt = a(x) + b(x) . u``.
+    """
+    model = ocp.model
+    man = model.manifold
+    K0 = np.asarray(st.kinematics(ocp.x0, model.p), float)
+    rows = {int(r): i for i, r in enumerate(st.config)}
+    keep = set()
+    for name in pumped:
+        for r in range(man.slices[name].start, man.slices[name].stop):
+            if r in rows:
+                keep |= {int(st.velocity[j]) for j in np.flatnonzero(K0[rows[r]])}
+    nx = man.ambient_dim
+    x, u = ca.SX.sym("x", nx), ca.SX.sym("u", model.n_inputs)
+    p = ca.SX.sym("p", model.n_params)
+    mask = ca.DM([0.0 if (j in st.velocity and j not in keep) else 1.0 for j in range(nx)])
+    energy = sx_function(model.function("energy"), spd=model.spd_solves)
+    Ep = energy(x * mask, p)
+    Eo = energy(x, p) - Ep
+    f = sx_function(model.function("f"), spd=model.spd_solves)
+    zero = ca.DM.zeros(model.n_inputs)
+    b, bo = (ca.substitute(ca.jacobian(ca.dot(ca.gradient(E, x), f(x, u, p)), u), u, zero)
+             for E in (Ep, Eo))
+    return (ca.Function("Ep", [x, p], [Ep]), ca.Function("b", [x, p], [b]),
+            ca.Function("Eo", [x, p], [Eo]), ca.Function("bo", [x, p], [bo]))
+
+
+def target_gap(ocp: OCP, x: np.ndarray) -> float:
+    """``max |chart|`` of the target at ``x``, or ``1 + overshoot`` outside the chart's domain.
+
+    The chart of an antipodal point vanishes at the antipode too (``q* x q = 0`` at
+    ``q = -q*``): where the domain inequalities fail the point is counted as far.
+    """
+    xs = ca.DM(x)
+    dom = [float(ca.evalf(e)) for e in ocp.target.domain(xs)]
+    if dom and min(dom) < 0:
+        return 1.0 - min(dom)
+    return ocp.target.distance(x)
+
+
+def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...],
+          stepper: Any, samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Simulate one pumping law with held samples; the states and the controls."""
+    kappa, over, brake = law
+    Ep, b_of, Eo, bo_of = fns
+    model, p = ocp.model, ocp.model.p
+    E_star, E0 = float(Ep(ocp.target.witness, p)), float(Ep(ocp.x0, p))
+    dE = abs(E_star - E0)
+    mid, half = 0.5 * (ocp.u_upper + ocp.u_lower), 0.5 * (ocp.u_upper - ocp.u_lower)
+    h = ocp.T_range[1] / samples
+    X, U = [ocp.x0], []
+    bmax, bomax = np.zeros(model.n_inputs), np.zeros(model.n_inputs)
+    x = ocp.x0
+    for i in range(samples):
+        b = np.asarray(b_of(x, p), float).ravel()
+        bo = np.asarray(bo_of(x, p), float).ravel()
+        bmax, bomax = np.maximum(bmax, np.abs(b)), np.maximum(bomax, np.abs(bo))
+        if i < KICK_SAMPLES:
+            u = ocp.u_upper.copy()
+        else:
+            e = (E_star + over * dE - float(Ep(x, p))) / dE
+            pump = np.tanh(kappa * e) * np.tanh(b / np.maximum(PUMP_SHARPNESS * bmax, 1e-300))
+            take = np.tanh(kappa * float(Eo(x, p)) / dE) * np.tanh(
+                bo / np.maximum(PUMP_SHARPNESS * bomax, 1e-300))
+            u = mid + half * np.clip(pump - brake * take, -1.0, 1.0)
+        try:  # projected after each step (the projection method): the guess's states are
+            x = model.manifold.project(stepper.step(x, u, h))  # on the manifold exactly
+        except (SolverError, ManifoldError):
+            break
+        U.append(u)
+        X.append(x)
+    return np.array(X), np.array(U)
+
+
+def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
+    """A guess simulated with an energy-pumping feedback; ``None`` where none applies.
+
+    The law raises the energy ``E_p`` of the factors to invert (see :func:`_pumped_energy`)
+    to its value ``E*`` at the target's witness (plus an overshoot), and takes out the
+    energy ``E_o`` the other factors' velocities carry (an arm or a cart set spinning or
+    running by the pumping),
+
+        u_i = mid_i + half_i clip(tanh(kappa e) tanh(b_i / beta_i)
+                                  - brake tanh(kappa E_o / dE) tanh(b_oi / beta_oi), -1, 1),
+
+    ``e = (E* + overshoot dE - E_p) / dE``, ``dE = |E* - E_p(x0)|``, with ``half_i`` the
+    half-range of the bounds (:data:`PUMP_LAWS`, :data:`PUMP_SHARPNESS`), after a kick at
+    the upper bounds for :data:`KICK_SAMPLES` samples (at rest ``b = 0``). It is held
+    constant over each of ``samples`` intervals of the longest allowed horizon and
+    integrated by CVODES, each step's end projected onto the manifold (the projection
+    method), so the guess is a trajectory of the model under admissible controls. Of the
+    laws tried, the one whose trajectory comes closest to the target (:func:`target_gap`,
+    counting the factors to invert only) is kept; a free final time ends at that closest
+    approach. It applies to models with an ``energy`` invariant, the
+    second-order structure, finite input bounds and a factor to invert.
+    """
+    from workbench.control.ocp.stepper import Stepper
+
+    model = ocp.model
+    st = structure(model)
+    finite = np.all(np.isfinite(ocp.u_lower) & np.isfinite(ocp.u_upper))
+    if st is None or "energy" not in model.invariant_names or not finite:
+        return None
+    axes, _ = controllable_axes(ocp)
+    turns = _turns(ocp, {k: np.asarray(v, float) for k, v in axes.items()}, 1.0)
+    pumped = [t.name for t in turns if t.pumped]
+    if not pumped:
+        return None
+    fns = _pumped_energy(ocp, st, pumped)
+    p = model.p
+    E_star, E0 = float(fns[0](ocp.target.witness, p)), float(fns[0](ocp.x0, p))
+    if not abs(E_star - E0) > 1e-12 * max(1.0, abs(E_star)):
+        return None
+    man = model.manifold
+    idx = np.concatenate([np.arange(man.slices[n].start, man.slices[n].stop) for n in pumped])
+    stepper = Stepper(model, rtol=1e-8, atol=1e-8)
+    h = ocp.T_range[1] / samples
+    best = None
+    for law in PUMP_LAWS:
+        X, U = _pump(ocp, law, fns, stepper, samples)
+        t = h * np.arange(len(X))
+        probe = np.tile(ocp.target.witness, (len(X), 1))
+        probe[:, idx] = X[:, idx]
+        gap = np.array([target_gap(ocp, xi) for xi in probe])
+        if ocp.free_time:
+            ok = np.flatnonzero(t >= ocp.T_range[0] - 1e-12)
+            if not ok.size:
+                continue
+            k = int(ok[np.argmin(gap[ok])])
+        elif len(X) == samples + 1:
+            k = samples
+        else:  # the fixed horizon was not reached
+            continue
+        if best is None or gap[k] < best[0]:
+            best = (float(gap[k]), law, X[: k + 1], U[:k], float(t[k]))
+    if best is None:
+        return None
+    gap, law, X, U, T = best
+    guess = Guess(np.linspace(0.0, 1.0, len(X)), X, U, T, ProductLocal(man))
+    return StructuredGuess(
+        "energy pumping", guess,
+        f"feedback pumping the energy of {', '.join(pumped)} from {E0:.4g} to {E_star:.4g} "
+        f"(kappa, overshoot, brake = {law}; {samples} held samples over "
+        f"{ocp.T_range[1]:.3g} s); T = {T:.3g} s, where they come closest to the target "
+        f"(chart gap {gap:.2e})")
