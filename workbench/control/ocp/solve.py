@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.compiled import Compiled
-from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.guess import Guess, check_guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.transcription import (
     Collocation,
@@ -179,7 +179,7 @@ class OCPSolution(StatusResult):
 
     def guess(self) -> Guess:
         """Return the solution as a guess (for warm-starting another transcription)."""
-        return Guess.from_samples(self.ocp, self.t, self.x, self.u)
+        return Guess.from_solution(self)
 
     def control(self, t: float) -> np.ndarray:
         """The optimal control at time ``t`` in ``[0, T]`` (piecewise constant, or linear).
@@ -436,6 +436,7 @@ def solve(
     SolverError
         If Ipopt does not converge and ``raise_on_failure``; ``.solution`` holds the result.
     """
+    check_guess(guess, ocp, OCPSolution)  # an array, or a guess of another problem
     method = method or Collocation()
     opts = _ipopt_options(tol, max_iter, print_level, ipopt_options)
     if defect_tol is not None:
@@ -446,6 +447,7 @@ def solve(
     if tr.i_gauge is not None and out.status.ok:
         out = _check_gauge(out, tr, args, opts, ipopt_options is None, compiled)
     if out.status.ok:
+        ocp.check_states(out.x, out.t, what="the solution's nodes")  # mechanics: T definite
         out.error["local_defect"] = _local_defect(out)
         limit = (None if defect_tol is None else
                  validate.scaled_tolerance(defect_tol, float(np.max(np.abs(out.x)))))
