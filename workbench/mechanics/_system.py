@@ -496,7 +496,9 @@ class System(Momenta):
 
         On an S^2 factor (a link about its pivot) only the part normal to ``q`` acts. On an
         S^1 factor (a revolute joint) ``value`` is a scalar torque about the joint, its
-        virtual work ``value * delta theta`` (a motor at the joint).
+        virtual work ``value * delta theta`` (a motor at the joint). A name resolves to one
+        thing: factors and bodies share one namespace (a body cannot take a factor's name,
+        nor a factor a body's).
         """
         f = self._factor_or_none(target)
         if isinstance(f, S1Factor):

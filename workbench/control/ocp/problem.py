@@ -339,7 +339,10 @@ class OCP:
     model : Model
         The dynamics.
     x0 : array-like, shape=(ambient_dim,)
-        Initial state; must lie on the model's manifold to ``tol`` (never projected).
+        Initial state; must lie on the model's manifold to ``tol`` (never projected) and
+        pass the model's state check (a :mod:`workbench.mechanics` model: its kinetic
+        energy positive definite there; :func:`solve` checks a converged solution's nodes
+        too).
     target : TargetPoint or TargetSet
         Terminal condition.
     u_lower, u_upper : array-like, shape=(n_inputs,)
@@ -351,7 +354,8 @@ class OCP:
     terminal_cost : callable, optional
         ``Phi(x_T, T)``; ``0`` when omitted. Minimum time is ``lambda x, T: T``.
     path_constraints : sequence of PathConstraint
-        Constraints at every node.
+        Constraints at every node; each function is checked on the model's symbols (SX
+        and MX) here: a casadi expression whose size fits its bounds.
     tol : float
         Largest accepted manifold residual of ``x0`` and of a target point.
     name : str
