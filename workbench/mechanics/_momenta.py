@@ -291,16 +291,19 @@ def _confirmed(system: Any, der: Derivation, p: np.ndarray, found: list,
                                                           for m in momenta])])
     flux = ca.Function("flux", [der.x, der.ing.p], [ca.vertcat(*[
         ca.norm_2(ca.gradient(m(der.x, der.ing.p), der.x)) for m in momenta])])
+    # one integrator for every start: time scaled to s in [0, 1], the horizon a parameter
+    horizon = ca.MX.sym("T")
+    grid = np.linspace(0.0, 1.0, CONFIRM_SAMPLES + 1)
+    sim = ca.integrator("confirm", "cvodes", {"x": x, "p": ca.vertcat(ps, horizon),
+                                              "ode": horizon * ode}, 0.0, grid[1:],
+                        {"abstol": 1e-12, "reltol": 1e-10, "max_num_steps": 100_000})
     keep = np.ones(len(found), dtype=bool)
     for x0, f0 in zip(starts, xdots):
-        rate = float(np.linalg.norm(f0)) / max(float(np.linalg.norm(x0)), 1e-300)
-        T = 1.0 if rate <= 1.0 else 1.0 / rate  # the state changes by about its own size
-        grid = np.linspace(0.0, T, CONFIRM_SAMPLES + 1)
+        pace = float(np.linalg.norm(f0)) / max(float(np.linalg.norm(x0)), 1e-300)
+        T = 1.0 if pace <= 1.0 else 1.0 / pace  # the state changes by about its own size
         try:
-            sim = ca.integrator("confirm", "cvodes", {"x": x, "p": ps, "ode": ode}, 0.0,
-                                grid[1:], {"abstol": 1e-12, "reltol": 1e-10,
-                                           "max_num_steps": 100_000})
-            X = np.column_stack([x0, np.asarray(sim(x0=x0, p=p)["xf"], dtype=float)])
+            X = np.column_stack([x0, np.asarray(sim(x0=x0, p=np.r_[p, T])["xf"],
+                                                dtype=float)])
         except RuntimeError as exc:
             raise ModelError(
                 f"detect_momenta: the simulation confirming the momenta "
@@ -309,9 +312,8 @@ def _confirmed(system: Any, der: Derivation, p: np.ndarray, found: list,
                 "pointwise test alone") from exc
         Jt = np.asarray(J(X, p), dtype=float)  # one column per time
         speed = np.linalg.norm(np.asarray(field(X, p), dtype=float), axis=0)
-        G = np.asarray(flux(X, p), dtype=float)
-        rate = G * speed[None, :]  # |grad J| |f|: the most J could change per unit time
-        budget = np.sum(0.5 * (rate[:, 1:] + rate[:, :-1]) * np.diff(grid), axis=1)
+        most = np.asarray(flux(X, p), dtype=float) * speed[None, :]  # |grad J| |f|
+        budget = np.sum(0.5 * (most[:, 1:] + most[:, :-1]) * np.diff(T * grid), axis=1)
         drift = np.max(np.abs(Jt - Jt[:, :1]), axis=1)
         keep &= drift <= tol * budget
     return [c for c, ok in zip(found, keep) if ok]
