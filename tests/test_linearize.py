@@ -304,3 +304,45 @@ def test_linearize_reexports_the_ambient_form_and_stays_small():
     for module in (lin_mod, amb):
         with open(module.__file__, encoding="utf-8") as fh:
             assert sum(1 for _ in fh) <= 600, f"{module.__name__} is past ~600 lines"
+
+
+def test_a_kink_is_found_only_at_its_switching_point():
+    """``V = k max(|x| - 1, 0)^2 / 2``, the dead zone of a spring: C^1, its force ``k (|x| -
+    1) sign(x)`` outside the zone and zero inside, so the field has kinks at ``x = +-1`` and
+    nowhere else. Linearised inside the zone it is the free particle; at ``x = 1`` it is
+    refused (naming the comparison), and ``allow_kinks`` returns one one-sided derivative
+    with the operations listed. The tolerance scales with the operands."""
+    import casadi as ca
+
+    from workbench import mechanics
+
+    s = mechanics.System("dead_zone")
+    x = s.rn("x", 1)
+    s.point_mass(1.0, x.x)
+    s.potential(0.5 * 4.0 * ca.fmax(ca.fabs(x.x[0]) - 1.0, 0.0) ** 2)
+    model = s.model()
+    lin = linearize(model, model.state(x=0.5, x_dot=0.0))
+    assert np.array_equal(lin.A, [[0.0, 1.0], [0.0, 0.0]]) and lin.kinks == ()
+    for edge in (1.0, -1.0, 1.0 + 1e-12):
+        with pytest.raises(ModelError, match=r"not differentiable at x_e .*fmax\([-0-9.e]+, 0\)"):
+            linearize(model, model.state(x=edge, x_dot=0.0))
+    lin = linearize(model, model.state(x=1.0, x_dot=0.0), allow_kinks=True)
+    assert lin.kinks and all(k.gap == 0.0 for k in lin.kinks)
+    assert lin.kinks[0].function == "f"
+    # off the edge by more than kink_tol * max(1, |x|): smooth there (inside the zone)
+    linearize(model, model.state(x=1.0 - 1e-6, x_dot=0.0))
+    with pytest.raises(ModelError, match="not differentiable"):
+        linearize(model, model.state(x=1.0 - 1e-6, x_dot=0.0), kink_tol=1e-5)
+    with pytest.raises(ModelError, match="allow_kinks must be True or False"):
+        linearize(model, model.state(x=0.5, x_dot=0.0), allow_kinks="yes")
+
+
+def test_the_papers_models_have_no_kink_at_their_equilibria():
+    full = p3.full(J=np.diag([3.0, 2.0, 1.0]), rho=[0.0, 0.0, 0.5])
+    for R in (np.diag([1.0, -1.0, -1.0]), np.eye(3)):
+        assert linearize(full, full.state(R=R, omega=np.zeros(3))).kinks == ()
+    sp = spherical_pendulum()
+    assert linearize(sp, sp.state(q=np.r_[E3, np.zeros(3)])).kinks == ()
+    chain = chain_cart(2)
+    x_e = np.r_[np.zeros(4), link_state(-E3), link_state(-E3)]
+    assert linearize(chain, x_e).kinks == ()

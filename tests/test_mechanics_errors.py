@@ -340,3 +340,64 @@ def test_detect_momenta_seed_and_body_force_point_are_checked():
     rb = s.rigid_body(1.0, np.eye(3), body)
     with pytest.raises(ModelError, match="needs a 3-vector point"):
         s.force_at(ca.DM([0.0, 1.0]), [1.0, 0.0], body=rb)
+
+
+def test_the_state_check_screens_many_states_as_the_single_state_check_decides():
+    """Two independent computations of the tangent mass matrix's spectrum: the batch
+    (all states in one casadi call, its own orthonormal basis of each T_q S^2) and
+    :func:`check_kinetic_energy` (``velocity_basis``, one state at a time) give the same
+    eigenvalues (an orthonormal change of basis keeps them), and the check passes or fails
+    on the same states."""
+    from scipy.linalg import block_diag
+
+    from workbench.mechanics._factors import S2Factor
+    from workbench.mechanics._state_check import StateCheck, _sphere_bases
+
+    rng = np.random.default_rng(7)
+    for model in (ms.spherical(), ms.quadrotor_slung_load(), ms.chain(2)):
+        check, der = model.state_check, model.mechanics
+        X = np.array([model.manifold.random_point(rng) for _ in range(50)])
+        M = np.asarray(check.mass_matrix(X.T, model.p)).reshape(
+            der.n_nu, 50, der.n_nu).transpose(1, 0, 2)
+        for x, Mx in zip(X, M):
+            blocks, blocks_ref, kx = [], [], 0
+            for f in der.ing.factors:
+                B = f.velocity_basis(x[kx:kx + f.config_sym.shape[0]])
+                blocks_ref.append(B)
+                sphere = isinstance(f, S2Factor)
+                blocks.append(_sphere_bases(x[None, kx:kx + 3])[0] if sphere else B)
+                kx += sum(s.shape[0] for s in f.state_symbols())
+            N, N_ref = block_diag(*blocks), block_diag(*blocks_ref)
+            assert np.allclose(N.T @ N, np.eye(N.shape[1]), atol=1e-14)
+            a = np.linalg.eigvalsh(N.T @ Mx @ N)
+            b = np.linalg.eigvalsh(N_ref.T @ Mx @ N_ref)
+            assert np.allclose(a, b, rtol=1e-12, atol=1e-12 * np.max(np.abs(b)))
+        check(model, X, t=np.arange(50.0), what="random states")  # all positive definite
+    # a link on a cart whose inertia turns negative for q3 < 0.3: the batch screen flags
+    # every state the single-state check refuses (and only states near or past the limit)
+    s = mechanics.System("half_bad")
+    cart, link = s.rn("x", 2), s.s2("q")
+    s.point_mass(1.0, ca.vertcat(cart.x, 0))
+    w = ca.cross(link.omega, link.q)
+    s.kinetic(0.5 * (link.q[2] - 0.3) * ca.dot(w, w) + 0.1 * ca.dot(cart.v, w[0:2]))
+    s.kinetic(0.5 * 1e-3 * ca.dot(w, w))
+    model = s.model(check=False)
+    X = np.array([model.manifold.random_point(rng) for _ in range(400)])
+    check = StateCheck(model.mechanics, s.factors)  # check=False: none on the model
+    screened = set(check._screen(X, model.p).tolist())  # noqa: SLF001
+    refused = set()
+    for k, x in enumerate(X):
+        try:
+            mechanics.check_kinetic_energy(model.mechanics, s.factors, x, model.p)
+        except ModelError:
+            refused.add(k)
+    assert 50 < len(refused) < 350 and refused <= screened
+    assert len(screened - refused) <= 2  # within SCREEN of the limit: decided one by one
+    s = mechanics.System("where_many")
+    x = s.rn("x", 1)
+    s.kinetic(0.5 * (1 + x.x[0]) ** 2 * x.v[0] ** 2)
+    model = s.model()
+    X = np.column_stack([np.linspace(1.0, -3.0, 9), np.zeros(9)])  # x = -1 at state 4
+    with pytest.raises(ModelError, match=r"along the path, at t = 0.4 \(state 4 of 9\): the "
+                                         r"kinetic energy is singular at the state x = \[-1"):
+        model.state_check(model, X, t=np.linspace(0.0, 0.8, 9), what="the path")

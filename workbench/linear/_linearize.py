@@ -53,6 +53,7 @@ from workbench.linear._ambient import (
     closed_loop_jacobians,
     linearize_ambient,
 )
+from workbench.linear._nonsmooth import Kink, kinks
 
 __all__ = [
     "LinearModel",
@@ -64,7 +65,12 @@ __all__ = [
     "mechanical_order",
     "closed_loop_jacobians",
     "EQUILIBRIUM_TOL",
+    "KINK_TOL",
 ]
+
+KINK_TOL = 1e-9
+"""Default ``kink_tol`` of :func:`linearize`: an argument of ``fabs``, ``fmax``, a comparison
+... within ``KINK_TOL * max(1, |operands|)`` of its kink is at it."""
 
 
 # ----------------------------------------------------------------------------------------
@@ -215,6 +221,10 @@ class LinearModel:
     cost : LinearizationCost
         ``seconds`` (wall time of the evaluation, excluding graph builds; a typed record
         that also reads as a mapping).
+    kinks : tuple of Kink
+        Operations of the field at their kink at ``x_e`` (``fabs``, ``fmax``, a
+        comparison...), where ``A`` and ``B`` are one one-sided derivative: empty unless
+        :func:`linearize` was asked to ``allow_kinks``.
     """
 
     A: Matrix
@@ -228,6 +238,7 @@ class LinearModel:
     controller: ca.Function | None = None
     labels: tuple[str, ...] = ()
     cost: LinearizationCost | dict[str, Any] = field(default_factory=dict)
+    kinks: tuple[Kink, ...] = ()
 
     @property
     def dim(self) -> int:
@@ -410,7 +421,7 @@ def _project_blocks(model: Model, N: Matrix, Jx: Matrix, Ju: Matrix) -> tuple[Ma
 
 @validate.arguments(
     error=ModelError, model=validate.instance(Model, "a workbench Model"),
-    tol=validate.tolerance, manifold_tol=validate.tolerance
+    tol=validate.tolerance, manifold_tol=validate.tolerance, kink_tol=validate.tolerance
 )
 def linearize(
     model: Model,
@@ -421,6 +432,8 @@ def linearize(
     basis: ArrayLike | None = None,
     tol: float = EQUILIBRIUM_TOL,
     manifold_tol: float = 1e-9,
+    kink_tol: float = KINK_TOL,
+    allow_kinks: bool = False,
 ) -> LinearModel:
     """Linearise a model (optionally in closed loop) at an equilibrium, in tangent coordinates.
 
@@ -442,6 +455,15 @@ def linearize(
         Largest accepted max-norm of ``f(x_e, u_e)``.
     manifold_tol : float
         Largest accepted constraint residual of ``x_e``.
+    kink_tol : float
+        The field is not differentiable at ``x_e`` where an operation of its graph
+        (``fabs``, ``fmax``, ``fmin``, ``sign``, ``floor``, ``ceil``, ``fmod``,
+        ``copysign``, ``atan2``, a comparison of an ``if_else``) has its argument within
+        ``kink_tol * max(1, |operands|)`` of its kink (see
+        :mod:`workbench.linear._nonsmooth`).
+    allow_kinks : bool
+        Linearise there anyway and list the operations in :attr:`LinearModel.kinks`
+        (``A`` is then one one-sided derivative, and its eigenvalues classify nothing).
 
     Returns
     -------
@@ -452,10 +474,16 @@ def linearize(
     ManifoldError
         ``x_e`` off the manifold, or a ``basis`` that is not a tangent basis.
     ModelError
-        ``x_e`` is not an equilibrium (the message gives the residual by factor), or bad
-        ``u_e`` / ``controller``.
+        ``x_e`` is not an equilibrium (the message gives the residual by factor), bad
+        ``u_e`` / ``controller``, the field is not differentiable at ``x_e`` (unless
+        ``allow_kinks``), or (a :mod:`workbench.mechanics` model) its kinetic energy is
+        not positive definite at ``x_e``.
     """
     xe, ue = _check_point(model, x_e, u_e, tol, manifold_tol)
+    if not isinstance(allow_kinks, bool):
+        raise ModelError(f"allow_kinks must be True or False; got {allow_kinks!r}")
+    if getattr(model, "state_check", None) is not None:  # a mechanics model: T definite
+        model.state_check(model, xe, what="x_e")
     N, T = _basis(model, xe, basis, tol=1e-9)
     t0 = time.perf_counter()
     f0, Jx, Ju = _equilibrium_jacobians(model, xe, ue, controller, tol)
@@ -465,9 +493,20 @@ def linearize(
         L = np.linalg.pinv(N)
         A, B = L @ Jx @ N, L @ Ju
     seconds = time.perf_counter() - t0
+    found = tuple(kinks(model, controller, xe, ue, kink_tol))
+    if found and not allow_kinks:
+        loop = "closed-loop " if controller is not None else ""
+        raise ModelError(
+            f"the {loop}field of {model.name!r} is not differentiable at x_e = "
+            f"{np.round(xe, 12).tolist()}: {len(found)} operation(s) at their kink there "
+            f"(kink_tol {kink_tol:.1g}): {'; '.join(k.describe() for k in found[:4])}"
+            f"{' ...' if len(found) > 4 else ''}. A linearisation there is one one-sided "
+            "derivative and its eigenvalues classify nothing; pass allow_kinks=True to get "
+            "it anyway (listed in LinearModel.kinks). A kink of a potential is a jump of "
+            "the force: fabs in V appears as sign in f")
     labels = tangent_labels(model)
     if basis is not None:
         labels = [f"z{i + 1}" for i in range(N.shape[1])]
     return LinearModel(A=A, B=B, basis=N, transform=T, x_e=xe, u_e=ue, residual=f0,
                        model=model, controller=controller, labels=tuple(labels),
-                       cost=LinearizationCost(seconds=seconds))
+                       cost=LinearizationCost(seconds=seconds), kinks=found)

@@ -33,7 +33,7 @@ import casadi as ca
 from workbench.mechanics._engine import vee
 from workbench.mechanics._factors import SO3Factor
 
-__all__ = ["PointMass", "RigidBody", "kinetic_energy_of_bodies"]
+__all__ = ["PointMass", "RigidBody", "kinetic_energy_of_bodies", "written_about_origin"]
 
 
 @dataclass(eq=False)
@@ -114,6 +114,33 @@ class RigidBody:
         return vee(self.attitude.T @ Rdot)
 
 
+def written_about_origin(b: PointMass | RigidBody, c: ca.SX) -> bool:
+    """Whether the kinetic energy of ``b`` is written about its reference point.
+
+    So it is for a rigid body on an SO(3) factor with a fixed reference point (its
+    rotational energy is then ``Omega^T J_O Omega / 2`` and the inertia about the centre of
+    mass does not enter); every other body is written about its centre of mass.
+
+    Parameters
+    ----------
+    b : PointMass or RigidBody
+        The body.
+    c : casadi.SX
+        All configuration symbols (or the whole state).
+
+    Returns
+    -------
+    bool
+    """
+    # a fixed reference point only: with a moving one (a cart, a quadrotor) the form
+    # about the reference point has the rotational block J_O - m rho-hat^T R^T R rho-hat
+    # off SO(3), indefinite once R is stretched by |J_c| / (m |rho|^2) (20% for the
+    # cart pendulum), where the ambient iterates of an optimiser go: its swing-up then
+    # stalled at Ipopt's iteration limit (31 iterations with the centre-of-mass form)
+    return (isinstance(b, RigidBody) and b.factor is not None
+            and not ca.depends_on(b.origin, c))
+
+
 def kinetic_energy_of_bodies(
     bodies: list, c: ca.SX, cdot: ca.SX, nu_eff: dict[int, ca.SX]
 ) -> ca.SX:
@@ -138,13 +165,7 @@ def kinetic_energy_of_bodies(
         return ca.SX(0)
 
     def about_origin(b: PointMass | RigidBody) -> bool:
-        # a fixed reference point only: with a moving one (a cart, a quadrotor) the form
-        # about the reference point has the rotational block J_O - m rho-hat^T R^T R rho-hat
-        # off SO(3), indefinite once R is stretched by |J_c| / (m |rho|^2) (20% for the
-        # cart pendulum), where the ambient iterates of an optimiser go: its swing-up then
-        # stalled at Ipopt's iteration limit (31 iterations with the centre-of-mass form)
-        return (isinstance(b, RigidBody) and b.factor is not None
-                and not ca.depends_on(b.origin, c))
+        return written_about_origin(b, c)
 
     points = ca.vertcat(*[b.origin if about_origin(b) else b.com for b in bodies])
     vel = ca.jtimes(points, c, cdot)

@@ -9,6 +9,7 @@ constants and flat vectors -> columns.
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import casadi as ca
@@ -17,7 +18,8 @@ import numpy as np
 from workbench.mechanics._engine import ModelError, ParameterError
 
 __all__ = ["as_number_array", "as_expr", "inertia", "check_inertia_value", "shape_of",
-           "parameter_value", "identifier"]
+           "parameter_value", "identifier", "com_inertia", "check_origin_inertia",
+           "named_check", "one_line"]
 
 
 def _describe(value: Any) -> str:
@@ -29,6 +31,29 @@ def identifier(value: Any, what: str) -> str:
     """``value`` if it is an identifier string, else ModelError naming ``what``."""
     if not isinstance(value, str) or not value.isidentifier():
         raise ModelError(f"{what} must be an identifier string; got {value!r}")
+    return value
+
+
+def one_line(value: Any, what: str) -> str:
+    """``value`` if it is one line of text (a str without control characters), else ModelError.
+
+    Parameters
+    ----------
+    value : str
+        The text.
+    what : str
+        The argument, for the message.
+
+    Returns
+    -------
+    str
+    """
+    if not isinstance(value, str):
+        raise ModelError(f"{what} must be a str (one line of text); got {type(value).__name__} "
+                         f"{_describe(value)}")
+    if any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise ModelError(f"{what} must be one line of text without control characters; got "
+                         f"{_describe(value)}")
     return value
 
 
@@ -108,13 +133,14 @@ def as_expr(value: Any, name: str, shape: tuple[int, int] | None = None) -> ca.S
     return expr
 
 
-def inertia(value: np.ndarray, *, triangle: bool = True) -> str | None:
+def inertia(value: np.ndarray, *, triangle: bool = True, definite: bool = True,
+            scale: float | None = None) -> str | None:
     """Check a 3x3 inertia: symmetric, positive definite, triangle inequality.
 
     The principal moments must satisfy ``J1 + J2 >= J3`` for every ordering.
     Equivalently ``J`` is SPD and ``tr(J)/2 I - J`` (the second moment of the mass
     distribution) is positive semi-definite. Tolerances are relative to ``max |J|``
-    (``1e-12`` for symmetry and the triangle inequality).
+    (``1e-12`` for symmetry and the triangle inequality), or to ``scale`` when given.
 
     Parameters
     ----------
@@ -124,6 +150,14 @@ def inertia(value: np.ndarray, *, triangle: bool = True) -> str | None:
         Check the triangle inequality too (the build checks of a model leave it out:
         its equations are right for any SPD inertia, which models with independent ``J``,
         ``m`` and ``rho`` parameters use).
+    definite : bool
+        Require positive definite (default); ``False`` accepts zero principal moments
+        down to ``-1e-12 scale`` (an inertia about the centre of mass: a point mass has
+        none, a slender rod none about its axis).
+    scale : float, optional
+        The size of the numbers ``value`` was computed from, for the rounding tolerance
+        (an inertia about the centre of mass found as ``J_O - m (|c|^2 I - c c^T)`` carries
+        the rounding of ``J_O`` and ``m |c|^2``, not of its own small entries).
 
     Returns
     -------
@@ -135,19 +169,85 @@ def inertia(value: np.ndarray, *, triangle: bool = True) -> str | None:
         return f"must be a 3x3 matrix; got shape {value.shape}"
     if not np.all(np.isfinite(value)):
         return f"must be finite; got {np.array2string(value, precision=6)}"
-    scale = max(float(np.max(np.abs(value))), 1e-300)
+    own = float(np.max(np.abs(value)))
+    scale = max(own if scale is None else max(float(scale), own), 1e-300)
     asym = float(np.max(np.abs(value - value.T)))
     if asym > 1e-12 * scale:
         return f"must be symmetric; got max |J - J^T| = {asym:.3g}"
     eig = np.linalg.eigvalsh(0.5 * (value + value.T))
-    if np.any(eig <= 0):
+    if definite and np.any(eig <= 0):
         return (f"must be positive definite; got principal moments "
                 f"{np.array2string(eig, precision=6)}")
+    if not definite and np.any(eig < -1e-12 * scale):
+        return (f"must be positive semi-definite; got principal moments "
+                f"{np.array2string(eig, precision=6)}")
     j1, j2, j3 = eig
-    if triangle and j1 + j2 < j3 * (1 - 1e-12):
+    if triangle and j1 + j2 < j3 - 1e-12 * scale:
         return (f"must satisfy the triangle inequality of a rigid body (J1 + J2 >= J3 for the "
                 f"principal moments); got {j1:.6g} + {j2:.6g} < {j3:.6g}")
     return None
+
+
+def com_inertia(inertia_origin: np.ndarray, mass: float, com: np.ndarray) -> np.ndarray:
+    """``J_com = J_O - m (|c|^2 I - c c^T)``: the parallel-axis theorem, backwards.
+
+    Parameters
+    ----------
+    inertia_origin : ndarray, shape=(3, 3)
+        Inertia about the reference point.
+    mass : float
+        The mass.
+    com : ndarray, shape=(3,)
+        Centre of mass relative to the reference point (same frame).
+
+    Returns
+    -------
+    ndarray, shape=(3, 3)
+    """
+    c = np.asarray(com, dtype=float).reshape(3)
+    return np.asarray(inertia_origin, dtype=float) - mass * (c @ c * np.eye(3) - np.outer(c, c))
+
+
+def check_origin_inertia(inertia_origin: np.ndarray, mass: float, com: np.ndarray, *,
+                         triangle: bool = True) -> str | None:
+    """A message when an inertia about the origin has no physical body behind it, or None.
+
+    The inertia about the centre of mass, ``J_com = J_O - m (|c|^2 I - c c^T)``, must be
+    symmetric positive semi-definite and (with ``triangle``) satisfy the triangle inequality:
+    an inertia about the origin that is positive definite as given can still be the
+    parallel-axis image of no mass distribution (``m |c|^2`` larger than its moments).
+
+    Parameters
+    ----------
+    inertia_origin : ndarray, shape=(3, 3)
+        ``J_O``, already checked as an inertia about the origin.
+    mass : float
+        ``m``.
+    com : ndarray, shape=(3,)
+        ``c``, the centre of mass relative to the origin.
+    triangle : bool
+        Check the triangle inequality of ``J_com`` too.
+
+    Returns
+    -------
+    str or None
+    """
+    J_O = np.asarray(inertia_origin, dtype=float)
+    c = np.asarray(com, dtype=float).reshape(3)
+    J_com = com_inertia(J_O, mass, c)
+    scale = max(float(np.max(np.abs(J_O))), abs(mass) * float(c @ c))
+    msg = inertia(J_com, triangle=triangle, definite=False, scale=scale)
+    if msg is None:
+        return None
+    return (f"the inertia about the origin J_O = {_matrix(J_O)} with mass m = {mass:.6g} and "
+            f"centre of mass c = {_matrix(c)} gives the inertia about the centre of mass "
+            f"J_com = J_O - m (|c|^2 I - c c^T) = {_matrix(J_com)}, which {msg}: no rigid "
+            f"body has these numbers (check J_O, m and c together)")
+
+
+def _matrix(a: np.ndarray) -> str:
+    return np.array2string(np.asarray(a), precision=6, max_line_width=100000,
+                           separator=", ").replace("\n", "")
 
 
 def check_inertia_value(value: Any, name: str) -> np.ndarray:
@@ -198,3 +298,44 @@ def parameter_value(name: str, value: Any, description: str, *, check: Any,
         raise ParameterError(f"parameter {name!r} ({description or name}) must have shape "
                              f"{tuple(shape)}; got shape {arr.shape}")
     return arr
+
+
+def named_check(name: str, check: Any) -> Any:
+    """``check`` wrapped so that its failures name the parameter ``name``.
+
+    A parameter's ``check(value) -> message or None`` is the user's code: one that raises
+    (a TypeError on a matrix, an IndexError) or returns something other than a message or
+    None is reported as a ParameterError naming the parameter and the check, with the
+    original exception chained. The wrapper keeps the check's name and ``__wrapped__``.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name.
+    check : callable or None
+        The check (None stays None).
+
+    Returns
+    -------
+    callable or None
+    """
+    if check is None or getattr(check, "__wrapped_parameter__", None) == name:
+        return check
+    label = getattr(check, "__name__", type(check).__name__)
+
+    @functools.wraps(check)
+    def checked(value: np.ndarray) -> str | None:
+        try:
+            msg = check(value)
+        except Exception as exc:  # noqa: BLE001 - the user's code, re-raised with its name
+            raise ParameterError(
+                f"check {label!r} of parameter {name!r} raised {type(exc).__name__}: {exc} "
+                f"(a check must return a message str, or None for a valid value)") from exc
+        if msg is not None and not isinstance(msg, str):
+            raise ParameterError(
+                f"check {label!r} of parameter {name!r} must return a message str or None; "
+                f"got {type(msg).__name__} {msg!r}")
+        return msg
+
+    checked.__wrapped_parameter__ = name  # type: ignore[attr-defined]
+    return checked

@@ -9,10 +9,18 @@ per declared symmetry.
 Build checks (``check=True``), at a random state of the manifold and the parameter values:
 the mass matrix is positive definite on the tangent velocities, every rigid body's inertia
 (as given, about its centre of mass or origin, also when made of parameters) is symmetric
-and positive definite, every attitude
+and positive definite, and one given about the origin implies an inertia about the centre of
+mass that is positive semi-definite and satisfies the triangle inequality (where that
+inertia enters the kinetic energy: not for a body on a fixed pivot, written about the pivot
+with the inertia as given), every attitude
 expression is a rotation, the dissipation function is a positive semi-definite form,
 gravity's direction is a unit vector, and every declared momentum is conserved. The same
 checks run again on every :meth:`Model.with_parameters`.
+
+The definiteness of the kinetic energy depends on the state, so one state is not enough:
+the model also carries ``model.state_check`` (a :class:`._state_check.StateCheck`), which
+:func:`workbench.simulate`, the OCP and :func:`workbench.linearize` call at the states they
+use (the initial state, every output state, every node).
 """
 
 from __future__ import annotations
@@ -22,8 +30,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._bodies import RigidBody
-from workbench.mechanics._checks import inertia
+from workbench.mechanics._bodies import RigidBody, written_about_origin
+from workbench.mechanics._checks import check_origin_inertia, inertia
 from workbench.mechanics._engine import (
     Context,
     Model,
@@ -33,16 +41,12 @@ from workbench.mechanics._engine import (
     solve_spd,
 )
 from workbench.mechanics._equations import Derivation, Ingredients
+from workbench.mechanics._state_check import StateCheck, check_kinetic_energy
 
 __all__ = ["build_model", "check_kinetic_energy", "MAX_SX_VELOCITIES"]
 
 MAX_SX_VELOCITIES = 9
 """``symbolic="auto"`` takes SX (a symbolic solve) up to this many velocity coordinates."""
-
-PD_RTOL = 1e-10
-"""The tangent mass matrix, scaled to a unit diagonal (``D^-1/2 K D^-1/2``, so that the test
-does not depend on units: kg against kg m^2, a 1e11 kg cart against a 1 kg bob), counts as
-singular when its smallest eigenvalue is below ``PD_RTOL``."""
 
 MOMENTUM_RTOL = 1e-8
 """Declared momenta must have ``|dJ/dt| <= MOMENTUM_RTOL |grad J| |f|`` at the check state."""
@@ -90,63 +94,6 @@ def _structural_checks(system: Any, der: Derivation) -> None:
                 "kinetic term)")
 
 
-def check_kinetic_energy(der: Derivation, factors: list, x: np.ndarray, p: np.ndarray) -> None:
-    """Raise ModelError unless ``T`` is positive definite on the tangent velocities at ``x``.
-
-    Parameters
-    ----------
-    der : Derivation
-        The derived equations.
-    factors : list of Factor
-        The system's factors.
-    x : ndarray, shape=(n_x,)
-        A state (only its configuration matters).
-    p : ndarray, shape=(n_p,)
-        Parameter values.
-    """
-    M = np.asarray(der.mass_matrix()(x, p))
-    bases, spans, k = [], [], 0
-    xs = np.asarray(x, dtype=float).ravel()
-    kx = 0
-    for f in factors:
-        nc = f.config_sym.shape[0]
-        B = f.velocity_basis(xs[kx : kx + nc])
-        kx += sum(s.shape[0] for s in f.state_symbols())
-        bases.append(B)
-        spans.append((f, k, k + B.shape[1]))
-        k += B.shape[1]
-    N = np.zeros((M.shape[0], k))
-    r = c = 0
-    for B in bases:
-        N[r : r + B.shape[0], c : c + B.shape[1]] = B
-        r, c = r + B.shape[0], c + B.shape[1]
-    K = N.T @ M @ N
-    if not np.all(np.isfinite(K)):
-        raise ModelError(f"the kinetic energy's mass matrix is not finite at x = {xs.tolist()}")
-    K = 0.5 * (K + K.T)
-    d = np.diag(K).copy()
-    eig_k = np.linalg.eigvalsh(K)
-    if np.all(d > 0):
-        w = 1.0 / np.sqrt(d)
-        eig, vec = np.linalg.eigh(K * np.outer(w, w))  # unit diagonal: eigenvalues in (0, n)
-        if eig[0] > PD_RTOL:
-            return
-        v = w * vec[:, 0]
-        kind = "singular" if eig[0] >= -PD_RTOL else "not positive definite"
-        scaled = f"; scaled to a unit diagonal, {eig[0]:.3g}"
-    else:  # a velocity with no inertia (a zero diagonal entry), or a negative one
-        v = (d <= 0).astype(float)
-        small = PD_RTOL * max(float(np.max(np.abs(eig_k))), 1e-300)
-        kind = "not positive definite" if eig_k[0] < -small else "singular"
-        scaled = ""
-    worst = max(spans, key=lambda s: float(np.linalg.norm(v[s[1] : s[2]])))
-    raise ModelError(
-        f"the kinetic energy is {kind} at the state x = {_flat(xs)}: "
-        f"smallest eigenvalue {eig_k[0]:.3g} of the mass matrix on the tangent velocities "
-        f"(largest {eig_k[-1]:.3g}{scaled}); its direction lies mostly in factor "
-        f"{worst[0].name!r} ({worst[0].velocity_names})")
-
-
 def _check_momenta(model: Model, der: Derivation, x: np.ndarray, cache: dict) -> None:
     if not der.ing.momenta:
         return
@@ -180,6 +127,12 @@ def _value_checks(system: Any, der: Derivation) -> Any:
     rigid = [b for b in system.bodies if isinstance(b, RigidBody)]
     given = [b.inertia_origin if b.inertia_origin is not None else b.inertia for b in rigid]
     inertias = ca.Function("J", [p], [ca.horzcat(*given)]) if rigid else None
+    # J_com implied by a J_O made of parameters is checked where it enters T (the papers'
+    # pendulum on a fixed pivot takes J_O, m, rho as independent parameters: its energy is
+    # written about the pivot with J_O alone, checked as given above)
+    origin = [b for b in rigid if b.inertia_origin is not None
+              and not written_about_origin(b, x)]
+    implied = [ca.Function("Jm", [p], [b.inertia_origin, b.mass, b.com_offset]) for b in origin]
     free = [b for b in rigid if b.factor is None]  # attitudes written as expressions
     attitudes = ca.Function("R", [x, p], [ca.horzcat(*[b.attitude for b in free])]) \
         if free else None
@@ -188,6 +141,7 @@ def _value_checks(system: Any, der: Derivation) -> Any:
     if not der.D.is_zero():
         dissipation = ca.Function("D", [x, p], [der.D, ca.hessian(der.D, der.nu)[0]])
     cache: dict[str, Any] = {}
+    mass = der.mass_matrix()
 
     def check(model: Model, xs: np.ndarray) -> None:
         pv = model.p
@@ -199,6 +153,11 @@ def _value_checks(system: Any, der: Derivation) -> Any:
                     about = "origin" if b.inertia_origin is not None else "centre of mass"
                     raise ModelError(f"rigid body {b.name!r}: its inertia about its {about}, "
                                      f"with the parameter values, {msg}")
+            for b, fn in zip(origin, implied):
+                J_O, mb, c = (np.asarray(v, dtype=float) for v in fn(pv))
+                msg = check_origin_inertia(J_O, float(mb.ravel()[0]), c.ravel())
+                if msg:
+                    raise ModelError(f"rigid body {b.name!r}, with the parameter values: {msg}")
         if attitudes is not None:
             Rs = np.asarray(attitudes(xs, pv), dtype=float)
             for k, b in enumerate(free):
@@ -216,7 +175,7 @@ def _value_checks(system: Any, der: Derivation) -> Any:
                 raise ModelError(f"gravity's direction must be a unit vector; with the "
                                  f"parameter values it is {d.tolist()} (norm "
                                  f"{np.linalg.norm(d):.12g})")
-        check_kinetic_energy(der, system.factors, xs, pv)
+        check_kinetic_energy(der, system.factors, xs, pv, mass_matrix=mass)
         if dissipation is not None:
             Dv, H = (np.asarray(v, dtype=float) for v in dissipation(xs, pv))
             eig = np.linalg.eigvalsh(0.5 * (H + H.T))
@@ -299,6 +258,9 @@ def build_model(system: Any, name: str, *, symbolic: str, linear_solver: str, ch
         jacobian=jacobian if sym == "MX" else None, spd_solves=True,
         value_check=checks)
     model.mechanics = der  # the derivation, for inspection (mass matrix, residual)
+    # the definiteness of T at the states where the model is used (x0, trajectories, OCP
+    # nodes): simulate, OCP, solve and linearize call it; check=False leaves it out too
+    model.state_check = StateCheck(der, system.factors) if check else None
     if check:
         checks(model)
     return model

@@ -24,14 +24,22 @@ import casadi as ca
 import numpy as np
 
 from workbench.mechanics._checks import as_expr, identifier
-from workbench.mechanics._engine import RESERVED_NAMES, ModelError
+from workbench.mechanics._engine import RESERVED_NAMES, ModelError, ProductManifold
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
 from workbench.mechanics._model import _ingredients
+from workbench.mechanics._state_check import check_kinetic_energy
 from workbench.mechanics._symbols import CONFIG, PARAMETER
 from workbench.mechanics._symmetry import check_options, detect
 
-__all__ = ["Momenta"]
+__all__ = ["Momenta", "CONFIRM_RTOL"]
+
+CONFIRM_RTOL = 1e-6
+"""Default tolerance of the simulation that confirms a detected momentum: ``max |J(t) -
+J(0)| <= CONFIRM_RTOL * integral |grad J| |f| dt`` (CVODES at rtol 1e-10 leaves ~1e-9)."""
+
+CONFIRM_SAMPLES = 40
+"""Output times of each confirming simulation."""
 
 
 class Momenta:
@@ -122,43 +130,190 @@ class Momenta:
                              "translation or rate); it would declare the constant 0")
         self.momenta[name] = gens
 
-    def detect_momenta(self, *, rtol: float = 1e-9, n_states: int = 3,
-                       seed: int = 0) -> dict[str, str]:
+    def detect_momenta(self, *, rtol: float = 1e-9, n_states: int = 8, seed: int = 0,
+                       scales: tuple[float, float] | None = None, confirm: bool = True,
+                       confirm_rtol: float = CONFIRM_RTOL) -> dict[str, str]:
         """Find the system's rotation, translation and angle symmetries; declare their momenta.
 
         Tries translations of R^k factors along their axes, shifts of S^1 angles
         (``theta -> theta + c``: each angle alone, then all together), and world rotations
         about ``e1``, ``e2``, ``e3`` (S^2 and SO(3) factors turn; each R^3 factor, and an
         R^2 factor about ``e3``, turns or stays; each angle shifts at rate +1 or -1 or
-        stays); a candidate is declared only when its Noether momentum is verified conserved
-        (``|dJ/dt| <= rtol |grad J| |f|`` at ``n_states`` seeded random states, zero input)
-        and independent of the momenta declared so far. An angle's momentum is named
-        ``angular_momentum_<angle>``. See :mod:`workbench.mechanics._symmetry`. The test
-        runs at the current parameter values: a symmetry that holds only there (a spring
-        constant that is zero now) is declared, so detect again after changing such a value.
+        stays). A candidate is declared only when
+
+        * its Noether momentum is conserved pointwise, ``|dJ/dt| <= rtol |grad J| |f|``,
+          at ``n_states`` seeded states (zero input) whose positions and velocities are
+          spread log-uniformly over ``scales``: a symmetry broken only far out (a wall at
+          ``x > 5``) or only very close is seen;
+        * it is independent of the momenta declared so far; and
+        * (``confirm``) ``J`` stays constant along short simulations (CVODES, rtol 1e-10)
+          from the three sample states of smallest, middle and largest scale:
+          ``max |J(t) - J(0)| <= confirm_rtol * integral |grad J| |f| dt`` (the change the
+          flow could have made); a candidate that drifts is not declared.
+
+        An angle's momentum is named ``angular_momentum_<angle>``. See
+        :mod:`workbench.mechanics._symmetry`. The test runs at the current parameter
+        values: a symmetry that holds only there (a spring constant that is zero now) is
+        declared, so detect again after changing such a value.
 
         Parameters
         ----------
         rtol : float
-            Relative tolerance of the conservation test, in (0, 1).
+            Relative tolerance of the pointwise test, in (0, 1).
         n_states : int
-            Random states every candidate must pass, >= 1.
+            Sample states every candidate must pass, >= 1.
         seed : int
-            Seed of those states.
+            Seed of their directions.
+        scales : (float, float), optional
+            The smallest and largest size of the sampled positions (R^k factors) and
+            velocities, ``0 < lo <= hi`` (default: from ``min(1e-3, |p|_min / 10)`` to
+            ``max(1e3, 10 |p|_max)`` over the nonzero parameter values, within
+            ``[1e-6, 1e6]``). Positions take the sizes in increasing order, velocities in a
+            seeded shuffle of them.
+        confirm : bool
+            Confirm every accepted candidate along short simulations.
+        confirm_rtol : float
+            Relative tolerance of that confirmation, in (0, 1).
 
         Returns
         -------
         dict of str to str
             The momenta declared by this call: name -> what the symmetry does.
+
+        Raises
+        ------
+        ModelError
+            Bad options; a sample state where the kinetic energy is not positive definite
+            (named) or the field is not finite; a confirming simulation that fails.
         """
         check_options(rtol, n_states, seed)
+        if not isinstance(confirm, bool):
+            raise ModelError(f"confirm must be True or False; got {confirm!r}")
+        if isinstance(confirm_rtol, bool) or not isinstance(confirm_rtol, (int, float)) \
+                or not 0 < confirm_rtol < 1:
+            raise ModelError(f"confirm_rtol must be a number in (0, 1); got {confirm_rtol!r}")
         if not self.factors:
             raise ModelError(f"system {self.name!r} has no factors; add rn(...), s1(...), "
                              "s2(...) or so3(...)")
         der = Derivation(_ingredients(self), self.name)
         p = (np.concatenate([np.asarray(self.values[q.name], dtype=float).reshape(-1)
                              for q in self.parameters]) if self.parameters else np.zeros(0))
-        found = detect(self, der, p, rtol=float(rtol), n_states=n_states, seed=seed)
+        lo, hi = _scales(scales, p)
+        states, sizes = _sample(self.factors, n_states, seed, lo, hi)
+        xdots = _fields(self, der, p, states, sizes)
+        found = detect(self, der, p, rtol=float(rtol), states=states, xdots=xdots)
+        if confirm and found:
+            picks = sorted({0, len(states) // 2, len(states) - 1})
+            found = _confirmed(self, der, p, found, [states[k] for k in picks],
+                               [xdots[k] for k in picks], float(confirm_rtol))
         for c in found:
             self.momenta[c.name] = c.generators
         return {c.name: c.description for c in found}
+
+
+def _scales(scales: Any, p: np.ndarray) -> tuple[float, float]:
+    """The sampled sizes' range: given, or spanning the parameters' magnitudes and 1e-3..1e3."""
+    if scales is None:
+        mags = np.abs(p[np.isfinite(p) & (p != 0)])
+        lo = min(1e-3, 0.1 * float(mags.min())) if mags.size else 1e-3
+        hi = max(1e3, 10.0 * float(mags.max())) if mags.size else 1e3
+        return max(lo, 1e-6), min(hi, 1e6)
+    try:
+        lo, hi = (float(v) for v in scales)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"scales must be a pair (lo, hi) of positive numbers; got "
+                         f"{scales!r}") from exc
+    if any(isinstance(v, bool) for v in scales) or not (
+            np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
+        raise ModelError(f"scales must be a pair (lo, hi) with 0 < lo <= hi < inf; got "
+                         f"{scales!r}")
+    return lo, hi
+
+
+def _sample(factors: list, n: int, seed: int, lo: float, hi: float
+            ) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
+    """``n`` states: random directions, positions and velocities of log-spaced sizes."""
+    rng = np.random.default_rng(seed)
+    manifold = ProductManifold([s for f in factors for s in f.storage()])
+    sizes = np.geomspace(lo, hi, n) if n > 1 else np.array([np.sqrt(lo * hi)])
+    vsizes = rng.permutation(sizes)
+    states, used = [], []
+    for size, vsize in zip(sizes, vsizes):
+        x = np.asarray(manifold.random_point(rng), dtype=float)
+        k = 0
+        for f in factors:
+            nc, nv = f.config_sym.shape[0], f.velocity_sym.shape[0]
+            if isinstance(f, RnFactor):
+                x[k : k + nc] *= size / max(np.sqrt(nc), 1.0)
+            x[k + nc : k + nc + nv] *= vsize / max(np.sqrt(nv), 1.0)
+            k += nc + nv
+        states.append(x)
+        used.append((float(size), float(vsize)))
+    return states, used
+
+
+def _fields(system: Any, der: Derivation, p: np.ndarray, states: list[np.ndarray],
+            sizes: list[tuple[float, float]]) -> list[np.ndarray]:
+    """``f(x, 0)`` at each state; a named ModelError where T is not definite or f not finite."""
+    asm, rates, mass = der.assembly(), der.rates(), der.mass_matrix()
+    u0 = np.zeros(der.ing.u.shape[0])
+    out = []
+    for x, (size, vsize) in zip(states, sizes):
+        where = (f"detect_momenta, at a sample state (positions of size {size:.3g}, "
+                 f"velocities {vsize:.3g}; pass scales= to sample elsewhere)")
+        try:
+            check_kinetic_energy(der, system.factors, x, p, mass_matrix=mass)
+        except ModelError as exc:
+            raise ModelError(f"{where}: {exc}") from exc
+        A, b = (np.asarray(m, dtype=float) for m in asm(x, u0, p))
+        try:
+            acc = np.linalg.solve(A, b)
+        except np.linalg.LinAlgError as exc:
+            raise ModelError(f"{where}: the equations' matrix is singular at x = "
+                             f"{x.tolist()} ({exc}); the accelerations are not defined "
+                             "there") from exc
+        xdot = np.asarray(rates(x, acc), dtype=float).ravel()
+        if not np.all(np.isfinite(xdot)):
+            raise ModelError(f"{where}: the field f(x, u=0) is not finite at x = {x.tolist()}")
+        out.append(xdot)
+    return out
+
+
+def _confirmed(system: Any, der: Derivation, p: np.ndarray, found: list,
+               starts: list[np.ndarray], xdots: list[np.ndarray], tol: float) -> list:
+    """The candidates whose momentum stays constant along short simulations from ``starts``."""
+    x, ps = ca.MX.sym("x", der.x.shape[0]), ca.MX.sym("p", der.ing.p.shape[0])
+    A, b = der.assembly()(x, ca.MX.zeros(der.ing.u.shape[0]), ps)
+    ode = der.rates()(x, ca.solve(A, b))
+    field = ca.Function("f", [x, ps], [ode])
+    momenta = [der.momentum(c.generators) for c in found]
+    J = ca.Function("J", [der.x, der.ing.p], [ca.vertcat(*[m(der.x, der.ing.p)
+                                                          for m in momenta])])
+    flux = ca.Function("flux", [der.x, der.ing.p], [ca.vertcat(*[
+        ca.norm_2(ca.gradient(m(der.x, der.ing.p), der.x)) for m in momenta])])
+    # one integrator for every start: time scaled to s in [0, 1], the horizon a parameter
+    horizon = ca.MX.sym("T")
+    grid = np.linspace(0.0, 1.0, CONFIRM_SAMPLES + 1)
+    sim = ca.integrator("confirm", "cvodes", {"x": x, "p": ca.vertcat(ps, horizon),
+                                              "ode": horizon * ode}, 0.0, grid[1:],
+                        {"abstol": 1e-12, "reltol": 1e-10, "max_num_steps": 100_000})
+    keep = np.ones(len(found), dtype=bool)
+    for x0, f0 in zip(starts, xdots):
+        pace = float(np.linalg.norm(f0)) / max(float(np.linalg.norm(x0)), 1e-300)
+        T = 1.0 if pace <= 1.0 else 1.0 / pace  # the state changes by about its own size
+        try:
+            X = np.column_stack([x0, np.asarray(sim(x0=x0, p=np.r_[p, T])["xf"],
+                                                dtype=float)])
+        except RuntimeError as exc:
+            raise ModelError(
+                f"detect_momenta: the simulation confirming the momenta "
+                f"{[c.name for c in found]} failed from x = {x0.tolist()} over [0, {T:.3g}] "
+                f"({str(exc).strip().splitlines()[-1]}); pass confirm=False to rely on the "
+                "pointwise test alone") from exc
+        Jt = np.asarray(J(X, p), dtype=float)  # one column per time
+        speed = np.linalg.norm(np.asarray(field(X, p), dtype=float), axis=0)
+        most = np.asarray(flux(X, p), dtype=float) * speed[None, :]  # |grad J| |f|
+        budget = np.sum(0.5 * (most[:, 1:] + most[:, :-1]) * np.diff(T * grid), axis=1)
+        drift = np.max(np.abs(Jt - Jt[:, :1]), axis=1)
+        keep &= drift <= tol * budget
+    return [c for c, ok in zip(found, keep) if ok]

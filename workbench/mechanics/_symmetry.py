@@ -14,7 +14,9 @@ angles together).
 
 A candidate is accepted only when it is *verified*: ``dJ/dt = grad J . f(x, 0)`` vanishes,
 to ``rtol * |grad J| |f|``, at several seeded random states of the manifold (random
-configurations and velocities, the system's parameter values, zero input). That is exactly
+configurations and velocities spread over several decades of size, the system's parameter
+values, zero input; sampled by :meth:`~workbench.mechanics.System.detect_momenta`, which
+also confirms an accepted momentum along short simulations). That is exactly
 the statement the user relies on (``J`` is an invariant of the unforced motion); loads that
 do not vanish at ``u = 0`` (springs written as forces, dissipation) are part of the test.
 Accepted generators are kept only while they are linearly independent of those declared
@@ -33,7 +35,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._engine import ModelError, ProductManifold
+from workbench.mechanics._engine import ModelError
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
 
@@ -158,8 +160,8 @@ def _generator_matrix(der: Derivation, cands: list, x: np.ndarray, p: np.ndarray
     return np.asarray(fn(x, p), dtype=float)
 
 
-def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states: int,
-           seed: int) -> list[Candidate]:
+def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
+           states: list[np.ndarray], xdots: list[np.ndarray]) -> list[Candidate]:
     """The verified, independent symmetries of ``system`` not already declared.
 
     Parameters
@@ -172,10 +174,11 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states
         Parameter values in storage order.
     rtol : float
         Relative tolerance of ``|dJ/dt| <= rtol |grad J| |f|``.
-    n_states : int
-        How many seeded random states each candidate must pass.
-    seed : int
-        Seed of the random states.
+    states : list of ndarray, shape=(n_x,)
+        The states every candidate must pass (at least one; the caller samples them at
+        the system's scales).
+    xdots : list of ndarray, shape=(n_x,)
+        The field ``f(x, 0)`` at each state.
 
     Returns
     -------
@@ -186,15 +189,6 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float, n_states
     cands = _translations(factors) + _shifts(factors) + _rotations(factors)
     if not cands:
         return []
-    manifold = ProductManifold([s for f in factors for s in f.storage()])
-    rng = np.random.default_rng(seed)
-    states = [np.asarray(manifold.random_point(rng), dtype=float) for _ in range(n_states)]
-    asm, rates = der.assembly(), der.rates()
-    u0 = np.zeros(der.ing.u.shape[0])
-    xdots = []
-    for x in states:
-        A, b = (np.asarray(m, dtype=float) for m in asm(x, u0, p))
-        xdots.append(np.asarray(rates(x, np.linalg.solve(A, b)), dtype=float).ravel())
     grads = ca.Function("grads", [der.x, der.ing.p], [ca.vertcat(*[
         ca.gradient(der.momentum(c.generators)(der.x, der.ing.p), der.x).T for c in cands])])
     verified = np.ones(len(cands), dtype=bool)

@@ -32,6 +32,9 @@ from workbench.mechanics._checks import (
     as_expr,
     as_number_array,
     check_inertia_value,
+    check_origin_inertia,
+    named_check,
+    one_line,
     parameter_value,
 )
 from workbench.mechanics._checks import identifier as _name
@@ -97,6 +100,10 @@ class System(Momenta):
             _name(n, "factor name")
             if n in self._storage:
                 raise ModelError(f"factor name {n!r} is already used in system {self.name!r}")
+            if any(b.name == n for b in self.bodies):
+                raise ModelError(f"factor name {n!r} is already the name of a body in system "
+                                 f"{self.name!r}; factors and bodies share one namespace (a "
+                                 "load such as moment(name, ...) must resolve one of them)")
         self._storage.update(names)
 
     def rn(self, name: str, k: int, *, velocity: str | None = None) -> RnFactor:
@@ -221,7 +228,9 @@ class System(Momenta):
             What it is, with its unit.
         check : callable, optional
             ``check(value) -> message or None`` (e.g. ``workbench.core.positive``,
-            :func:`workbench.mechanics.inertia`).
+            :func:`workbench.mechanics.inertia`). A check that raises, or returns anything
+            but a str or None, is reported as a ParameterError naming this parameter (here
+            and in every ``Model.with_parameters``).
         shape : tuple of int, optional
             The shape ``value`` must have (default: whatever it has).
 
@@ -234,7 +243,7 @@ class System(Momenta):
         if name in self.values:
             raise ModelError(f"parameter {name!r} is declared twice in system {self.name!r}")
         arr = parameter_value(name, value, description, check=check, shape=shape)
-        par = Parameter(name, tuple(arr.shape), description or name, check)
+        par = Parameter(name, tuple(arr.shape), description or name, named_check(name, check))
         self.values[name] = par.validate(arr)
         self.parameters.append(par)
         flat = self.symbols.new(f"{name}#p", par.size, PARAMETER, name)
@@ -252,10 +261,24 @@ class System(Momenta):
                               check=inertia)
 
     def input(self, n: int, description: str = "") -> ca.SX:
-        """Declare ``n`` more inputs (appended to ``u``, in call order); their symbols."""
+        """Declare ``n`` more inputs (appended to ``u``, in call order); their symbols.
+
+        Parameters
+        ----------
+        n : int
+            How many, in ``[1, MAX_DIM]``.
+        description : str
+            What they are, with units: one line of text (it goes into the model's
+            ``input_description``, reports and exported headers).
+
+        Returns
+        -------
+        casadi.SX, shape=(n, 1)
+        """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_DIM:
             raise ModelError(f"n (number of inputs) must be an integer in [1, {MAX_DIM}]; got "
                              f"{n!r}")
+        one_line(description, "description (of the inputs)")
         k = sum(s.shape[0] for s in self._u)
         sym = self.symbols.new(f"u#{k}", int(n), INPUT, description or f"u[{k}:{k + n}]")
         self._u.append(sym)
@@ -309,6 +332,11 @@ class System(Momenta):
         _name(name, "body name")
         if any(b.name == name for b in self.bodies):
             raise ModelError(f"body name {name!r} is already used in system {self.name!r}")
+        if name in self._storage:
+            raise ModelError(f"body name {name!r} is already the name of a factor (or its "
+                             f"velocity) in system {self.name!r}; factors and bodies share one "
+                             "namespace (a load such as moment(name, ...) must resolve one of "
+                             "them): give the body another name")
         return name
 
     def point_mass(self, mass: Any, position: Any, *, name: str | None = None) -> PointMass:
@@ -329,7 +357,14 @@ class System(Momenta):
             Mass (an expression of parameters).
         inertia : array-like or casadi.SX, shape=(3, 3)
             Inertia in the body frame, about the centre of mass (``inertia_about="com"``)
-            or about ``origin`` (``"origin"``; parallel-axis theorem applied).
+            or about ``origin`` (``"origin"``; parallel-axis theorem applied). About the
+            origin, the inertia about the centre of mass it implies,
+            ``J_com = J_O - m (|c|^2 I - c c^T)``, is checked too (symmetric positive
+            semi-definite, triangle inequality): here when all three are numbers; at build
+            (and ``with_parameters``) when they are parameters and ``J_com`` enters the
+            kinetic energy, i.e. unless the body is on a fixed pivot of an SO(3) factor
+            (its energy is then written about the pivot with ``J_O`` alone, and models such
+            as the papers' 3D pendulum take ``J_O``, ``m``, ``c`` as independent).
         attitude : SO3Factor or casadi.SX, shape=(3, 3)
             Rotation body -> world: a factor, or an expression of the configuration.
         origin : array-like or casadi.SX, shape=(3,)
@@ -347,6 +382,7 @@ class System(Momenta):
         """
         if inertia_about not in ("com", "origin"):
             raise ModelError(f"inertia_about must be 'com' or 'origin'; got {inertia_about!r}")
+        body_name = self._body_name(name, "body")
         m = self._mass(mass, "mass")
         if not isinstance(inertia, (ca.SX, ca.MX)):
             check_inertia_value(inertia, "inertia")
@@ -365,8 +401,14 @@ class System(Momenta):
         self.symbols.require(rho, "com", (PARAMETER,))
         J_O = J if inertia_about == "origin" else None
         if inertia_about == "origin":
+            if J.is_constant() and m.is_constant() and rho.is_constant():
+                msg = check_origin_inertia(np.asarray(ca.DM(J)), float(ca.DM(m)),
+                                           np.asarray(ca.DM(rho)).ravel())
+                if msg:
+                    raise ParameterError(f"rigid body {body_name!r}: inertia (about the "
+                                         f"origin): {msg}")
             J = J - m * (ca.dot(rho, rho) * ca.SX.eye(3) - rho @ rho.T)
-        body = RigidBody(self._body_name(name, "body"), m, J, R, factor, p0, rho, J_O)
+        body = RigidBody(body_name, m, J, R, factor, p0, rho, J_O)
         self.bodies.append(body)
         return body
 
@@ -454,7 +496,9 @@ class System(Momenta):
 
         On an S^2 factor (a link about its pivot) only the part normal to ``q`` acts. On an
         S^1 factor (a revolute joint) ``value`` is a scalar torque about the joint, its
-        virtual work ``value * delta theta`` (a motor at the joint).
+        virtual work ``value * delta theta`` (a motor at the joint). A name resolves to one
+        thing: factors and bodies share one namespace (a body cannot take a factor's name,
+        nor a factor a body's).
         """
         f = self._factor_or_none(target)
         if isinstance(f, S1Factor):

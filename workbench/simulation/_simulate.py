@@ -355,6 +355,8 @@ def simulate(
         raise ModelError(f"method {method.value!r} does not use compilation="
                          f"{compilation.value!r} (it compiles its step with jit=True)")
     x0v = model.check_state(x0, name="x0", tol=tol)
+    if getattr(model, "state_check", None) is not None:  # a mechanics model: T definite at x0
+        model.state_check(model, x0v, what="x0")
     tv = _times(t, max_points)
     horizon = abs(tv[-1] - tv[0])
     opts: dict[str, Any] = {}
@@ -573,6 +575,8 @@ def _relative_drift(max_abs: float, initial: float) -> dict[str, Any]:
 
 def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
     model = traj.model
+    if getattr(model, "state_check", None) is not None:  # T definite at every output state
+        model.state_check(model, traj.x, t=traj.t, what="the simulated trajectory")
     drift = {}
     for name in model.invariant_names:
         series = traj.invariant_series(name)

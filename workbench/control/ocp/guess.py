@@ -14,6 +14,7 @@ circle for each antipodal factor (``axes``) and may add seeded noise to the cont
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,15 @@ from workbench.core.errors import ParameterError
 from workbench.core.manifolds import S2, TS2, sphere_basis
 from workbench.core.types import ArrayLike, Vector
 
-__all__ = ["Guess"]
+__all__ = ["Guess", "check_guess", "SAMPLES_TOL"]
+
+SAMPLES_TOL = 1e-3
+"""Default largest manifold residual of a sampled guess state (:meth:`Guess.from_samples`).
+
+A guess needs to be near the manifold, not on it to rounding: a converged solution's nodes,
+the usual warm start, carry the drift of their transcription (2e-6 for Hermite-Simpson in
+ambient coordinates on 20 intervals). States in a wrong layout or of another problem are
+off by O(1)."""
 
 
 @dataclass
@@ -169,20 +178,125 @@ class Guess:
         return cls(s, x, u, T, local)
 
     @classmethod
-    def from_samples(cls, ocp: OCP, t: ArrayLike, x: ArrayLike, u: ArrayLike) -> Guess:
+    def from_samples(cls, ocp: OCP, t: ArrayLike, x: ArrayLike, u: ArrayLike, *,
+                     tol: float = SAMPLES_TOL) -> Guess:
         """A guess from a sampled trajectory (e.g. a previous solution, for warm starts).
 
         Parameters
         ----------
         ocp : OCP
-            The problem (for the manifold).
+            The problem (for the manifold and the number of inputs).
         t : array-like, shape=(n,)
-            Times from 0 to T.
+            Times from 0 to T: finite, strictly increasing, ``t[0] = 0``, ``n >= 2``.
         x : array-like, shape=(n, ambient_dim)
-            States.
+            States, each on the model's manifold to ``tol`` (never projected).
         u : array-like, shape=(n - 1, n_inputs) or (n, n_inputs)
-            Controls per interval, or at the samples (first-order hold).
+            Controls per interval, or at the samples (first-order hold); finite.
+        tol : float
+            Largest accepted manifold residual of a state (default :data:`SAMPLES_TOL`,
+            1e-3: a guess must be near the manifold, and a converged solution's nodes carry
+            the drift of their transcription).
+
+        Returns
+        -------
+        Guess
+
+        Raises
+        ------
+        ParameterError
+            ``t``, ``x`` or ``u`` of the wrong shape, not finite, or ``t`` not increasing
+            from 0.
+        ManifoldError
+            A state off the manifold (named by its index and time).
         """
-        t = np.asarray(t, float)
-        return cls(t / t[-1], np.asarray(x, float), np.asarray(u, float), float(t[-1]),
-                   ProductLocal(ocp.model.manifold))
+        if not isinstance(ocp, OCP):
+            raise ParameterError(f"ocp must be an OCP; got {type(ocp).__name__}")
+        tol = validate.tolerance("tol", tol)
+        man, m = ocp.model.manifold, ocp.model.n_inputs
+        tv = validate.array("t", t, ndim=1)
+        if tv.size < 2:
+            raise ParameterError(f"t must have at least 2 samples; got {tv.size}")
+        if not np.all(np.diff(tv) > 0):
+            k = int(np.argmin(np.diff(tv) > 0))
+            raise ParameterError(f"t must be strictly increasing; got t[{k}] = {tv[k]:.6g} "
+                                 f">= t[{k + 1}] = {tv[k + 1]:.6g}")
+        if tv[0] != 0.0:
+            raise ParameterError(f"t must start at 0 (times from 0 to T); got t[0] = "
+                                 f"{tv[0]:.6g} (shift the times: t - t[0])")
+        n = tv.size
+        xv = validate.array("x", x, shape=(n, man.ambient_dim))
+        uv = np.asarray(u, dtype=float) if m == 0 and np.size(u) == 0 else None
+        if uv is not None:
+            uv = np.zeros((n - 1, 0))
+        else:
+            uv = validate.array("u", u, ndim=2)
+            if uv.shape not in ((n - 1, m), (n, m)):
+                raise ParameterError(f"u must have shape ({n - 1}, {m}) (one control per "
+                                     f"interval) or ({n}, {m}) (one per sample, first-order "
+                                     f"hold) for {n} samples and {m} inputs; got shape "
+                                     f"{uv.shape}")
+        for k, row in enumerate(xv):
+            man.check(row, name=f"x[{k}] (the state at t = {tv[k]:.6g})", tol=tol)
+        return cls(tv / tv[-1], xv, uv, float(tv[-1]), ProductLocal(man))
+
+    @classmethod
+    def from_solution(cls, solution: Any) -> Guess:
+        """A warm start from a solution's nodes, as they are (see :meth:`from_samples`).
+
+        A solution of a transcription that does not keep the manifold (Hermite-Simpson or
+        Radau in ambient coordinates) has nodes off it by the transcription's drift; they
+        are taken with that drift (``tol`` is the largest scaled residual of the nodes, at
+        least :data:`SAMPLES_TOL`), never projected. Shapes, times and finiteness are
+        checked as in :meth:`from_samples`.
+
+        Parameters
+        ----------
+        solution : OCPSolution
+            With ``ocp``, ``t``, ``x`` and ``u``.
+
+        Returns
+        -------
+        Guess
+        """
+        man = solution.ocp.model.manifold
+        x = validate.array("x (the solution's nodes)", solution.x, ndim=2)
+        drift = max((max(f.scaled_residual_norm(row[man.slices[n]]) for n, f in man.factors)
+                     for row in x), default=0.0) if man.factors else 0.0
+        tol = max(SAMPLES_TOL, 2.0 * drift) if np.isfinite(drift) else SAMPLES_TOL
+        return cls.from_samples(solution.ocp, solution.t, x, solution.u, tol=tol)
+
+
+def check_guess(guess: object, ocp: OCP, *also: type) -> None:
+    """Refuse a ``guess=`` that is not a :class:`Guess` (or one of ``also``) for ``ocp``.
+
+    Parameters
+    ----------
+    guess : object
+        What ``solve`` was given; None passes.
+    ocp : OCP
+        The problem (a Guess must have its state and input sizes).
+    *also : type
+        Other accepted classes (an OCP solution, for warm starts).
+
+    Raises
+    ------
+    ParameterError
+        Naming what was given and how to make a guess.
+    """
+    if guess is None or isinstance(guess, also):
+        return
+    if not isinstance(guess, Guess):
+        shape = f" of shape {np.shape(guess)}" if isinstance(guess, np.ndarray) else ""
+        raise ParameterError(
+            f"guess must be a Guess or an OCPSolution; got {type(guess).__name__}{shape}. "
+            "Make one with Guess.from_samples(ocp, t, x, u) (sampled states and controls) "
+            "or Guess.geodesic(ocp, ...)")
+    if not isinstance(ocp, OCP):  # the caller's own check names a bad problem
+        return
+    man, m = ocp.model.manifold, ocp.model.n_inputs
+    if guess.x.ndim != 2 or guess.x.shape[1] != man.ambient_dim or guess.u.ndim != 2 \
+            or guess.u.shape[1] != m:
+        raise ParameterError(
+            f"guess is for another problem: its states have shape {guess.x.shape} and its "
+            f"controls {guess.u.shape}; problem {ocp.name!r} has {man.ambient_dim} state "
+            f"entries and {m} inputs")

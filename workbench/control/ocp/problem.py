@@ -71,6 +71,12 @@ def chart_domain(manifold: ProductManifold, centre: Vector, x: Expr) -> list[Exp
     return out
 
 
+def _last_line(exc: BaseException) -> str:
+    """The last line of an exception's message (casadi's are long)."""
+    lines = str(exc).strip().splitlines()
+    return lines[-1] if lines else repr(exc)
+
+
 class Target:
     """A terminal set ``{x : chart(y*, phi(x)) = 0}`` (base of the two target kinds)."""
 
@@ -224,10 +230,12 @@ class PathConstraint:
     function : callable
         ``c(x, u)``, casadi expression (vector) of the symbolic state and input (at node
         ``k`` the control of interval ``k``; at the last node that of the last interval).
-    lower, upper : float or array-like
-        Bounds (``-inf``/``inf`` for one-sided).
+    lower, upper : float or array-like, shape=() or (n_c,)
+        Bounds (``-inf``/``inf`` for one-sided), one per entry of ``c`` or one for all;
+        real, never NaN, ``lower <= upper``, ``lower < inf`` and ``upper > -inf``
+        (checked here; their size against ``c`` when the :class:`OCP` is made).
     name : str
-        For messages and results.
+        For messages and results (one line of text).
     nodes : str
         ``"all"`` (default), ``"first"`` or ``"last"``. A condition on the first node only
         can fix a gauge: the spherical cart swing-up is invariant under rotations about the
@@ -242,10 +250,74 @@ class PathConstraint:
     nodes: str = "all"
 
     def __post_init__(self) -> None:
-        if self.nodes not in ("all", "first", "last"):
+        name = validate.single_line("name (of a path constraint)", self.name)
+        if not callable(self.function):
+            raise ParameterError(f"function of path constraint {name!r} must be a callable "
+                                 f"c(x, u) returning a casadi expression; got "
+                                 f"{type(self.function).__name__} {self.function!r:.80}")
+        if not isinstance(self.nodes, str) or self.nodes not in ("all", "first", "last"):
             raise ParameterError(
                 f"nodes must be 'all', 'first' or 'last'; got {self.nodes!r}"
             )
+        lo = validate.bound(f"lower (of path constraint {name!r})", self.lower)
+        hi = validate.bound(f"upper (of path constraint {name!r})", self.upper)
+        for label, v in (("lower", lo), ("upper", hi)):
+            if np.ndim(v) > 1 or np.size(v) == 0:
+                raise ParameterError(f"{label} of path constraint {name!r} must be a number "
+                                     f"or a vector (one bound per entry of c); got shape "
+                                     f"{np.shape(v)}")
+        if np.size(lo) > 1 and np.size(hi) > 1 and np.size(lo) != np.size(hi):
+            raise ParameterError(f"lower and upper of path constraint {name!r} must have the "
+                                 f"same length (or one be a number); got {np.size(lo)} and "
+                                 f"{np.size(hi)}")
+        if np.any(np.asarray(lo) == np.inf) or np.any(np.asarray(hi) == -np.inf):
+            raise ParameterError(f"path constraint {name!r}: lower must be < inf and upper "
+                                 f"> -inf (no point would be admissible); got lower "
+                                 f"{np.asarray(lo).tolist()}, upper {np.asarray(hi).tolist()}")
+        if np.any(np.asarray(lo) > np.asarray(hi)):
+            raise ParameterError(f"path constraint {name!r}: lower must not exceed upper; got "
+                                 f"lower {np.asarray(lo).tolist()} > upper "
+                                 f"{np.asarray(hi).tolist()}")
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+
+    def check(self, model: Model) -> None:
+        """Check ``c(x, u)`` on the model's symbols: a casadi expression whose size fits.
+
+        Called with SX and with MX symbols (the transcriptions use both); ``c`` must return
+        an expression of the same class, with at least one entry and as many as the
+        bounds have (a bound that is a number applies to every entry).
+
+        Raises
+        ------
+        ModelError
+            Naming the constraint, what it returned or how it failed.
+        """
+        for S in (ca.SX, ca.MX):
+            x, u = S.sym("x", model.manifold.ambient_dim), S.sym("u", model.n_inputs)
+            try:
+                value = self.function(x, u)
+            except Exception as exc:  # noqa: BLE001 - the user's code, re-raised with context
+                raise ModelError(
+                    f"function of path constraint {self.name!r} must be a casadi expression "
+                    f"c(x, u) of the symbolic state ({x.shape[0]} entries) and input "
+                    f"({u.shape[0]}); calling it with {S.__name__} symbols raised "
+                    f"{type(exc).__name__}: {_last_line(exc)}") from exc
+            if not isinstance(value, S):
+                raise ModelError(
+                    f"function of path constraint {self.name!r} must return a casadi "
+                    f"expression of x and u ({S.__name__} when called with {S.__name__} "
+                    f"symbols); got {type(value).__name__} {value!r:.80}")
+            n = int(value.numel())
+            if n == 0:
+                raise ModelError(f"function of path constraint {self.name!r} returned an "
+                                 f"empty expression (shape {value.shape})")
+            for label, v in (("lower", self.lower), ("upper", self.upper)):
+                if np.size(v) not in (1, n):
+                    raise ModelError(
+                        f"{label} of path constraint {self.name!r} must be a number or have "
+                        f"{n} entries (one per entry of c(x, u), shape {value.shape}); got "
+                        f"{np.size(v)}")
 
     def applies(self, k: int, N: int) -> bool:
         """Whether the constraint holds at node ``k`` of ``0 .. N``."""
@@ -267,7 +339,10 @@ class OCP:
     model : Model
         The dynamics.
     x0 : array-like, shape=(ambient_dim,)
-        Initial state; must lie on the model's manifold to ``tol`` (never projected).
+        Initial state; must lie on the model's manifold to ``tol`` (never projected) and
+        pass the model's state check (a :mod:`workbench.mechanics` model: its kinetic
+        energy positive definite there; :func:`solve` checks a converged solution's nodes
+        too).
     target : TargetPoint or TargetSet
         Terminal condition.
     u_lower, u_upper : array-like, shape=(n_inputs,)
@@ -279,7 +354,8 @@ class OCP:
     terminal_cost : callable, optional
         ``Phi(x_T, T)``; ``0`` when omitted. Minimum time is ``lambda x, T: T``.
     path_constraints : sequence of PathConstraint
-        Constraints at every node.
+        Constraints at every node; each function is checked on the model's symbols (SX
+        and MX) here: a casadi expression whose size fits its bounds.
     tol : float
         Largest accepted manifold residual of ``x0`` and of a target point.
     name : str
@@ -317,6 +393,7 @@ class OCP:
         self.name = validate.text("name", self.name)
         self.tol = validate.tolerance("tol", self.tol)
         self.x0 = m.check_state(self.x0, name="x0", tol=self.tol)
+        self.check_states(self.x0, what="x0")
         if not isinstance(self.target, Target):
             raise ModelError(
                 f"target must be a TargetPoint or a TargetSet; got {type(self.target).__name__}"
@@ -339,11 +416,16 @@ class OCP:
         self._check_costs()
         if not isinstance(self.gauge, (bool, np.bool_)):
             raise ParameterError(f"gauge must be True or False; got {self.gauge!r}")
+        if isinstance(self.path_constraints, PathConstraint) or not isinstance(
+                self.path_constraints, Sequence) or isinstance(self.path_constraints, str):
+            raise ModelError(f"path_constraints must be a sequence (list or tuple) of "
+                             f"PathConstraint objects; got {self.path_constraints!r:.80}")
         for c in self.path_constraints:
             if not isinstance(c, PathConstraint):
                 raise ModelError(
                     f"path_constraints must hold PathConstraint objects; got {type(c).__name__}"
                 )
+            c.check(m)
 
     def _check_costs(self) -> None:
         """Each cost must be a scalar expression of the symbolic state and input."""
@@ -398,6 +480,31 @@ class OCP:
         if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
             raise ParameterError(f"T must satisfy 0 < T_min <= T_max < inf; got {T!r}")
         return lo, hi
+
+    def check_states(self, x: ArrayLike, t: ArrayLike | None = None, *,
+                     what: str = "x0") -> None:
+        """The model's state check at states of this problem (``x0``, a solution's nodes).
+
+        A :mod:`workbench.mechanics` model checks that its kinetic energy is positive
+        definite there (``model.state_check``); other models have no such check.
+
+        Parameters
+        ----------
+        x : array-like, shape=(ambient_dim,) or (n, ambient_dim)
+            The states.
+        t : array-like, shape=(n,), optional
+            Their times, for the message.
+        what : str
+            What they are, for the message.
+
+        Raises
+        ------
+        ModelError
+            Naming the state (and its time) where the check fails.
+        """
+        check = getattr(self.model, "state_check", None)
+        if check is not None:
+            check(self.model, x, t=t, what=what)
 
     @property
     def symmetry(self) -> Any:

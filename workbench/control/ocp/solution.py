@@ -191,7 +191,7 @@ class OCPSolution(StatusResult):
 
     def guess(self) -> Guess:
         """Return the solution as a guess (for warm-starting another transcription)."""
-        return Guess.from_samples(self.ocp, self.t, self.x, self.u)
+        return Guess.from_solution(self)
 
     def control(self, t: float) -> np.ndarray:
         """The optimal control at time ``t`` in ``[0, T]`` (piecewise constant, or linear).

@@ -26,7 +26,7 @@ import numpy as np
 
 from workbench.control.ocp.compiled import Compiled
 from workbench.control.ocp.diagnose import diagnose
-from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.guess import Guess, check_guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solution import OCPSolution, OCPStatus
 from workbench.control.ocp.transcription import (
@@ -296,10 +296,7 @@ def solve(
     method = check_method(method or Collocation())
     if handling is not None and not isinstance(handling, ManifoldHandling):
         raise ParameterError(f"handling must be a ManifoldHandling or None; got {handling!r}")
-    if guess is not None and not isinstance(guess, (Guess, OCPSolution)):
-        raise ParameterError(
-            f"guess must be a Guess or an OCPSolution; got {type(guess).__name__} (make one "
-            f"with Guess.from_samples(ocp, t, x, u) or Guess.geodesic(ocp))")
+    check_guess(guess, ocp, OCPSolution)  # an array, or a guess of another problem
     strategy = Auto() if strategy is None else strategy
     if not isinstance(strategy, (Auto, Direct)):
         raise ParameterError(f"strategy must be Auto(...) or Direct(); got {strategy!r}")
@@ -336,6 +333,7 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
             not out.error["manifold_residual"] <= conf.manifold_tol:
         out = _polish(out, tr, args, opts, conf)
     if out.status.ok:
+        ocp.check_states(out.x, out.t, what="the solution's nodes")  # mechanics: T definite
         out.error["local_defect"] = _local_defect(out)
         limit = (None if conf.defect_tol is None else
                  validate.scaled_tolerance(conf.defect_tol, float(np.max(np.abs(out.x)))))
