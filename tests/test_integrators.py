@@ -140,10 +140,21 @@ def test_lgvi_rejects_models_that_are_not_rigid_bodies(sphere, body):
     ({"newton_tol": 2.0}, "newton_tol"),
     ({"newton_max_iter": 0}, "newton_max_iter"),
     ({"newton_max_iter": 2.5}, "newton_max_iter"),
+    ({"newton_max_iter": 10**6}, "<= 50"),
 ])
 def test_newton_options_are_validated(body, kw, match):
     with pytest.raises(ParameterError, match=match):
         lgvi(body, **kw)
+
+
+def test_newton_max_iter_is_bounded_before_anything_is_built(body):
+    """The iterations are unrolled into the graph: a huge cap is refused, with the bound,
+    by simulate before the step function is built (the build log stays as it was)."""
+    before = len(body.build_log)
+    with pytest.raises(ParameterError, match=r"newton_max_iter .*<= 50.*unrolled"):
+        simulate(body, body_state(body), np.linspace(0, 1, 3), method="lgvi", step=0.1,
+                 newton_max_iter=100_000)
+    assert len(body.build_log) == before
 
 
 def test_random_states_stay_on_tso3(skew_body):

@@ -38,7 +38,11 @@ from workbench.simulation.integrators import (
     rkmk4,
     s2_variational,
 )
-from workbench.simulation.integrators.common import check_step, steps_per_interval
+from workbench.simulation.integrators.common import (
+    check_newton_options,
+    check_step,
+    steps_per_interval,
+)
 
 __all__ = [
     "GEOMETRIC_METHODS",
@@ -309,7 +313,9 @@ def simulate(
         ``"s2_variational"`` and ``"mechanics_variational"`` (a step that does not reach
         it raises SolverError).
     newton_max_iter : int
-        Newton iterations per implicit update of those methods.
+        Newton iterations per implicit update of those methods, at most
+        :data:`~workbench.simulation.integrators.common.MAX_NEWTON_ITER` (50; they are
+        unrolled into the step's graph); checked for every method before anything is built.
     jit : bool
         Compile the step of a geometric method to C (SX models; ~1 s once per process);
         refused for the casadi methods.
@@ -333,6 +339,8 @@ def simulate(
         ``max_steps``, ``step`` (the check of :func:`workbench.simulation.integrators.integrate`,
         raised as ModelError here) or ``degree``, a bad controller, or ``step``,
         ``degree`` or ``jit`` given to a method that does not use them.
+    ParameterError
+        ``newton_tol`` or ``newton_max_iter`` out of range.
     ManifoldError
         If ``x0`` is off the manifold.
     SolverError
@@ -347,6 +355,8 @@ def simulate(
     max_steps = count("max_steps", max_steps, error=ModelError)
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    # unrolled into the step's graph: bounded before anything is built
+    newton_tol, newton_max_iter = check_newton_options(newton_tol, newton_max_iter)
     compilation = choice(Compilation, compilation, "compilation", error=ModelError)
     if corrector is not None and method is not Method.CVODES:
         raise ModelError(f"corrector is CVODES' (method 'cvodes'); method {method.value!r} "

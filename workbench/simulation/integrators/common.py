@@ -45,6 +45,7 @@ __all__ = [
     "IntegrationCost",
     "NEWTON_TOL",
     "NEWTON_MAX_ITER",
+    "MAX_NEWTON_ITER",
     "CHUNK",
     "feedback_function",
     "controller_key",
@@ -61,6 +62,11 @@ NEWTON_TOL = 1e-13
 NEWTON_MAX_ITER = 4
 """Default cap on Newton iterations per implicit update (2 suffice for ``|h omega| < 0.1``
 from the second-order initial guesses used here)."""
+
+MAX_NEWTON_ITER = 50
+"""Largest accepted ``newton_max_iter``: the iterations are unrolled into the step's graph
+(about 20 ms of building and 0.5 MB per iteration for a small model, more for a large one),
+and Newton from the schemes' second-order guesses needs 2 to 4 where it converges at all."""
 
 CHUNK = 512
 """Steps evaluated per casadi call by :func:`integrate` (memory grows with it)."""
@@ -167,7 +173,9 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
     Raises
     ------
     ParameterError
-        ``newton_tol`` not in ``(0, 1)`` or ``newton_max_iter`` not an integer >= 1.
+        ``newton_tol`` not in ``(0, 1)``, or ``newton_max_iter`` not an integer in
+        ``[1, MAX_NEWTON_ITER]`` (checked before anything is built: the iterations are
+        unrolled into the step's graph).
     """
     try:
         tol = float(newton_tol)
@@ -179,7 +187,15 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
             f"newton_tol (relative residual of the implicit update) must be in (0, 1); "
             f"got {newton_tol!r}"
         )
-    return tol, count("newton_max_iter", newton_max_iter)
+    if (isinstance(newton_max_iter, (int, np.integer)) and not isinstance(newton_max_iter, bool)
+            and newton_max_iter > MAX_NEWTON_ITER):
+        raise ParameterError(
+            f"newton_max_iter must be an integer >= 1 and <= {MAX_NEWTON_ITER}; got "
+            f"{newton_max_iter}: every iteration is unrolled into the step's graph (about "
+            f"20 ms of building and 0.5 MB each for a small model), and a Newton iteration "
+            f"that has not converged in {MAX_NEWTON_ITER} from the scheme's guess will not: "
+            f"reduce step instead")
+    return tol, count("newton_max_iter", newton_max_iter, maximum=MAX_NEWTON_ITER)
 
 
 def controller_key(controller: ca.Function | None) -> str:
