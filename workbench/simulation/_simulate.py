@@ -38,9 +38,17 @@ from workbench.simulation.integrators import (
     rkmk4,
     s2_variational,
 )
+from workbench.simulation._stability import (
+    Probe,
+    check_fixed_step,
+    find_unstable,
+    probe_for,
+    unstable_error,
+)
 from workbench.simulation.integrators.common import (
     check_newton_options,
     check_step,
+    field_failure,
     steps_per_interval,
 )
 
@@ -449,10 +457,12 @@ def simulate(
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
+    probe = None
+    if method is not Method.CVODES:
+        probe = probe_for(model, controller, sign=sign, rk4=method is Method.RK)
     if not np.all(np.isfinite(xs_out)):
-        raise SolverError(
-            f"{method.value} produced non-finite states for {model.name}", status="non-finite"
-        )
+        _non_finite(model, controller, probe, method, tv, xs_out,
+                    dt_out_step=float(abs(s_grid[1])) / opts.get("number_of_finite_elements", 1))
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -482,9 +492,39 @@ def simulate(
             f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
             f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
             "are not a solution", status="non-finite")
+    checks: dict[str, Any] = {}
+    if probe is not None:  # fixed step: exploded runs are refused
+        family = "rk" if method is Method.RK else None  # collocation: A-stable
+        order = 4 if method is Method.RK else 2 * int(options_used["degree"])
+        checks = check_fixed_step(model, probe, method.value, family, order, False, tv, xs_out,
+                                  float(abs(s_grid[1])) / opts["number_of_finite_elements"],
+                                  xdot=np.asarray(rhs_map).T)
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
-    traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
+    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None), **checks}
     return traj
+
+
+def _non_finite(model: Model, controller: ca.Function | None, probe: Probe | None,
+                method: Method, tv: np.ndarray, xs: np.ndarray, dt_out_step: float) -> None:
+    """Raise the SolverError for non-finite states of a casadi method, saying why."""
+    bad = int(np.argmin(np.all(np.isfinite(xs), axis=1)))
+    a = bad - 1  # the last finite output (x0 is finite)
+    where = f"between t = {tv[a]:g} and t = {tv[bad]:g}"
+    nan_field = field_failure(model, controller, xs[a], float(tv[a]))
+    if nan_field is not None:
+        raise SolverError(f"{method.value} integrating {model.name}: the states became "
+                          f"non-finite {where}: {nan_field}", status="non_finite_field")
+    if probe is not None and method is Method.RK:
+        fnd, _ = find_unstable(model, probe, xs, [0, a], dt_out_step, 4, False)
+        if fnd is not None:
+            raise unstable_error(model, probe, method.value, "rk", 4, False, fnd,
+                                 xs[fnd.index], float(tv[fnd.index]), dt_out_step,
+                                 what=f" (its states became non-finite {where})")
+    raise SolverError(
+        f"{method.value} produced non-finite states for {model.name} {where}; the field and "
+        f"the control are finite at t = {tv[a]:g} and the linearised step is stable at the "
+        f"checked states: a step left the field's domain, or an instability grew between "
+        f"outputs (output at more times t to locate it)", status="non-finite")
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
@@ -528,15 +568,36 @@ def _simulate_geometric(
         options_used.update(newton_tol=scheme.newton_tol,
                             newton_max_iter=scheme.newton_max_iter)
     options_used["jit"] = bool(jit)
+    sign = 1.0 if tv[-1] > tv[0] else -1.0
+    probe = probe_for(model, controller, sign=sign, step=scheme.step)
     build_seconds = time.perf_counter() - t_build
-    run = integrate(model, scheme, x0v, tv, step=step)
+    family = "rkmk4" if method is Method.RKMK4 else "variational"
+    try:
+        run = integrate(model, scheme, x0v, tv, step=step, controller=controller)
+    except SolverError as err:
+        state = getattr(err, "state", None)
+        if state is None or err.status == "non_finite_field":
+            raise
+        # a step that failed (non-finite, no solution, Newton): beyond the stable range?
+        h = sign * abs(tv[1] - tv[0]) / steps_per_interval(abs(tv[1] - tv[0]), step)
+        xs = np.vstack([x0v, state])
+        fnd, _ = find_unstable(model, probe, xs, [0, 1], h, scheme.order, True)
+        if fnd is None:
+            raise
+        raise unstable_error(model, probe, method.value, family, scheme.order, True, fnd,
+                             xs[fnd.index], float(tv[0] if fnd.index == 0 else err.time), h,
+                             what=f" (step {err.step_index + 1} failed: {err.status})"
+                             ) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
-    u_out = np.asarray(loop.map(len(tv))(run.x.T, model.p)[1]).T.reshape(len(tv), -1)
+    rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
+    u_out = np.asarray(u_map).T.reshape(len(tv), -1)
+    checks = check_fixed_step(model, probe, method.value, family, scheme.order, True, tv,
+                              run.x, run.step, xdot=np.asarray(rhs_out).T)
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
     traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
-                        **run.diagnostics}
+                        **run.diagnostics, **checks}
     return traj
 
 

@@ -51,6 +51,9 @@ __all__ = [
     "controller_key",
     "newton",
     "integrate",
+    "field_failure",
+    "MAX_CHUNK",
+    "MAX_FIXED_STEPS",
     "check_newton_options",
     "compile_step",
     "jit_function",
@@ -442,6 +445,47 @@ def check_step(
 MAX_FIXED_STEPS = 10**8
 """Fixed steps one simulation may take (1e8 steps of a small model: minutes)."""
 
+MAX_CHUNK = 100_000
+"""Largest ``chunk`` of :func:`integrate`: one call holds the states of its steps."""
+
+
+def field_failure(model: Model, controller: ca.Function | None, x: np.ndarray,
+                  t: float) -> str | None:
+    """Say so when the field or the controller is not finite at ``x`` (None: both finite).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    controller : casadi.Function or None
+        The feedback in the loop.
+    x : ndarray, shape=(ambient_dim,)
+        The state.
+    t : float
+        Its time, for the message.
+
+    Returns
+    -------
+    str or None
+        A sentence naming which returned what at which state and time.
+    """
+    state = np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
+    try:
+        u = np.asarray(feedback_function(model, controller)(x, model.p), dtype=float).ravel()
+        xdot = np.asarray(model.function("f")(x, np.nan_to_num(u), model.p),
+                          dtype=float).ravel()
+    except RuntimeError as exc:
+        return (f"the field or controller cannot be evaluated at t = {t:.6g}, x = {state}: "
+                f"{str(exc).strip().splitlines()[-1] if str(exc).strip() else exc!r}")
+    bad = [name for name, v in (("controller", u), ("field", xdot))
+           if not np.all(np.isfinite(v))]
+    if not bad:
+        return None
+    return (f"the {' and the '.join(bad)} returned non-finite values at t = {t:.6g}, "
+            f"x = {state} (u = {np.array2string(u, precision=4)}, xdot = "
+            f"{np.array2string(xdot, precision=4)}; the field evaluated with u = 0 where u is "
+            "not finite): a defect of the model or the controller there, not of the step size")
+
 
 def integrate(
     model: Model,
@@ -451,6 +495,7 @@ def integrate(
     *,
     step: float,
     chunk: int = CHUNK,
+    controller: ca.Function | None = None,
 ) -> Integration:
     """Run a scheme from ``x0`` over equally spaced output times ``t``.
 
@@ -468,7 +513,12 @@ def integrate(
         Largest step size (positive); each output interval is split into
         ``ceil(interval / step)`` equal steps, taken with the sign of ``t[-1] - t[0]``.
     chunk : int
-        Steps evaluated per casadi call.
+        Steps evaluated per casadi call, at most :data:`MAX_CHUNK` (each call holds the
+        states of its steps).
+    controller : casadi.Function, optional
+        The feedback the scheme was built with. It only serves the diagnosis of a failing
+        step: a field or controller that is not finite at the step's start is reported as
+        such (not as a step size to reduce).
 
     Returns
     -------
@@ -480,7 +530,10 @@ def integrate(
         Bad ``t``, ``step`` or ``chunk``.
     SolverError
         A step whose implicit update did not converge to ``scheme.newton_tol`` (message
-        with the step number, its time interval and residual), or a non-finite state.
+        with the step number, its time interval and residual), or a non-finite state; a
+        field or controller that is not finite at the step's start (status
+        ``non_finite_field``). The error carries ``state`` (the state at the start of the
+        failing step), ``time`` (its time) and ``step_index`` (zero-based).
     """
     tv = np.asarray(t, dtype=float).ravel()
     if tv.size < 2 or not np.all(np.isfinite(tv)):
@@ -496,7 +549,7 @@ def integrate(
         )
     horizon = abs(tv[-1] - tv[0])
     s = check_step(step, horizon)
-    chunk = count("chunk", chunk)
+    chunk = count("chunk", chunk, maximum=MAX_CHUNK)
     n_sub = steps_per_interval(dt_out, s)
     sign = 1.0 if tv[-1] > tv[0] else -1.0
     h = sign * dt_out / n_sub
@@ -524,6 +577,15 @@ def integrate(
             k = done + j  # zero-based index of the failing step
             t_k = tv[0] + k * h
             r = float(res[j])
+            x_k = x if j == 0 else X[j - 1]
+            nan_field = field_failure(model, controller, x_k, t_k)
+            if nan_field is not None:
+                err = SolverError(
+                    f"{scheme.name} failed at step {k + 1} of {n_total} (t = {t_k:.6g} -> "
+                    f"{t_k + h:.6g}, h = {h:.6g}) integrating {model.name}: {nan_field}",
+                    status="non_finite_field")
+                err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+                raise err
             if np.isinf(r):
                 what = f"the discrete update has no solution ({scheme.no_solution})"
                 status, fix = "no_solution", "Reduce step."
@@ -539,13 +601,18 @@ def integrate(
                             f" likely its rounding level (stiff or badly scaled inertia): "
                             f"raise newton_tol.")
             else:
-                what = "the state became non-finite"
+                what = ("the state became non-finite (the field"
+                        f"{'' if controller is None else ' and the controller'} are finite at "
+                        "the step's start: a stage or the update left their domain, or the "
+                        "step is beyond the method's stable range)")
                 status, fix = "non-finite", "Reduce step."
-            raise SolverError(
+            err = SolverError(
                 f"{scheme.name} failed at step {k + 1} of {n_total} (t = {t_k:.6g} -> "
                 f"{t_k + h:.6g}, h = {h:.6g}) integrating {model.name}: {what}. {fix}",
                 status=status,
             )
+            err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+            raise err
         max_res = max(max_res, float(res.max()))
         its_total += int(its.sum())
         its_max = max(its_max, int(its.max()))
