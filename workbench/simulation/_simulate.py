@@ -29,6 +29,13 @@ from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
 from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
+from workbench.simulation._stability import (
+    Probe,
+    check_fixed_step,
+    find_unstable,
+    probe_for,
+    unstable_error,
+)
 from workbench.simulation.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -37,13 +44,6 @@ from workbench.simulation.integrators import (
     mechanics_variational,
     rkmk4,
     s2_variational,
-)
-from workbench.simulation._stability import (
-    Probe,
-    check_fixed_step,
-    find_unstable,
-    probe_for,
-    unstable_error,
 )
 from workbench.simulation.integrators.common import (
     check_newton_options,

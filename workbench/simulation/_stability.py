@@ -13,11 +13,15 @@ from a legitimate one, and :func:`unstable_error` says why and for which step:
   integrates the ambient equations), and so is the closed-loop field, ``A = df/dx`` (with
   the controller; the same coordinates). The run is unstable there when the spectral
   radius of ``J`` exceeds what the exact flow allows, ``max(1, exp(h alpha))`` with
-  ``alpha = max Re lambda(A)``, by more than :data:`STABILITY_RTOL` plus, for the modes
-  that grow in the flow itself (``Re lambda > 0``), the method's own error there,
-  ``2 (h |lambda|)^(p+1) / (p+1)!`` (``p`` its order). Damping (``alpha < 0``) and forcing
-  (a controller) enter through ``A`` and ``J`` alike, so neither is mistaken for
-  instability. The stable step is estimated by bisection on ``h`` of the same test.
+  ``alpha = max Re lambda(A)``, by more than the margins of the estimate: a factor
+  :data:`STABILITY_RTOL`; the change of the linearisation over the step,
+  ``exp(h |A(x_next) - A(x)|_2)`` (zero for a linear field, so the estimate is exact
+  there; off an equilibrium the frozen-coefficient estimate is off by about that much);
+  and, for the modes that grow in the flow itself (``Re lambda > 0``), the method's own
+  error there, ``2 (h |lambda|)^(p+1) / (p+1)!`` (``p`` its order). Damping
+  (``alpha < 0``) and forcing (a controller) enter through ``A`` and ``J`` alike, so
+  neither is mistaken for instability. The stable step is estimated by bisection on ``h``
+  of the same test.
   Collocation (Gauss-Legendre, A-stable: ``|R(z)| <= 1`` for ``Re z <= 0``) has no such
   range; it is checked by the next test only.
 * **Invariant drift.** An invariant that the closed-loop field conserves at every checked
@@ -42,9 +46,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import SolverError
-from workbench.core._feedback import feedback_function
 from workbench.core.status import StatusEnum
 from workbench.simulation.integrators.common import controller_key
 
@@ -177,7 +181,8 @@ class Probe:
     field_jac : casadi.Function
         ``(x, p) -> A``, its ambient Jacobian.
     step_jac : casadi.Function or None
-        ``(x, p, h) -> J``, the ambient Jacobian of the step map (None: no step map).
+        ``(x, p, h) -> (x_next, J)``, the step map and its ambient Jacobian (None: no step
+        map).
     rates : casadi.Function or None
         ``(x, p) -> (grad I . f, |grad I|, |f|)`` for every invariant (None: none).
     """
@@ -234,7 +239,7 @@ def probe_for(model: Model, controller: ca.Function | None, *, sign: float = 1.0
         step = rk4_step(field, S)
     step_jac = None
     if step is not None:
-        step_jac = step.factory("step_jac", ["x", "p", "h"], ["jac:x_next:x"])
+        step_jac = step.factory("step_jac", ["x", "p", "h"], ["x_next", "jac:x_next:x"])
     probe = Probe(field, field_jac, step_jac, rates)
     if len(_PROBES) >= _PROBES_MAX:
         _PROBES.pop(next(iter(_PROBES)))
@@ -256,23 +261,26 @@ def _basis(model: Model, x: np.ndarray, tangent: bool) -> np.ndarray | None:
 def _finding(probe: Probe, model: Model, x: np.ndarray, h: float, order: int,
              tangent: bool, index: int = -1) -> StabilityFinding:
     p = model.p
-    Q = _basis(model, x, tangent)
     A = np.asarray(probe.field_jac(x, p), dtype=float)
-    J = np.asarray(probe.step_jac(x, p, h), dtype=float)
+    x_next, J = (np.asarray(v, dtype=float) for v in probe.step_jac(x, p, h))
+    A_next = np.asarray(probe.field_jac(x_next.ravel(), p), dtype=float)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(J)) and np.all(np.isfinite(A_next))):
+        return StabilityFinding(index, math.inf, math.nan, math.nan, math.inf, False)
+    ha = abs(h)
+    # how far the frozen estimate can be off: the change of h A over the step
+    frozen = ha * float(np.linalg.norm(A_next - A, 2))
+    Q = _basis(model, x, tangent)
     if Q is not None:
         A, J = Q.T @ A @ Q, Q.T @ J @ Q
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(J))):
-        return StabilityFinding(index, math.inf, math.nan, math.nan, math.inf, False)
     lam = np.linalg.eigvals(A)
     mu = np.linalg.eigvals(J)
-    ha = abs(h)
     alpha = float(np.max(lam.real)) if lam.size else 0.0
     rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
     growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
     unstable_modes = np.abs(lam[lam.real > 0]) * ha
     own = float(np.max(2 * unstable_modes ** (order + 1) / math.factorial(order + 1))) \
         if unstable_modes.size else 0.0
-    bound = growth * (1.0 + STABILITY_RTOL + own)
+    bound = growth * (1.0 + STABILITY_RTOL + own) * math.exp(min(frozen, 700.0))
     amp = float(np.max(np.abs(mu))) if mu.size else 0.0
     return StabilityFinding(index, amp, growth, bound, rho_a, bool(amp <= bound))
 
@@ -350,7 +358,8 @@ def unstable_error(model: Model, probe: Probe, method: str, family: str, order: 
                 "no stable step was found by halving h 40 times")
     if math.isfinite(fnd.amplification):
         amp = (f"the linearised step amplifies a mode by {fnd.amplification:.3g} per step "
-               f"where the exact flow grows by at most {fnd.flow_growth:.3g}")
+               f"where the exact linearised flow grows by at most {fnd.flow_growth:.3g} "
+               f"({fnd.bound:.3g} with the margins of the estimate)")
     else:
         amp = "the linearised step or field is not finite there (the state has exploded)"
     return SolverError(
@@ -436,13 +445,13 @@ def _check_drift(model: Model, x: np.ndarray, t: np.ndarray, names: list[str], m
                  h: float, probe: Probe, family: str | None, order: int,
                  tangent: bool) -> None:
     fn = model.function("invariants")
-    I = np.asarray(fn.map(len(x))(x.T, model.p), dtype=float)  # (n_inv, n_times)
+    values = np.asarray(fn.map(len(x))(x.T, model.p), dtype=float)  # (n_inv, n_times)
     all_names = model.invariant_names
     grad_norm = np.asarray(probe.rates(x[0], model.p)[1], dtype=float).ravel()
     x0_norm = float(np.linalg.norm(x[0]))
     for name in names:
         k = all_names.index(name)
-        series = I[k]
+        series = values[k]
         scale = max(abs(series[0]), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
         dev = np.abs(series - series[0])
         bad = np.flatnonzero(~(dev <= DRIFT_LIMIT * scale))
