@@ -12,7 +12,6 @@ are explicit keywords.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -24,18 +23,14 @@ from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError
-from workbench.core.manifolds import DEFAULT_TOL, SO3
+from workbench.core.manifolds import DEFAULT_TOL
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
 from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
-from workbench.simulation._stability import (
-    Probe,
-    check_fixed_step,
-    find_unstable,
-    probe_for,
-    unstable_error,
-)
+from workbench.simulation._stability import StepCheck, probe_for
+from workbench.simulation._trajectory import Trajectory, constraint_residuals
+from workbench.simulation._trajectory import diagnostics as _diagnostics
 from workbench.simulation.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -107,101 +102,6 @@ class Method(str, Enum):
 GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4,
                      Method.MECHANICS_VARIATIONAL)
 """Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
-
-
-@dataclass
-class Trajectory:
-    """A simulated trajectory with its cost and accuracy diagnostics.
-
-    Attributes
-    ----------
-    t : ndarray, shape=(n_times,)
-        Output times.
-    x : ndarray, shape=(n_times, ambient_dim)
-        States (stored ambient coordinates).
-    u : ndarray, shape=(n_times, n_inputs)
-        Inputs applied at the output times.
-    model : Model
-        The simulated model.
-    method : Method
-        Integration method.
-    options : dict
-        The method's knobs as used.
-    cost : dict
-        ``wall_seconds`` (integration), ``build_seconds`` (integrator construction),
-        ``steps`` and ``rhs_evaluations`` where the method reports them.
-    diagnostics : dict
-        ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
-        (relative to ``|initial|``; None, with the reason in ``max_rel_undefined``, when
-        the invariant starts at zero — never NaN)
-        deviation from its initial value; ``constraint_residual``: max-norm residual of
-        every factor over the trajectory; ``closed_loop``: whether a controller acted
-        (invariants are then not expected to be conserved).
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
-    model: Model
-    method: Method
-    options: dict[str, Any]
-    cost: dict[str, Any] = field(default_factory=dict)
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-
-    def part(self, name: str) -> np.ndarray:
-        """States of one factor over time; SO3 parts come as ``(n_times, 3, 3)`` matrices."""
-        man = self.model.manifold
-        sl = man.slices[name] if name in man.slices else None
-        if sl is None:
-            raise ModelError(f"unknown factor {name!r}; this model has {man.names}")
-        block = self.x[:, sl]
-        if isinstance(man.factor(name), SO3):
-            return np.array([SO3.matrix(row) for row in block])
-        return block
-
-    @property
-    def final(self) -> np.ndarray:
-        """The last state."""
-        return self.x[-1]
-
-    def invariant_series(self, name: str) -> np.ndarray:
-        """Values of one invariant at every output time."""
-        fn = self.model.function(name)
-        return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
-
-    def __str__(self) -> str:
-        """A short account: samples, method, cost, drift and constraint residual."""
-        drift = self.diagnostics.get("invariant_drift", {})
-        drifts = ", ".join(f"{k} {v['max_rel']:.1e}" if v.get("max_rel") is not None else
-                           f"{k} {v.get('max_abs', 0.0):.1e} (absolute)"
-                           for k, v in drift.items())
-        res = self.diagnostics.get("constraint_residual", {})
-        worst = max(res.values(), default=0.0)
-        cost = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                         for k, v in self.cost.items() if k in ("wall_seconds", "steps",
-                                                               "rhs_evaluations"))
-        return (f"Trajectory of {self.model.name}: {len(self.t)} samples, t = {self.t[0]:g} .. "
-                f"{self.t[-1]:g}, method {self.method.value}; cost: {cost or '-'}; "
-                f"relative invariant drift: {drifts or '-'}; max constraint residual "
-                f"{worst:.1e}")
-
-    def _repr_html_(self) -> str:
-        from html import escape
-
-        return f"<pre>{escape(str(self))}</pre>"
-
-    def summary(self) -> dict[str, Any]:
-        """Plain JSON-serialisable account: method, knobs, cost, diagnostics."""
-        return {
-            "model": self.model.name,
-            "method": self.method.value,
-            "options": self.options,
-            "t0": float(self.t[0]),
-            "tf": float(self.t[-1]),
-            "n_times": int(len(self.t)),
-            "cost": self.cost,
-            "diagnostics": self.diagnostics,
-        }
 
 
 MAX_POINTS = 1_000_000
@@ -457,12 +357,13 @@ def simulate(
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
-    probe = None
-    if method is not Method.CVODES:
-        probe = probe_for(model, controller, sign=sign, rk4=method is Method.RK)
+    check = None
+    if method is not Method.CVODES:  # fixed step: an exploded run is refused
+        check = StepCheck(model, probe_for(model, controller, sign=sign, rk4=method is Method.RK),
+                          method.value, "rk" if method is Method.RK else None, False,
+                          float(abs(s_grid[1])) / opts["number_of_finite_elements"])
     if not np.all(np.isfinite(xs_out)):
-        _non_finite(model, controller, probe, method, tv, xs_out,
-                    dt_out_step=float(abs(s_grid[1])) / opts.get("number_of_finite_elements", 1))
+        _non_finite(model, controller, check, method, tv, xs_out)
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -492,20 +393,14 @@ def simulate(
             f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
             f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
             "are not a solution", status="non-finite")
-    checks: dict[str, Any] = {}
-    if probe is not None:  # fixed step: exploded runs are refused
-        family = "rk" if method is Method.RK else None  # collocation: A-stable
-        order = 4 if method is Method.RK else 2 * int(options_used["degree"])
-        checks = check_fixed_step(model, probe, method.value, family, order, False, tv, xs_out,
-                                  float(abs(s_grid[1])) / opts["number_of_finite_elements"],
-                                  xdot=np.asarray(rhs_map).T)
+    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T)
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None), **checks}
     return traj
 
 
-def _non_finite(model: Model, controller: ca.Function | None, probe: Probe | None,
-                method: Method, tv: np.ndarray, xs: np.ndarray, dt_out_step: float) -> None:
+def _non_finite(model: Model, controller: ca.Function | None, check: StepCheck | None,
+                method: Method, tv: np.ndarray, xs: np.ndarray) -> None:
     """Raise the SolverError for non-finite states of a casadi method, saying why."""
     bad = int(np.argmin(np.all(np.isfinite(xs), axis=1)))
     a = bad - 1  # the last finite output (x0 is finite)
@@ -514,17 +409,17 @@ def _non_finite(model: Model, controller: ca.Function | None, probe: Probe | Non
     if nan_field is not None:
         raise SolverError(f"{method.value} integrating {model.name}: the states became "
                           f"non-finite {where}: {nan_field}", status="non_finite_field")
-    if probe is not None and method is Method.RK:
-        fnd, _ = find_unstable(model, probe, xs, [0, a], dt_out_step, 4, False)
+    if check is not None and check.linearised:
+        fnd, _ = check.find_unstable(xs, [0, a])
         if fnd is not None:
-            raise unstable_error(model, probe, method.value, "rk", 4, False, fnd,
-                                 xs[fnd.index], float(tv[fnd.index]), dt_out_step,
-                                 what=f" (its states became non-finite {where})")
+            raise check.unstable_error(fnd, xs[fnd.index], float(tv[fnd.index]),
+                                       what=f" (its states became non-finite {where})")
     raise SolverError(
         f"{method.value} produced non-finite states for {model.name} {where}; the field and "
-        f"the control are finite at t = {tv[a]:g} and the linearised step is stable at the "
-        f"checked states: a step left the field's domain, or an instability grew between "
-        f"outputs (output at more times t to locate it)", status="non-finite")
+        f"the control are finite at t = {tv[a]:g}"
+        f"{' and the linearised step is stable there' if check and check.linearised else ''}"
+        f": a step left the field's domain, or an instability grew between outputs (output "
+        f"at more times t to locate it)", status="non-finite")
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
@@ -569,9 +464,11 @@ def _simulate_geometric(
                             newton_max_iter=scheme.newton_max_iter)
     options_used["jit"] = bool(jit)
     sign = 1.0 if tv[-1] > tv[0] else -1.0
-    probe = probe_for(model, controller, sign=sign, step=scheme.step)
+    dt_out = abs(tv[1] - tv[0])
+    check = StepCheck(model, probe_for(model, controller, sign=sign, step=scheme.step),
+                      method.value, "rkmk4" if method is Method.RKMK4 else "variational", True,
+                      sign * dt_out / steps_per_interval(dt_out, step))
     build_seconds = time.perf_counter() - t_build
-    family = "rkmk4" if method is Method.RKMK4 else "variational"
     try:
         run = integrate(model, scheme, x0v, tv, step=step, controller=controller)
     except SolverError as err:
@@ -579,81 +476,21 @@ def _simulate_geometric(
         if state is None or err.status == "non_finite_field":
             raise
         # a step that failed (non-finite, no solution, Newton): beyond the stable range?
-        h = sign * abs(tv[1] - tv[0]) / steps_per_interval(abs(tv[1] - tv[0]), step)
         xs = np.vstack([x0v, state])
-        fnd, _ = find_unstable(model, probe, xs, [0, 1], h, scheme.order, True)
+        fnd, _ = check.find_unstable(xs, [0, 1])
         if fnd is None:
             raise
-        raise unstable_error(model, probe, method.value, family, scheme.order, True, fnd,
-                             xs[fnd.index], float(tv[0] if fnd.index == 0 else err.time), h,
-                             what=f" (step {err.step_index + 1} failed: {err.status})"
-                             ) from err
+        raise check.unstable_error(fnd, xs[fnd.index],
+                                   float(tv[0] if fnd.index == 0 else err.time),
+                                   what=f" (step {err.step_index + 1} failed: {err.status})"
+                                   ) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
     u_out = np.asarray(u_map).T.reshape(len(tv), -1)
-    checks = check_fixed_step(model, probe, method.value, family, scheme.order, True, tv,
-                              run.x, run.step, xdot=np.asarray(rhs_out).T)
+    checks = check.run(tv, run.x, np.asarray(rhs_out).T)
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
     traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
                         **run.diagnostics, **checks}
     return traj
-
-
-def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
-    """Max-norm constraint residual of every factor at every state, vectorised.
-
-    Parameters
-    ----------
-    model : Model
-        The model (its manifold).
-    x : array-like, shape=(n_times, ambient_dim)
-        States.
-
-    Returns
-    -------
-    dict of str to ndarray, shape=(n_times,)
-        Per factor name, ``max |h(x)|`` at each state (zeros for R^n).
-    """
-    X = np.atleast_2d(np.asarray(x, dtype=float))
-    out = {}
-    for name, factor in model.manifold.factors:
-        fns = factor.constraint_functions()  # built once per factor
-        if fns is None:
-            out[name] = np.zeros(len(X))
-            continue
-        block = X[:, model.manifold.slices[name]]
-        out[name] = np.max(np.abs(np.asarray(fns[0](block.T))), axis=0).reshape(len(X))
-    return out
-
-
-def _relative_drift(max_abs: float, initial: float) -> dict[str, Any]:
-    """``max_rel`` relative to ``|initial|``, or None with the reason when it is undefined.
-
-    An invariant that starts at 0 (an angular momentum at rest) has no relative drift:
-    ``max_rel`` is then None and ``max_rel_undefined`` says why; ``max_abs`` is the figure
-    to read. Never NaN.
-    """
-    if initial != 0 and np.isfinite(initial):
-        return {"max_rel": max_abs / abs(initial)}
-    return {"max_rel": None,
-            "max_rel_undefined": f"the invariant starts at {initial:g}: a drift relative to "
-                                 f"it is undefined; read max_abs"}
-
-
-def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
-    model = traj.model
-    drift = {}
-    for name in model.invariant_names:
-        series = traj.invariant_series(name)
-        dev = np.abs(series - series[0])
-        drift[name] = {"initial": float(series[0]), "max_abs": float(dev.max()),
-                       **_relative_drift(float(dev.max()), float(series[0]))}
-    residual = {name: float(series.max())
-                for name, series in constraint_residuals(model, traj.x).items()}
-    return {
-        "invariant_drift": drift,
-        "constraint_residual": residual,
-        "closed_loop": closed_loop,
-    }

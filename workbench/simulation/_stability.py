@@ -2,8 +2,8 @@
 
 A fixed-step method beyond its stability range amplifies some mode of the flow by more
 than the flow does, every step, and its states grow without bound (RK4 on ``x'' = -w^2 x``
-with ``h w = 3``: by ``|R(3i)| = 1.8`` per step). :func:`check_fixed_step` tells such a run
-from a legitimate one, and :func:`unstable_error` says why and for which step:
+with ``h w = 3``: by ``|R(3i)| = 1.5`` per step). :meth:`StepCheck.run` tells such a run
+from a legitimate one, and :meth:`StepCheck.unstable_error` says why and for which step:
 
 * **Stability estimate** (every fixed-step method with a step map: ``rk``, ``rkmk4``,
   ``lgvi``, ``s2_variational``, ``mechanics_variational``). At a few output states (the
@@ -17,8 +17,10 @@ from a legitimate one, and :func:`unstable_error` says why and for which step:
   :data:`STABILITY_RTOL`; the change of the linearisation over the step,
   ``exp(h |A(x_next) - A(x)|_2)`` (zero for a linear field, so the estimate is exact
   there; off an equilibrium the frozen-coefficient estimate is off by about that much);
-  and, for the modes that grow in the flow itself (``Re lambda > 0``), the method's own
-  error there, ``2 (h |lambda|)^(p+1) / (p+1)!`` (``p`` its order). Damping
+  and, when the flow itself grows (``alpha > 0``, an unstable equilibrium or a forcing
+  that feeds energy), a numerical growth rate up to twice the flow's (the method's own
+  error on such a mode is far below that): the bound is
+  ``max(1, exp(2 h alpha)) (1 + STABILITY_RTOL) exp(h |A(x_next) - A(x)|_2)``. Damping
   (``alpha < 0``) and forcing (a controller) enter through ``A`` and ``J`` alike, so
   neither is mistaken for instability. The stable step is estimated by bisection on ``h``
   of the same test.
@@ -63,10 +65,8 @@ __all__ = [
     "RK4_REAL",
     "Probe",
     "probe_for",
+    "StepCheck",
     "rk4_step",
-    "check_fixed_step",
-    "find_unstable",
-    "unstable_error",
 ]
 
 STABILITY_RTOL = 1e-6
@@ -258,33 +258,6 @@ def _basis(model: Model, x: np.ndarray, tangent: bool) -> np.ndarray | None:
     return Q
 
 
-def _finding(probe: Probe, model: Model, x: np.ndarray, h: float, order: int,
-             tangent: bool, index: int = -1) -> StabilityFinding:
-    p = model.p
-    A = np.asarray(probe.field_jac(x, p), dtype=float)
-    x_next, J = (np.asarray(v, dtype=float) for v in probe.step_jac(x, p, h))
-    A_next = np.asarray(probe.field_jac(x_next.ravel(), p), dtype=float)
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(J)) and np.all(np.isfinite(A_next))):
-        return StabilityFinding(index, math.inf, math.nan, math.nan, math.inf, False)
-    ha = abs(h)
-    # how far the frozen estimate can be off: the change of h A over the step
-    frozen = ha * float(np.linalg.norm(A_next - A, 2))
-    Q = _basis(model, x, tangent)
-    if Q is not None:
-        A, J = Q.T @ A @ Q, Q.T @ J @ Q
-    lam = np.linalg.eigvals(A)
-    mu = np.linalg.eigvals(J)
-    alpha = float(np.max(lam.real)) if lam.size else 0.0
-    rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
-    growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
-    unstable_modes = np.abs(lam[lam.real > 0]) * ha
-    own = float(np.max(2 * unstable_modes ** (order + 1) / math.factorial(order + 1))) \
-        if unstable_modes.size else 0.0
-    bound = growth * (1.0 + STABILITY_RTOL + own) * math.exp(min(frozen, 700.0))
-    amp = float(np.max(np.abs(mu))) if mu.size else 0.0
-    return StabilityFinding(index, amp, growth, bound, rho_a, bool(amp <= bound))
-
-
 def _samples(x: np.ndarray, xdot: np.ndarray | None) -> list[int]:
     n = len(x)
     idx = set(np.linspace(0, n - 1, min(n, SAMPLES)).round().astype(int).tolist()) | {0}
@@ -294,89 +267,15 @@ def _samples(x: np.ndarray, xdot: np.ndarray | None) -> list[int]:
     return sorted(idx)
 
 
-def find_unstable(model: Model, probe: Probe, x: np.ndarray, indices: list[int], h: float,
-                  order: int, tangent: bool) -> tuple[StabilityFinding | None, float]:
-    """The earliest state of ``indices`` where the step is unstable, and the worst margin.
-
-    Returns
-    -------
-    (StabilityFinding or None, float)
-        The first unstable finding (None if all are stable) and the largest
-        ``amplification / flow_growth`` seen (for the diagnostics).
-    """
-    worst = 0.0
-    for i in indices:
-        fnd = _finding(probe, model, x[i], h, order, tangent, i)
-        if fnd.stable:
-            worst = max(worst, fnd.amplification / fnd.flow_growth)
-            continue
-        return fnd, worst
-    return None, worst
-
-
-def _stable_step(probe: Probe, model: Model, x: np.ndarray, h: float, order: int,
-                 tangent: bool) -> float | None:
-    """Largest ``|h'| < |h|`` (bisection) where the linearised step at ``x`` is stable."""
-    lo, hi = 0.0, abs(h)
-    sign = 1.0 if h > 0 else -1.0
-    trial = abs(h)
-    for _ in range(40):  # find a stable step first
-        trial /= 2
-        if _finding(probe, model, x, sign * trial, order, tangent).stable:
-            lo = trial
-            break
-    else:
-        return None
-    hi = 2 * lo
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        if _finding(probe, model, x, sign * mid, order, tangent).stable:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-4 * lo:
-            break
-    return lo
-
-
 def _state_text(x: np.ndarray) -> str:
     return np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
 
 
-def unstable_error(model: Model, probe: Probe, method: str, family: str, order: int,
-                   tangent: bool, fnd: StabilityFinding, x: np.ndarray, t: float,
-                   h: float, *, what: str = "") -> SolverError:
-    """The SolverError for an unstable step, with the estimate of the stable one."""
-    ha = abs(h)
-    est = _stable_step(probe, model, x, h, order, tangent)
-    limit = _IMAGINARY.get(family)
-    prod = ha * fnd.spectral_radius
-    cmp = f" > {limit:.3g}" if limit is not None and prod > limit else ""
-    interval = _INTERVALS.get(family, "")
-    est_text = (f"estimated stable step h < {est:.3g} from the linearised step there"
-                if est is not None else
-                "no stable step was found by halving h 40 times")
-    if math.isfinite(fnd.amplification):
-        amp = (f"the linearised step amplifies a mode by {fnd.amplification:.3g} per step "
-               f"where the exact linearised flow grows by at most {fnd.flow_growth:.3g} "
-               f"({fnd.bound:.3g} with the margins of the estimate)")
-    else:
-        amp = "the linearised step or field is not finite there (the state has exploded)"
-    return SolverError(
-        f"{method}: step h = {ha:.4g} is beyond the stable range of the method integrating "
-        f"{model.name} at t = {t:.6g} (x = {_state_text(x)}){what}: {amp}; "
-        f"h * |lambda|max = {prod:.3g}{cmp} (|lambda|max = {fnd.spectral_radius:.3g}, the "
-        f"spectral radius of the linearised field there{'; ' + interval if interval else ''})"
-        f"; {est_text}. Reduce step, or use an adaptive method (cvodes) or an A-stable one "
-        f"(collocation)", status=StepStability.UNSTABLE_STEP.code)
+@dataclass(frozen=True)
+class StepCheck:
+    """The checks of one fixed-step run.
 
-
-def check_fixed_step(model: Model, probe: Probe, method: str, family: str | None,
-                     order: int, tangent: bool, t: np.ndarray, x: np.ndarray, h: float,
-                     xdot: np.ndarray | None = None) -> dict[str, Any]:
-    """Both checks on a finished run; raise SolverError, or return the diagnostics.
-
-    Parameters
+    Attributes
     ----------
     model : Model
         The model.
@@ -385,89 +284,202 @@ def check_fixed_step(model: Model, probe: Probe, method: str, family: str | None
     method : str
         The method's name, for messages.
     family : str or None
-        ``"rk"``, ``"rkmk4"`` or ``"variational"`` (its stability interval), or None for a
-        method without a step map to linearise (collocation).
-    order : int
-        The method's order.
+        ``"rk"``, ``"rkmk4"`` or ``"variational"`` (whose stability interval the message
+        quotes), or None for a method without a step map to linearise (collocation).
     tangent : bool
-        Linearise in tangent coordinates (methods that stay on the manifold).
-    t : ndarray, shape=(n_times,)
-        Output times.
-    x : ndarray, shape=(n_times, ambient_dim)
-        States (finite).
+        Linearise in tangent coordinates (the methods that stay on the manifold); ambient
+        for ``rk``, which integrates the ambient equations.
     h : float
-        The signed step used.
-    xdot : ndarray, shape=(n_times, ambient_dim), optional
-        The field at the states, when already computed.
-
-    Returns
-    -------
-    dict
-        ``stability``: ``checked_states``, ``max_amplification_over_flow``,
-        ``conserved_invariants``, ``status``.
-
-    Raises
-    ------
-    SolverError
-        Status ``unstable_step`` or ``invariant_drift``.
+        The step: signed for a geometric step function, positive for the RK4 step of the
+        signed field.
     """
-    idx = _samples(x, xdot)
-    worst = None
-    if probe.step_jac is not None and family is not None:
-        fnd, worst = find_unstable(model, probe, x, idx, h, order, tangent)
-        if fnd is not None:
-            raise unstable_error(model, probe, method, family, order, tangent, fnd,
-                                 x[fnd.index], float(t[fnd.index]), h)
-    conserved = _conserved(model, probe, x, idx)
-    if conserved:
-        _check_drift(model, x, t, conserved, method, h, probe, family, order, tangent)
-    return {"stability": {
-        "status": StepStability.STABLE.code,
-        "checked_states": len(idx),
-        "max_amplification_over_flow": worst,
-        "conserved_invariants": conserved,
-    }}
 
+    model: Model
+    probe: Probe
+    method: str
+    family: str | None
+    tangent: bool
+    h: float
 
-def _conserved(model: Model, probe: Probe, x: np.ndarray, idx: list[int]) -> list[str]:
-    if probe.rates is None:
-        return []
-    names = model.invariant_names
-    keep = np.ones(len(names), dtype=bool)
-    for i in idx:
-        rate, gn, fn = (np.asarray(v, dtype=float).ravel() for v in probe.rates(x[i], model.p))
-        ok = np.abs(rate) <= CONSERVED_RTOL * gn * fn[0] + np.finfo(float).tiny
-        keep &= ok & np.isfinite(rate)
-    return [n for n, k in zip(names, keep) if k]
+    @property
+    def linearised(self) -> bool:
+        """Whether the run has a step map to linearise."""
+        return self.probe.step_jac is not None and self.family is not None
 
+    def finding(self, x: np.ndarray, index: int = -1, h: float | None = None
+                ) -> StabilityFinding:
+        """The stability estimate at the state ``x`` (for step ``h``, default the run's)."""
+        h = self.h if h is None else h
+        p = self.model.p
+        A = np.asarray(self.probe.field_jac(x, p), dtype=float)
+        x_next, J = (np.asarray(v, dtype=float) for v in self.probe.step_jac(x, p, h))
+        A_next = np.asarray(self.probe.field_jac(x_next.ravel(), p), dtype=float)
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(J))
+                and np.all(np.isfinite(A_next))):
+            return StabilityFinding(index, math.inf, math.nan, math.nan, math.inf, False)
+        ha = abs(h)
+        # how far the frozen estimate can be off: the change of h A over the step
+        frozen = ha * float(np.linalg.norm(A_next - A, 2))
+        Q = _basis(self.model, x, self.tangent)
+        if Q is not None:
+            A, J = Q.T @ A @ Q, Q.T @ J @ Q
+        lam = np.linalg.eigvals(A)
+        mu = np.linalg.eigvals(J)
+        alpha = float(np.max(lam.real)) if lam.size else 0.0
+        rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
+        growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
+        # a growing mode may grow up to twice as fast numerically (the method's own error
+        # on an unstable focus), never more: beyond that the step adds growth of its own
+        bound = growth ** 2 * (1.0 + STABILITY_RTOL) * math.exp(min(frozen, 700.0))
+        amp = float(np.max(np.abs(mu))) if mu.size else 0.0
+        return StabilityFinding(index, amp, growth, bound, rho_a, bool(amp <= bound))
 
-def _check_drift(model: Model, x: np.ndarray, t: np.ndarray, names: list[str], method: str,
-                 h: float, probe: Probe, family: str | None, order: int,
-                 tangent: bool) -> None:
-    fn = model.function("invariants")
-    values = np.asarray(fn.map(len(x))(x.T, model.p), dtype=float)  # (n_inv, n_times)
-    all_names = model.invariant_names
-    grad_norm = np.asarray(probe.rates(x[0], model.p)[1], dtype=float).ravel()
-    x0_norm = float(np.linalg.norm(x[0]))
-    for name in names:
-        k = all_names.index(name)
-        series = values[k]
-        scale = max(abs(series[0]), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
-        dev = np.abs(series - series[0])
-        bad = np.flatnonzero(~(dev <= DRIFT_LIMIT * scale))
-        if not bad.size:
-            continue
-        j = int(bad[0])
-        hint = ""
-        if probe.step_jac is not None and family is not None:
-            fnd = _finding(probe, model, x[max(j - 1, 0)], h, order, tangent, j)
-            hint = (f"; the linearised step at the output before amplifies by "
-                    f"{fnd.amplification:.3g} per step (the exact flow by at most "
-                    f"{fnd.flow_growth:.3g})")
-        raise SolverError(
-            f"{method}: step h = {abs(h):.4g} gives an untrustworthy run of {model.name}: the "
-            f"invariant {name!r}, which the field conserves at every checked state (no "
-            f"controller working on it, no dissipation, no load), changed from "
-            f"{series[0]:.6g} to {series[j]:.6g} by t = {t[j]:.6g}, more than "
-            f"{DRIFT_LIMIT:g} times its scale {scale:.3g} (max(|I(x0)|, |grad I(x0)| |x0|))"
-            f"{hint}. Reduce step", status=StepStability.INVARIANT_DRIFT.code)
+    def find_unstable(self, x: np.ndarray, indices: list[int]
+                      ) -> tuple[StabilityFinding | None, float]:
+        """The earliest of the states ``x[indices]`` where the step is unstable.
+
+        Returns
+        -------
+        (StabilityFinding or None, float)
+            The first unstable finding (None if all are stable) and the largest
+            ``amplification / flow_growth`` seen among the stable ones.
+        """
+        worst = 0.0
+        for i in indices:
+            fnd = self.finding(x[i], i)
+            if not fnd.stable:
+                return fnd, worst
+            worst = max(worst, fnd.amplification / fnd.flow_growth)
+        return None, worst
+
+    def stable_step(self, x: np.ndarray) -> float | None:
+        """Largest ``|h'| < |h|`` (bisection, 1e-4 relative) where the step at ``x`` is stable.
+
+        None when no halving of ``h`` (40 of them) is stable there.
+        """
+        sign = 1.0 if self.h > 0 else -1.0
+        lo = abs(self.h)
+        for _ in range(40):  # a stable step first
+            lo /= 2
+            if self.finding(x, h=sign * lo).stable:
+                break
+        else:
+            return None
+        hi = min(2 * lo, abs(self.h))
+        while hi - lo > 1e-4 * lo:
+            mid = 0.5 * (lo + hi)
+            if self.finding(x, h=sign * mid).stable:
+                lo = mid
+            else:
+                hi = mid
+        return lo
+
+    def unstable_error(self, fnd: StabilityFinding, x: np.ndarray, t: float, *,
+                       what: str = "") -> SolverError:
+        """The SolverError for an unstable step at ``x``, with the estimated stable step."""
+        ha = abs(self.h)
+        est = self.stable_step(x)
+        limit = _IMAGINARY.get(self.family or "")
+        prod = ha * fnd.spectral_radius
+        cmp = f" > {limit:.3g}" if limit is not None and prod > limit else ""
+        interval = _INTERVALS.get(self.family or "", "")
+        est_text = (f"estimated stable step h < {est:.4g} from the linearised step there"
+                    if est is not None else
+                    "no stable step was found by halving h 40 times")
+        if math.isfinite(fnd.amplification):
+            amp = (f"the linearised step amplifies a mode by {fnd.amplification:.3g} per "
+                   f"step where the exact linearised flow grows by at most "
+                   f"{fnd.flow_growth:.3g} ({fnd.bound:.3g} accepted with the margins of the "
+                   f"estimate)")
+        else:
+            amp = "the linearised step or field is not finite there (the state has exploded)"
+        return SolverError(
+            f"{self.method}: step h = {ha:.4g} is beyond the stable range of the method "
+            f"integrating {self.model.name} at t = {t:.6g} (x = {_state_text(x)}){what}: "
+            f"{amp}; h * |lambda|max = {prod:.3g}{cmp} (|lambda|max = "
+            f"{fnd.spectral_radius:.3g}, the spectral radius of the linearised field there"
+            f"{'; ' + interval if interval else ''}); {est_text}. Reduce step, or use an "
+            f"adaptive method (cvodes) or an A-stable one (collocation)",
+            status=StepStability.UNSTABLE_STEP.code)
+
+    def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None
+            ) -> dict[str, Any]:
+        """Both checks on a finished run; raise SolverError, or return the diagnostics.
+
+        Parameters
+        ----------
+        t : ndarray, shape=(n_times,)
+            Output times.
+        x : ndarray, shape=(n_times, ambient_dim)
+            States (finite).
+        xdot : ndarray, shape=(n_times, ambient_dim), optional
+            The field at the states, when already computed (the fastest state is checked).
+
+        Returns
+        -------
+        dict
+            ``{"stability": {...}}``: ``status``, ``checked_states``,
+            ``max_amplification_over_flow`` (None without a step map),
+            ``conserved_invariants`` (those whose drift was checked).
+
+        Raises
+        ------
+        SolverError
+            Status ``unstable_step`` or ``invariant_drift``.
+        """
+        idx = _samples(x, xdot)
+        worst = None
+        if self.linearised:
+            fnd, worst = self.find_unstable(x, idx)
+            if fnd is not None:
+                raise self.unstable_error(fnd, x[fnd.index], float(t[fnd.index]))
+        conserved = self._conserved(x, idx)
+        if conserved:
+            self._check_drift(t, x, conserved)
+        return {"stability": {
+            "status": StepStability.STABLE.code,
+            "checked_states": len(idx),
+            "max_amplification_over_flow": worst,
+            "conserved_invariants": conserved,
+        }}
+
+    def _conserved(self, x: np.ndarray, idx: list[int]) -> list[str]:
+        """The invariants the closed-loop field conserves at every state ``x[idx]``."""
+        if self.probe.rates is None:
+            return []
+        names = self.model.invariant_names
+        keep = np.ones(len(names), dtype=bool)
+        for i in idx:
+            rate, gn, fn = (np.asarray(v, dtype=float).ravel()
+                            for v in self.probe.rates(x[i], self.model.p))
+            keep &= np.abs(rate) <= CONSERVED_RTOL * gn * fn[0] + np.finfo(float).tiny
+        return [n for n, k in zip(names, keep) if k]
+
+    def _check_drift(self, t: np.ndarray, x: np.ndarray, names: list[str]) -> None:
+        model = self.model
+        fn = model.function("invariants")
+        values = np.asarray(fn.map(len(x))(x.T, model.p), dtype=float)  # (n_inv, n_times)
+        grad_norm = np.asarray(self.probe.rates(x[0], model.p)[1], dtype=float).ravel()
+        x0_norm = float(np.linalg.norm(x[0]))
+        for name in names:
+            k = model.invariant_names.index(name)
+            series = values[k]
+            scale = max(abs(series[0]), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
+            bad = np.flatnonzero(~(np.abs(series - series[0]) <= DRIFT_LIMIT * scale))
+            if not bad.size:
+                continue
+            j = int(bad[0])
+            hint = ""
+            if self.linearised:
+                fnd = self.finding(x[j - 1], j - 1)
+                hint = (f"; the linearised step at the output before amplifies by "
+                        f"{fnd.amplification:.3g} per step (the exact linearised flow by at "
+                        f"most {fnd.flow_growth:.3g})")
+            raise SolverError(
+                f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
+                f"{model.name}: the invariant {name!r}, which the field conserves at every "
+                f"checked state (no controller working on it, no dissipation, no load), "
+                f"changed from {series[0]:.6g} to {series[j]:.6g} by t = {t[j]:.6g}, more "
+                f"than {DRIFT_LIMIT:g} times its scale {scale:.3g} (max(|I(x0)|, "
+                f"|grad I(x0)| |x0|)){hint}. Reduce step",
+                status=StepStability.INVARIANT_DRIFT.code)
