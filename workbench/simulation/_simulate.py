@@ -393,9 +393,11 @@ def simulate(
             f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
             f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
             "are not a solution", status="non-finite")
-    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T)
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
-    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None), **checks}
+    diag = _diagnostics(traj, closed_loop=controller is not None)
+    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T,
+                                                diag["invariant_drift"])
+    traj.diagnostics = {**diag, **checks}
     return traj
 
 
@@ -488,9 +490,9 @@ def _simulate_geometric(
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
     u_out = np.asarray(u_map).T.reshape(len(tv), -1)
-    checks = check.run(tv, run.x, np.asarray(rhs_out).T)
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
-    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
-                        **run.diagnostics, **checks}
+    diag = _diagnostics(traj, closed_loop=controller is not None)
+    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"])
+    traj.diagnostics = {**diag, **run.diagnostics, **checks}
     return traj

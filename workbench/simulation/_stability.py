@@ -43,11 +43,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from dataclasses import field as dc_field
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from workbench.core._evaluator import DenseEvaluator
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import SolverError
@@ -61,6 +63,7 @@ __all__ = [
     "DRIFT_LIMIT",
     "CONSERVED_RTOL",
     "SAMPLES",
+    "SAFE_H_RHO",
     "RK4_IMAGINARY",
     "RK4_REAL",
     "Probe",
@@ -80,8 +83,15 @@ CONSERVED_RTOL = 1e-8
 """``|grad I . f| <= CONSERVED_RTOL |grad I| |f|`` at every checked state: the closed-loop
 field conserves ``I`` (round-off is ~1e-16 of the terms)."""
 
-SAMPLES = 8
-"""Evenly spaced output states checked, besides the start, the largest and the fastest."""
+SAFE_H_RHO = 1.0
+"""``h |lambda|max`` at or below which a step is inside the stable range of every
+fixed-step method here by a factor 2 or more (RK4: 2.79 on the real axis, 2.83 on the
+imaginary axis; the variational steps: 2 on an oscillation); the step map is then not
+linearised."""
+
+SAMPLES = 4
+"""Evenly spaced output states checked (the first and the last among them), besides the
+largest and the fastest."""
 
 RK4_IMAGINARY = 2.0 * math.sqrt(2.0)
 """RK4's stability interval on the imaginary axis: ``|R(iy)| <= 1`` for ``|y| <= 2 sqrt 2``."""
@@ -124,11 +134,13 @@ class StabilityFinding:
     index : int
         Output index of the state.
     amplification : float
-        Spectral radius of the linearised step (``inf`` when it is not finite).
+        Spectral radius of the linearised step (``inf`` when it is not finite; NaN when
+        the step was not linearised: ``h |lambda|max <= SAFE_H_RHO``).
     flow_growth : float
         ``max(1, exp(h alpha))``: what the exact linearised flow allows per step.
     bound : float
-        The accepted amplification (``flow_growth`` with the margins).
+        The accepted amplification (``flow_growth`` with the margins; NaN when the step was
+        not linearised).
     spectral_radius : float
         ``max |lambda|`` of the linearised field.
     stable : bool
@@ -180,17 +192,41 @@ class Probe:
         ``(x, p) -> (xdot, u)``: the closed-loop field in the direction of integration.
     field_jac : casadi.Function
         ``(x, p) -> A``, its ambient Jacobian.
-    step_jac : casadi.Function or None
-        ``(x, p, h) -> (x_next, J)``, the step map and its ambient Jacobian (None: no step
-        map).
+    step : casadi.Function or None
+        The step map ``(x, p, h) -> (x_next, ...)`` (None: none to linearise).
     rates : casadi.Function or None
         ``(x, p) -> (grad I . f, |grad I|, |f|)`` for every invariant (None: none).
     """
 
     field: ca.Function
     field_jac: ca.Function
-    step_jac: ca.Function | None
+    step: ca.Function | None
     rates: ca.Function | None
+    _step_jac: ca.Function | None = None
+    _maps: dict[tuple[str, int], DenseEvaluator] = dc_field(default_factory=dict)
+
+    def mapped(self, name: str, k: int) -> DenseEvaluator:
+        """An evaluator of ``field_jac`` or ``rates`` at ``k`` states in one call."""
+        hit = self._maps.get((name, k))
+        if hit is None:
+            fn = getattr(self, name)  # the parameters are shared, not repeated
+            hit = self._maps[(name, k)] = DenseEvaluator(
+                fn.map(f"{fn.name()}_{k}", "serial", k, [1], []))
+        return hit
+
+    @property
+    def step_jac(self) -> ca.Function:
+        """``(x, p, h) -> (x_next, J)``: the step and its ambient Jacobian.
+
+        Built on first use: the derivative of an implicit step's unrolled Newton iteration
+        takes a while to build.
+        """
+        if self._step_jac is None:
+            if self.step is None:
+                raise SolverError("no step map to linearise")  # a caller's defect
+            self._step_jac = self.step.factory("step_jac", ["x", "p", "h"],
+                                               ["x_next", "jac:x_next:x"])
+        return self._step_jac
 
 
 _PROBES: dict[tuple, tuple[Any, Probe]] = {}
@@ -228,7 +264,8 @@ def probe_for(model: Model, controller: ca.Function | None, *, sign: float = 1.0
     u = feedback_function(model, controller)(x, p)
     xdot = sign * f(x, u, p)
     field = ca.Function("signed_loop", [x, p], [xdot, u], ["x", "p"], ["xdot", "u"])
-    field_jac = ca.Function("field_jac", [x, p], [ca.jacobian(xdot, x)], ["x", "p"], ["A"])
+    field_jac = ca.Function("field_jac", [x, p], [ca.densify(ca.jacobian(xdot, x))],
+                            ["x", "p"], ["A"])
     rates = None
     if model.invariant_names:
         grads = ca.jacobian(model.function("invariants")(x, p), x)  # (n_inv, n_x)
@@ -237,10 +274,7 @@ def probe_for(model: Model, controller: ca.Function | None, *, sign: float = 1.0
                              ca.norm_2(xdot)], ["x", "p"], ["rate", "grad_norm", "f_norm"])
     if rk4:
         step = rk4_step(field, S)
-    step_jac = None
-    if step is not None:
-        step_jac = step.factory("step_jac", ["x", "p", "h"], ["x_next", "jac:x_next:x"])
-    probe = Probe(field, field_jac, step_jac, rates)
+    probe = Probe(field, field_jac, step, rates)
     if len(_PROBES) >= _PROBES_MAX:
         _PROBES.pop(next(iter(_PROBES)))
     _PROBES[key] = ((f, step if not rk4 else None, controller), probe)
@@ -304,29 +338,65 @@ class StepCheck:
     @property
     def linearised(self) -> bool:
         """Whether the run has a step map to linearise."""
-        return self.probe.step_jac is not None and self.family is not None
+        return self.probe.step is not None and self.family is not None
 
-    def finding(self, x: np.ndarray, index: int = -1, h: float | None = None
-                ) -> StabilityFinding:
-        """The stability estimate at the state ``x`` (for step ``h``, default the run's)."""
+    def _field_spectra(self, xs: np.ndarray, h: float | None = None
+                       ) -> list[tuple[np.ndarray, np.ndarray | None, np.ndarray | None]]:
+        """``(A, Q, lambda)`` at every state of ``xs`` (one call of the mapped Jacobian).
+
+        ``A`` is ambient, ``Q`` the orthonormal tangent basis (None: ambient coordinates),
+        ``lambda`` the eigenvalues of ``Q^T A Q`` (None when ``A`` is not finite). Where
+        ``|h| |A|_F <= SAFE_H_RHO`` (a bound on the spectral radius of every compression
+        of ``A``) ``Q`` and ``lambda`` are skipped (None, ``[]``): the step is safe there.
+        ``h`` is the step (default the run's; 0 skips nothing).
+        """
         h = self.h if h is None else h
-        p = self.model.p
-        A = np.asarray(self.probe.field_jac(x, p), dtype=float)
-        x_next, J = (np.asarray(v, dtype=float) for v in self.probe.step_jac(x, p, h))
-        A_next = np.asarray(self.probe.field_jac(x_next.ravel(), p), dtype=float)
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(J))
-                and np.all(np.isfinite(A_next))):
-            return StabilityFinding(index, math.inf, math.nan, math.nan, math.inf, False)
+        k, n = len(xs), xs.shape[1]
+        out = self.probe.mapped("field_jac", k)(xs.T, self.model.p)[0]
+        As = np.asarray(out, dtype=float).reshape(n, k, n).transpose(1, 0, 2)
+        safe = (abs(h) * np.sqrt(np.sum(As * As, axis=(1, 2))) <= SAFE_H_RHO) & (h != 0)
+        res = []
+        for x, A, ok in zip(xs, As, safe):
+            if ok:
+                res.append((A, None, np.zeros(0)))
+                continue
+            Q = _basis(self.model, x, self.tangent)
+            lam = None
+            if np.all(np.isfinite(A)):
+                lam = np.linalg.eigvals(A if Q is None else Q.T @ A @ Q)
+            res.append((A, Q, lam))
+        return res
+
+    def finding(self, x: np.ndarray, index: int = -1, h: float | None = None,
+                spectrum: tuple | None = None) -> StabilityFinding:
+        """The stability estimate at the state ``x`` (for step ``h``, default the run's).
+
+        The field's linearisation first: with ``h |lambda|max <= SAFE_H_RHO`` the step is
+        well inside the method's range and the step map is not linearised (its derivative
+        costs about ``ambient_dim`` steps); otherwise the linearised step decides.
+        ``spectrum`` is ``(A, Q, lambda)`` at ``x`` when already computed.
+        """
+        h = self.h if h is None else h
         ha = abs(h)
+        A, Q, lam = spectrum if spectrum is not None else \
+            self._field_spectra(np.asarray(x, dtype=float)[None, :], h)[0]
+        rho_a, alpha = math.inf, 0.0
+        if lam is not None:
+            rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
+            alpha = float(np.max(lam.real)) if lam.size else 0.0
+            if ha * rho_a <= SAFE_H_RHO:
+                growth = max(1.0, math.exp(ha * alpha))
+                return StabilityFinding(index, math.nan, growth, math.nan, rho_a, True)
+        p = self.model.p
+        x_next, J = (np.asarray(v, dtype=float) for v in self.probe.step_jac(x, p, h))
+        A_next = self._field_spectra(x_next.reshape(1, -1), 0.0)[0][0]
+        if lam is None or not (np.all(np.isfinite(J)) and np.all(np.isfinite(A_next))):
+            return StabilityFinding(index, math.inf, math.nan, math.nan, rho_a, False)
         # how far the frozen estimate can be off: the change of h A over the step
         frozen = ha * float(np.linalg.norm(A_next - A, 2))
-        Q = _basis(self.model, x, self.tangent)
         if Q is not None:
-            A, J = Q.T @ A @ Q, Q.T @ J @ Q
-        lam = np.linalg.eigvals(A)
+            J = Q.T @ J @ Q
         mu = np.linalg.eigvals(J)
-        alpha = float(np.max(lam.real)) if lam.size else 0.0
-        rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
         growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
         # a growing mode may grow up to twice as fast numerically (the method's own error
         # on an unstable focus), never more: beyond that the step adds growth of its own
@@ -335,22 +405,24 @@ class StepCheck:
         return StabilityFinding(index, amp, growth, bound, rho_a, bool(amp <= bound))
 
     def find_unstable(self, x: np.ndarray, indices: list[int]
-                      ) -> tuple[StabilityFinding | None, float]:
+                      ) -> tuple[StabilityFinding | None, int]:
         """The earliest of the states ``x[indices]`` where the step is unstable.
 
         Returns
         -------
-        (StabilityFinding or None, float)
-            The first unstable finding (None if all are stable) and the largest
-            ``amplification / flow_growth`` seen among the stable ones.
+        (StabilityFinding or None, int)
+            The first unstable finding (None if all are stable) and the number of states
+            before it where the step map had to be linearised (``h |lambda|max`` above
+            :data:`SAFE_H_RHO`).
         """
-        worst = 0.0
-        for i in indices:
-            fnd = self.finding(x[i], i)
+        linearised = 0
+        spectra = self._field_spectra(x[indices])
+        for i, spec in zip(indices, spectra):
+            fnd = self.finding(x[i], i, spectrum=spec)
             if not fnd.stable:
-                return fnd, worst
-            worst = max(worst, fnd.amplification / fnd.flow_growth)
-        return None, worst
+                return fnd, linearised
+            linearised += not math.isnan(fnd.amplification)
+        return None, linearised
 
     def stable_step(self, x: np.ndarray) -> float | None:
         """Largest ``|h'| < |h|`` (bisection, 1e-4 relative) where the step at ``x`` is stable.
@@ -402,8 +474,8 @@ class StepCheck:
             f"adaptive method (cvodes) or an A-stable one (collocation)",
             status=StepStability.UNSTABLE_STEP.code)
 
-    def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None
-            ) -> dict[str, Any]:
+    def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
+            drift: dict[str, Any] | None = None) -> dict[str, Any]:
         """Both checks on a finished run; raise SolverError, or return the diagnostics.
 
         Parameters
@@ -414,13 +486,17 @@ class StepCheck:
             States (finite).
         xdot : ndarray, shape=(n_times, ambient_dim), optional
             The field at the states, when already computed (the fastest state is checked).
+        drift : dict, optional
+            The run's ``invariant_drift`` diagnostics, when already computed (the
+            invariants are then evaluated again only to locate a failure).
 
         Returns
         -------
         dict
             ``{"stability": {...}}``: ``status``, ``checked_states``,
-            ``max_amplification_over_flow`` (None without a step map),
-            ``conserved_invariants`` (those whose drift was checked).
+            ``step_linearised_at`` (how many of them had ``h |lambda|max`` above
+            :data:`SAFE_H_RHO`, so that the step map was linearised; None without a step
+            map), ``conserved_invariants`` (those whose drift was checked).
 
         Raises
         ------
@@ -428,18 +504,18 @@ class StepCheck:
             Status ``unstable_step`` or ``invariant_drift``.
         """
         idx = _samples(x, xdot)
-        worst = None
+        linearised = None
         if self.linearised:
-            fnd, worst = self.find_unstable(x, idx)
+            fnd, linearised = self.find_unstable(x, idx)
             if fnd is not None:
                 raise self.unstable_error(fnd, x[fnd.index], float(t[fnd.index]))
         conserved = self._conserved(x, idx)
         if conserved:
-            self._check_drift(t, x, conserved)
+            self._check_drift(t, x, conserved, drift)
         return {"stability": {
             "status": StepStability.STABLE.code,
             "checked_states": len(idx),
-            "max_amplification_over_flow": worst,
+            "step_linearised_at": linearised,
             "conserved_invariants": conserved,
         }}
 
@@ -448,33 +524,42 @@ class StepCheck:
         if self.probe.rates is None:
             return []
         names = self.model.invariant_names
-        keep = np.ones(len(names), dtype=bool)
-        for i in idx:
-            rate, gn, fn = (np.asarray(v, dtype=float).ravel()
-                            for v in self.probe.rates(x[i], self.model.p))
-            keep &= np.abs(rate) <= CONSERVED_RTOL * gn * fn[0] + np.finfo(float).tiny
+        rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(idx))
+                        for v in self.probe.mapped("rates", len(idx))(x[idx].T, self.model.p))
+        keep = np.all(np.abs(rate) <= CONSERVED_RTOL * gn * fn + np.finfo(float).tiny, axis=1)
         return [n for n, k in zip(names, keep) if k]
 
-    def _check_drift(self, t: np.ndarray, x: np.ndarray, names: list[str]) -> None:
+    def _check_drift(self, t: np.ndarray, x: np.ndarray, names: list[str],
+                     drift: dict[str, Any] | None) -> None:
         model = self.model
-        fn = model.function("invariants")
-        values = np.asarray(fn.map(len(x))(x.T, model.p), dtype=float)  # (n_inv, n_times)
         grad_norm = np.asarray(self.probe.rates(x[0], model.p)[1], dtype=float).ravel()
         x0_norm = float(np.linalg.norm(x[0]))
+        values = None
         for name in names:
             k = model.invariant_names.index(name)
-            series = values[k]
-            scale = max(abs(series[0]), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
-            bad = np.flatnonzero(~(np.abs(series - series[0]) <= DRIFT_LIMIT * scale))
-            if not bad.size:
+            known = (drift or {}).get(name)
+            if known is not None:
+                initial, max_abs = float(known["initial"]), float(known["max_abs"])
+            else:
+                values = values if values is not None else self._invariants(x)
+                initial = float(values[k, 0])
+                max_abs = float(np.max(np.abs(values[k] - initial)))
+            scale = max(abs(initial), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
+            if max_abs <= DRIFT_LIMIT * scale:
                 continue
-            j = int(bad[0])
+            values = values if values is not None else self._invariants(x)
+            series = values[k]
+            j = int(np.argmax(~(np.abs(series - series[0]) <= DRIFT_LIMIT * scale)))
             hint = ""
-            if self.linearised:
-                fnd = self.finding(x[j - 1], j - 1)
-                hint = (f"; the linearised step at the output before amplifies by "
-                        f"{fnd.amplification:.3g} per step (the exact linearised flow by at "
-                        f"most {fnd.flow_growth:.3g})")
+            if self.linearised and j > 0:
+                fnd = self.finding(x[j - 1], j - 1,
+                                   spectrum=self._field_spectra(x[j - 1: j], 0.0)[0])
+                hint = (f"; at the output before, h * |lambda|max = "
+                        f"{abs(self.h) * fnd.spectral_radius:.3g}"
+                        + ("" if math.isnan(fnd.amplification) else
+                           f" and the linearised step amplifies by {fnd.amplification:.3g} "
+                           f"per step (the exact linearised flow by at most "
+                           f"{fnd.flow_growth:.3g})"))
             raise SolverError(
                 f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
                 f"{model.name}: the invariant {name!r}, which the field conserves at every "
@@ -483,3 +568,7 @@ class StepCheck:
                 f"than {DRIFT_LIMIT:g} times its scale {scale:.3g} (max(|I(x0)|, "
                 f"|grad I(x0)| |x0|)){hint}. Reduce step",
                 status=StepStability.INVARIANT_DRIFT.code)
+
+    def _invariants(self, x: np.ndarray) -> np.ndarray:
+        fn = self.model.function("invariants")
+        return np.asarray(fn.map(len(x))(x.T, self.model.p), dtype=float)  # (n_inv, n_times)

@@ -52,10 +52,9 @@ class Trajectory:
         every factor over the trajectory; ``closed_loop``: whether a controller acted
         (invariants are then not expected to be conserved); for the fixed-step methods,
         ``stability``: the checks the run passed (``status``, ``checked_states``,
-        ``max_amplification_over_flow``, the largest spectral radius of the linearised
-        step over the exact flow's growth at the checked states, None for collocation;
-        ``conserved_invariants``, those whose drift was checked; see
-        :mod:`workbench.simulation._stability`).
+        ``step_linearised_at``, how many of them were close enough to the stable range
+        for the step map to be linearised, None for collocation; ``conserved_invariants``,
+        those whose drift was checked; see :mod:`workbench.simulation._stability`).
     """
 
     t: np.ndarray
