@@ -264,8 +264,12 @@ def probe_for(model: Model, controller: ca.Function | None, *, sign: float = 1.0
     u = feedback_function(model, controller)(x, p)
     xdot = sign * f(x, u, p)
     field = ca.Function("signed_loop", [x, p], [xdot, u], ["x", "p"], ["xdot", "u"])
-    field_jac = ca.Function("field_jac", [x, p], [ca.densify(ca.jacobian(xdot, x))],
-                            ["x", "p"], ["A"])
+    # the model's own Jacobians (a mechanics MX model supplies them: AD through its
+    # linear solves is slower and fails where casadi's LU meets a structural zero)
+    A = model.function("f_x")(x, u, p)
+    if controller is not None and model.n_inputs:
+        A = A + ca.mtimes(model.function("f_u")(x, u, p), ca.jacobian(u, x))
+    field_jac = ca.Function("field_jac", [x, p], [ca.densify(sign * A)], ["x", "p"], ["A"])
     rates = None
     if model.invariant_names:
         grads = ca.jacobian(model.function("invariants")(x, p), x)  # (n_inv, n_x)
@@ -352,7 +356,8 @@ class StepCheck:
         """
         h = self.h if h is None else h
         k, n = len(xs), xs.shape[1]
-        out = self.probe.mapped("field_jac", k)(xs.T, self.model.p)[0]
+        # xs (k, n) in C order is the mapped input (n, k) in casadi's column-major order
+        out = self.probe.mapped("field_jac", k)(xs, self.model.p)[0]
         As = np.asarray(out, dtype=float).reshape(n, k, n).transpose(1, 0, 2)
         safe = (abs(h) * np.sqrt(np.sum(As * As, axis=(1, 2))) <= SAFE_H_RHO) & (h != 0)
         res = []
@@ -525,7 +530,7 @@ class StepCheck:
             return []
         names = self.model.invariant_names
         rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(idx))
-                        for v in self.probe.mapped("rates", len(idx))(x[idx].T, self.model.p))
+                        for v in self.probe.mapped("rates", len(idx))(x[idx], self.model.p))
         keep = np.all(np.abs(rate) <= CONSERVED_RTOL * gn * fn + np.finfo(float).tiny, axis=1)
         return [n for n, k in zip(names, keep) if k]
 
