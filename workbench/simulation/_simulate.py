@@ -388,11 +388,10 @@ def simulate(
         # collocation's Newton step keeps the last state when the field turns NaN, without
         # an error: the trajectory would "stop" there and look like a result
         bad = int(np.argmin(rhs_ok & np.all(np.isfinite(u_out), axis=1)))
-        raise SolverError(
-            f"{method.value}: the {'closed-loop ' if controller is not None else ''}field of "
-            f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
-            f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
-            "are not a solution", status="non-finite")
+        why = field_failure(model, controller, xs_out[bad], float(tv[bad])) or \
+            f"the field or the control is not finite at t = {tv[bad]:g}"
+        raise SolverError(f"{method.value} integrating {model.name}: {why}; the states from "
+                          f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
     checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T,
@@ -484,8 +483,8 @@ def _simulate_geometric(
             raise
         raise check.unstable_error(fnd, xs[fnd.index],
                                    float(tv[0] if fnd.index == 0 else err.time),
-                                   what=f" (step {err.step_index + 1} failed: {err.status})"
-                                   ) from err
+                                   what=f" (step {err.step_index + 1} failed)",
+                                   cause=str(err)) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)

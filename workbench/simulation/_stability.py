@@ -452,8 +452,12 @@ class StepCheck:
         return lo
 
     def unstable_error(self, fnd: StabilityFinding, x: np.ndarray, t: float, *,
-                       what: str = "") -> SolverError:
-        """The SolverError for an unstable step at ``x``, with the estimated stable step."""
+                       what: str = "", cause: str = "") -> SolverError:
+        """The SolverError for an unstable step at ``x``, with the estimated stable step.
+
+        ``what`` is said after the state, ``cause`` (the failure of the run itself) at the
+        end.
+        """
         ha = abs(self.h)
         est = self.stable_step(x)
         limit = _IMAGINARY.get(self.family or "")
@@ -476,7 +480,8 @@ class StepCheck:
             f"{amp}; h * |lambda|max = {prod:.3g}{cmp} (|lambda|max = "
             f"{fnd.spectral_radius:.3g}, the spectral radius of the linearised field there"
             f"{'; ' + interval if interval else ''}); {est_text}. Reduce step, or use an "
-            f"adaptive method (cvodes) or an A-stable one (collocation)",
+            f"adaptive method (cvodes) or an A-stable one (collocation)"
+            f"{'. The run itself reported: ' + cause if cause else ''}",
             status=StepStability.UNSTABLE_STEP.code)
 
     def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
