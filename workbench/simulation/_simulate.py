@@ -423,6 +423,13 @@ def _non_finite(model: Model, controller: ca.Function | None, check: StepCheck |
         f"at more times t to locate it)", status="non-finite")
 
 
+def _without_status(err: SolverError) -> str:
+    """The message of a SolverError without its ``[status: ...]`` suffix."""
+    text = str(err)
+    suffix = f" [status: {err.status}]"
+    return text[: -len(suffix)] if err.status and text.endswith(suffix) else text
+
+
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
     """Refuse knobs that the method would silently ignore."""
     unused = []
@@ -481,10 +488,15 @@ def _simulate_geometric(
         fnd, _ = check.find_unstable(xs, [0, 1])
         if fnd is None:
             raise
-        raise check.unstable_error(fnd, xs[fnd.index],
-                                   float(tv[0] if fnd.index == 0 else err.time),
-                                   what=f" (step {err.step_index + 1} failed)",
-                                   cause=str(err)) from err
+        t_bad = float(tv[0] if fnd.index == 0 else err.time)
+        if err.status == "non-finite":  # the state exploded: the instability is the cause
+            raise check.unstable_error(fnd, xs[fnd.index], t_bad,
+                                       what=f" (step {err.step_index + 1} failed)",
+                                       cause=str(err)) from err
+        # the step's own failure stays the status; the estimate says what to do about it
+        unstable = check.unstable_error(fnd, xs[fnd.index], t_bad)
+        raise SolverError(f"{_without_status(err)} Besides, {_without_status(unstable)}",
+                          status=err.status) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
