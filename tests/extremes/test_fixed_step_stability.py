@@ -222,6 +222,26 @@ def test_a_dissipated_or_forced_invariant_is_not_checked(damped, undamped):
     assert forced.run(t, x)["stability"]["conserved_invariants"] == []
 
 
+def test_a_state_exploding_beyond_the_flow_is_refused_whatever_the_method(damped, undamped):
+    """The growth check: a dissipated run (no invariant to watch) whose state jumps by
+    1e8 is refused; the same growth at the rate the forced flow has passes."""
+    t = np.linspace(0.0, 10.0, 51)
+    x = np.column_stack([np.cos(W * t), -W * np.sin(W * t)])
+    blown = x.copy()
+    blown[40:] *= 1e8
+    check = StepCheck(damped, probe_for(damped, None), "collocation", None, False, 0.1)
+    with pytest.raises(SolverError) as info:
+        check.run(t, blown)
+    assert info.value.status == "unstable_step"
+    assert f"by t = {t[40]:.6g}" in str(info.value) and "grew to" in str(info.value)
+    assert check.run(t, x)["stability"]["status"] == "stable"
+    # forced: alpha = 0.1 at x0, the flow allows e^(0.1 t); e^(0.1 t) growth is fine
+    forced = StepCheck(undamped, probe_for(undamped, feedback(0.2)), "collocation", None,
+                       False, 0.1)
+    grown = x * np.exp(0.1 * t)[:, None]
+    assert forced.run(t, grown)["stability"]["status"] == "stable"
+
+
 # ----------------------------------------------------------------------------------------
 # NaN is a defect of the field or controller, not a step to reduce
 

@@ -3,40 +3,43 @@
 A fixed-step method beyond its stability range amplifies some mode of the flow by more
 than the flow does, every step, and its states grow without bound (RK4 on ``x'' = -w^2 x``
 with ``h w = 3``: by ``|R(3i)| = 1.5`` per step). :meth:`StepCheck.run` tells such a run
-from a legitimate one, and :meth:`StepCheck.unstable_error` says why and for which step:
+from a legitimate one, and :meth:`StepCheck.unstable_error` says why and for which step.
+Three checks, all on a few output states (the start, evenly spaced ones, the largest and
+the fastest), so that they cost little next to the integration:
 
-* **Stability estimate** (every fixed-step method with a step map: ``rk``, ``rkmk4``,
-  ``lgvi``, ``s2_variational``, ``mechanics_variational``). At a few output states (the
-  start, evenly spaced ones, the largest state and the fastest) the step map is
-  linearised, ``J = d Phi_h / dx`` (automatic derivative of the step's graph; in tangent
-  coordinates for the methods that stay on the manifold, ambient for ``rk``, which
-  integrates the ambient equations), and so is the closed-loop field, ``A = df/dx`` (with
-  the controller; the same coordinates). The run is unstable there when the spectral
-  radius of ``J`` exceeds what the exact flow allows, ``max(1, exp(h alpha))`` with
-  ``alpha = max Re lambda(A)``, by more than the margins of the estimate: a factor
-  :data:`STABILITY_RTOL`; the change of the linearisation over the step,
-  ``exp(h |A(x_next) - A(x)|_2)`` (zero for a linear field, so the estimate is exact
-  there; off an equilibrium the frozen-coefficient estimate is off by about that much);
-  and, when the flow itself grows (``alpha > 0``, an unstable equilibrium or a forcing
-  that feeds energy), a numerical growth rate up to twice the flow's (the method's own
-  error on such a mode is far below that): the bound is
-  ``max(1, exp(2 h alpha)) (1 + STABILITY_RTOL) exp(h |A(x_next) - A(x)|_2)``. Damping
-  (``alpha < 0``) and forcing (a controller) enter through ``A`` and ``J`` alike, so
-  neither is mistaken for instability. The stable step is estimated by bisection on ``h``
-  of the same test.
-  Collocation (Gauss-Legendre, A-stable: ``|R(z)| <= 1`` for ``Re z <= 0``) has no such
-  range; it is checked by the next test only.
+* **Stability estimate** (the methods with a step map: ``rk``, ``rkmk4``, ``lgvi``,
+  ``s2_variational``, ``mechanics_variational``). The closed-loop field is linearised,
+  ``A = df/dx`` (the model's own Jacobian, with the controller's; in tangent coordinates
+  for the methods that keep the manifold, ambient for ``rk``, which integrates the
+  ambient equations). Where ``h |lambda|max <= SAFE_H_RHO`` (1: inside every method's
+  range by a factor 2 or more) nothing more is done. Elsewhere the step map is
+  linearised, ``J = d Phi_h / dx`` (automatic derivative of its graph), and its spectral
+  radius, the smaller of its ambient and tangent values, is compared with what the exact
+  flow allows, ``max(1, exp(h alpha))^2`` with ``alpha = max Re lambda(A)`` (a growing
+  mode may grow up to twice as fast numerically, never more), times ``1 +
+  STABILITY_RTOL`` plus the relative change of the amplification over the step. The step
+  is unstable there when that bound is exceeded at the state and again at the step's end
+  (an instability persists; a frozen-coefficient artefact off an equilibrium does not).
+  For a linear field the test is exact: on ``x'' = -w^2 x`` it finds RK4's ``h w <= 2
+  sqrt 2`` and the variational steps' ``h w <= 2`` (Stormer-Verlet's). Damping (``alpha
+  < 0``) and forcing (a controller, ``alpha > 0`` when it feeds energy) enter through
+  ``A`` and ``J`` alike, so neither is mistaken for instability. The stable step is
+  estimated by bisection on ``h`` of the same test. Collocation (Gauss-Legendre,
+  A-stable: ``|R(z)| <= 1`` for ``Re z <= 0``) has no such range.
+* **Growth.** A state larger than :data:`GROWTH_LIMIT` times what the flow allows from
+  ``x0`` (``max(|x0|, |t - t0| |f(x0)|) exp(max(alpha(x0), 0) |t - t0|)``, max-norms) is an
+  explosion, whatever the linearisation said.
 * **Invariant drift.** An invariant that the closed-loop field conserves at every checked
   state (``|grad I . f| <= CONSERVED_RTOL |grad I| |f|``: no controller that works on it,
   no dissipation, no load) must not drift by more than :data:`DRIFT_LIMIT` times its
   scale ``max(|I(x0)|, |grad I(x0)| |x0|)``. A dissipated or forced invariant is not
-  checked.
+  checked: its change is legitimate.
 
 The linearised step at a state off an equilibrium is the frozen-coefficient estimate of
-the usual stability analysis: exact for linear fields, a close estimate for the smooth
-fields of mechanics; a mode the flow itself amplifies fast (a large ``alpha`` from an
-unstable equilibrium) can hide a slightly unstable fast mode behind it, but not an
-exploding one (that explodes the state, and the largest state is checked).
+the usual stability analysis: exact for a linear field, close for the smooth fields of
+mechanics near an equilibrium, and only indicative in fast nonlinear motion (hence the
+margins and the persistence); a mode the flow itself amplifies fast can hide a slightly
+unstable fast mode behind it, but not an exploding one (the growth check).
 """
 
 from __future__ import annotations
