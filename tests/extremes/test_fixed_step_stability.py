@@ -284,3 +284,21 @@ def test_newton_max_iter_and_chunk_are_bounded_with_the_bound_in_the_message(und
     with pytest.raises(ParameterError, match=rf"chunk must be .*<= {MAX_CHUNK}"):
         integrate(undamped, rkmk4(undamped), x0_of(undamped), outputs(0.1, 5), step=0.1,
                   chunk=10**9)
+
+
+def test_sample_repeat_halving_and_worker_counts_are_bounded_before_any_work(undamped):
+    from workbench.simulation import sweep
+    from workbench.simulation._simulate import MAX_POINTS
+    from workbench.simulation._sweep import MAX_WORKERS
+    from workbench.simulation.accuracy import AccuracySweep, default_reference, work_precision
+    from workbench.simulation.accuracy.work_precision import MAX_HALVINGS, MAX_REPEATS
+
+    sweeps = [AccuracySweep("rk", (0.1,))]
+    with pytest.raises(ParameterError, match=rf"n_samples must be .*<= {MAX_POINTS}"):
+        work_precision(undamped, x0_of(undamped), 1.0, sweeps, n_samples=10**12)
+    with pytest.raises(ParameterError, match=rf"repeats must be .*<= {MAX_REPEATS}"):
+        work_precision(undamped, x0_of(undamped), 1.0, sweeps, repeats=10**9)
+    with pytest.raises(ParameterError, match=rf"halvings must be .*<= {MAX_HALVINGS}"):
+        default_reference(1.0, halvings=60)
+    with pytest.raises(ParameterError, match=rf"workers must be .*<= {MAX_WORKERS}"):
+        sweep(abs, [{"x": 1}], workers=10**6)
