@@ -6,7 +6,10 @@ a casadi.Function of the state) with one of casadi's integrators, and returns a
 side evaluations) and how accurate it is by the measures that need no reference
 solution: the drift of every invariant and the constraint residual of every manifold
 factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``degree``)
-are explicit keywords.
+are explicit keywords. A fixed-step run is checked before it is returned: a step beyond
+the method's stable range, a state that explodes or a conserved invariant that drifts by
+orders of magnitude raises a SolverError naming the step and the stable step estimated
+for it (:mod:`workbench.simulation._stability`).
 """
 
 from __future__ import annotations
@@ -204,8 +207,8 @@ def simulate(
         CVODES' multistep family, ``"adams"`` (non-stiff, default) or ``"bdf"`` (stiff).
     corrector : Corrector or str, optional
         CVODES' corrector iteration, ``"functional"`` (no Jacobian; default with Adams) or
-        ``"newton"`` (default with BDF); see :class:`Corrector`. Before issue 18 Adams ran
-        with Newton; pass ``corrector="newton"`` for the old behaviour.
+        ``"newton"`` (default with BDF); see :class:`Corrector`. Earlier versions ran Adams
+        with Newton; pass ``corrector="newton"`` for that behaviour.
     max_steps : int
         CVODES' limit on internal steps per output interval; a long horizon between two
         output times may need more (the failure says so and names this knob).
@@ -253,7 +256,12 @@ def simulate(
         If ``x0`` is off the manifold.
     SolverError
         If the integrator fails (with its status), or an implicit update of a geometric
-        method does not converge (with the step and its residual).
+        method does not converge (with the step and its residual). A fixed-step run that
+        is beyond its method's stable range (status ``unstable_step``: the step, the
+        linearised estimate and the stable step estimated for it), whose conserved
+        invariant drifts by orders of magnitude (``invariant_drift``), or whose field or
+        controller returns NaN (``non_finite_field``: which, at which state and time) is
+        never returned as a Trajectory; see :mod:`workbench.simulation._stability`.
     """
     method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
