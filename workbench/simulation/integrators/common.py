@@ -503,10 +503,11 @@ def integrate(
                             f" likely its rounding level (stiff or badly scaled inertia): "
                             f"raise newton_tol.")
             else:
-                what = ("the state became non-finite (the field"
-                        f"{'' if controller is None else ' and the controller'} are finite at "
-                        "the step's start: a stage or the update left their domain, or the "
-                        "step is beyond the method's stable range)")
+                finite = ("the field is" if controller is None else
+                          "the field and the controller are")
+                what = (f"the state became non-finite ({finite} finite at the step's start: a "
+                        "stage or the update left the field's domain, or the step is beyond "
+                        "the method's stable range)")
                 status, fix = "non-finite", "Reduce step."
             err = SolverError(
                 f"{scheme.name} failed at step {k + 1} of {n_total} (t = {t_k:.6g} -> "
