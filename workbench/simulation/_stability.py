@@ -134,7 +134,7 @@ class StepStability(StatusEnum):
     """Outcome of the checks of a fixed-step run (the ``status`` of its SolverError)."""
 
     STABLE = "the linearised step stays within the flow's growth and conserved invariants stay"
-    UNSTABLE_STEP = "the step is beyond the method's stable range: the run has exploded"
+    UNSTABLE_STEP = "the step is beyond the method's stable range: the run explodes, or would"
     INVARIANT_DRIFT = "a conserved invariant drifted by orders of magnitude"
     NON_FINITE_FIELD = "the field or the controller returned NaN or inf"
 
