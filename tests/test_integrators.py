@@ -140,10 +140,21 @@ def test_lgvi_rejects_models_that_are_not_rigid_bodies(sphere, body):
     ({"newton_tol": 2.0}, "newton_tol"),
     ({"newton_max_iter": 0}, "newton_max_iter"),
     ({"newton_max_iter": 2.5}, "newton_max_iter"),
+    ({"newton_max_iter": 10**6}, "<= 50"),
 ])
 def test_newton_options_are_validated(body, kw, match):
     with pytest.raises(ParameterError, match=match):
         lgvi(body, **kw)
+
+
+def test_newton_max_iter_is_bounded_before_anything_is_built(body):
+    """The iterations are unrolled into the graph: a huge cap is refused, with the bound,
+    by simulate before the step function is built (the build log stays as it was)."""
+    before = len(body.build_log)
+    with pytest.raises(ParameterError, match=r"newton_max_iter .*<= 50.*unrolled"):
+        simulate(body, body_state(body), np.linspace(0, 1, 3), method="lgvi", step=0.1,
+                 newton_max_iter=100_000)
+    assert len(body.build_log) == before
 
 
 def test_random_states_stay_on_tso3(skew_body):
@@ -359,3 +370,64 @@ def test_jit_leaves_no_file_behind_even_in_a_child_that_skips_its_destructors(
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
     assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------------------
+# stability: a step beyond the method's range is refused with the estimated stable step
+
+
+def linear_oscillator(w: float):
+    """``x'' = -w^2 x`` written directly as a Model on R^2 (no invariants declared)."""
+    from workbench.core import Model, ProductManifold, Rn
+
+    def field(ctx):
+        z = ctx["z"]
+        return ca.vertcat(z[1], -w**2 * z[0])
+
+    return Model(name="linear_oscillator", manifold=ProductManifold([("z", Rn(2))]),
+                 n_inputs=0, parameters=(), values={}, vector_field=field)
+
+
+@pytest.mark.parametrize("method", ["rk", "rkmk4"])
+def test_rk4_stable_range_on_a_linear_oscillator_is_the_closed_form(method):
+    """RK4 on x'' = -w^2 x is stable for h w <= 2 sqrt 2: |R(iy)|^2 = 1 - y^6/72 + y^8/576."""
+    w = 3.0
+    model = linear_oscillator(w)
+    x0 = np.array([1.0, 0.0])
+    edge = 2.0 * np.sqrt(2.0) / w
+    for hw in (2.80, 2.82):  # inside: 5000 steps, the amplitude does not grow
+        h = hw / w
+        tr = simulate(model, x0, h * np.arange(5001), method=method, step=h)
+        assert np.max(np.hypot(tr.x[:, 0], tr.x[:, 1] / w)) <= 1.0 + 1e-12
+    for hw in (2.85, 2.9, 6.0):  # outside: refused, with the closed-form estimate
+        h = hw / w
+        with pytest.raises(SolverError) as info:
+            simulate(model, x0, h * np.arange(201), method=method, step=h)
+        msg = str(info.value)
+        assert info.value.status == "unstable_step" and f"step h = {h:.4g}" in msg
+        est = float(msg.split("estimated stable step h < ")[1].split(" ")[0])
+        assert est == pytest.approx(edge, rel=2e-3)  # the margin: |R| <= 1.01
+
+
+def test_the_stability_checks_are_reported_in_the_diagnostics(body):
+    tr = simulate(body, body_state(body), np.linspace(0, 2, 21), method="rkmk4", step=0.01)
+    st = tr.diagnostics["stability"]
+    assert st["status"] == "stable" and st["checked_states"] >= 2
+    assert st["step_linearised_at"] == 0  # h |lambda| far inside the range: not needed
+    assert st["conserved_invariants"] == ["energy", "h"]  # unforced: both are checked
+    k = C.angular_velocity_feedback(body, D=np.diag([0.4, 0.3, 0.5]))
+    damped = simulate(body, body_state(body), np.linspace(0, 2, 21), controller=k,
+                      method="lgvi", step=0.01)
+    assert "energy" not in damped.diagnostics["stability"]["conserved_invariants"]
+
+
+def test_rkmk4_on_the_sphere_beyond_stability_raises(sphere):
+    """The spherical pendulum near the bottom oscillates at sqrt(g/l)."""
+    q = np.array([np.sin(0.1), 0.0, np.cos(0.1)])
+    x0 = sphere.state(q=np.concatenate([q, np.zeros(3)]))
+    w = np.sqrt(9.81)
+    simulate(sphere, x0, np.linspace(0, 40, 41), method="rkmk4", step=2.5 / w)  # inside
+    with pytest.raises(SolverError, match="beyond the stable range") as info:
+        simulate(sphere, x0, np.linspace(0, 40, 11), method="rkmk4", step=3.2 / w)
+    est = float(str(info.value).split("estimated stable step h < ")[1].split(" ")[0])
+    assert est == pytest.approx(2.0 * np.sqrt(2.0) / w, rel=0.02)

@@ -6,13 +6,15 @@ a casadi.Function of the state) with one of casadi's integrators, and returns a
 side evaluations) and how accurate it is by the measures that need no reference
 solution: the drift of every invariant and the constraint residual of every manifold
 factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``degree``)
-are explicit keywords.
+are explicit keywords. A fixed-step run is checked before it is returned: a step beyond
+the method's stable range, a state that explodes or a conserved invariant that drifts by
+orders of magnitude raises a SolverError naming the step and the stable step estimated
+for it (:mod:`workbench.simulation._stability`).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -24,11 +26,14 @@ from workbench.core import validate
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError
-from workbench.core.manifolds import DEFAULT_TOL, SO3
+from workbench.core.manifolds import DEFAULT_TOL
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
 from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
+from workbench.simulation._stability import StepCheck, probe_for
+from workbench.simulation._trajectory import Trajectory, constraint_residuals
+from workbench.simulation._trajectory import diagnostics as _diagnostics
 from workbench.simulation.integrators import (
     NEWTON_MAX_ITER,
     NEWTON_TOL,
@@ -38,7 +43,12 @@ from workbench.simulation.integrators import (
     rkmk4,
     s2_variational,
 )
-from workbench.simulation.integrators.common import check_step, steps_per_interval
+from workbench.simulation.integrators.common import (
+    check_newton_options,
+    check_step,
+    field_failure,
+    steps_per_interval,
+)
 
 __all__ = [
     "GEOMETRIC_METHODS",
@@ -95,101 +105,6 @@ class Method(str, Enum):
 GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4,
                      Method.MECHANICS_VARIATIONAL)
 """Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
-
-
-@dataclass
-class Trajectory:
-    """A simulated trajectory with its cost and accuracy diagnostics.
-
-    Attributes
-    ----------
-    t : ndarray, shape=(n_times,)
-        Output times.
-    x : ndarray, shape=(n_times, ambient_dim)
-        States (stored ambient coordinates).
-    u : ndarray, shape=(n_times, n_inputs)
-        Inputs applied at the output times.
-    model : Model
-        The simulated model.
-    method : Method
-        Integration method.
-    options : dict
-        The method's knobs as used.
-    cost : dict
-        ``wall_seconds`` (integration), ``build_seconds`` (integrator construction),
-        ``steps`` and ``rhs_evaluations`` where the method reports them.
-    diagnostics : dict
-        ``invariant_drift``: for every invariant, ``initial``, ``max_abs`` and ``max_rel``
-        (relative to ``|initial|``; None, with the reason in ``max_rel_undefined``, when
-        the invariant starts at zero — never NaN)
-        deviation from its initial value; ``constraint_residual``: max-norm residual of
-        every factor over the trajectory; ``closed_loop``: whether a controller acted
-        (invariants are then not expected to be conserved).
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
-    model: Model
-    method: Method
-    options: dict[str, Any]
-    cost: dict[str, Any] = field(default_factory=dict)
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-
-    def part(self, name: str) -> np.ndarray:
-        """States of one factor over time; SO3 parts come as ``(n_times, 3, 3)`` matrices."""
-        man = self.model.manifold
-        sl = man.slices[name] if name in man.slices else None
-        if sl is None:
-            raise ModelError(f"unknown factor {name!r}; this model has {man.names}")
-        block = self.x[:, sl]
-        if isinstance(man.factor(name), SO3):
-            return np.array([SO3.matrix(row) for row in block])
-        return block
-
-    @property
-    def final(self) -> np.ndarray:
-        """The last state."""
-        return self.x[-1]
-
-    def invariant_series(self, name: str) -> np.ndarray:
-        """Values of one invariant at every output time."""
-        fn = self.model.function(name)
-        return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
-
-    def __str__(self) -> str:
-        """A short account: samples, method, cost, drift and constraint residual."""
-        drift = self.diagnostics.get("invariant_drift", {})
-        drifts = ", ".join(f"{k} {v['max_rel']:.1e}" if v.get("max_rel") is not None else
-                           f"{k} {v.get('max_abs', 0.0):.1e} (absolute)"
-                           for k, v in drift.items())
-        res = self.diagnostics.get("constraint_residual", {})
-        worst = max(res.values(), default=0.0)
-        cost = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                         for k, v in self.cost.items() if k in ("wall_seconds", "steps",
-                                                               "rhs_evaluations"))
-        return (f"Trajectory of {self.model.name}: {len(self.t)} samples, t = {self.t[0]:g} .. "
-                f"{self.t[-1]:g}, method {self.method.value}; cost: {cost or '-'}; "
-                f"relative invariant drift: {drifts or '-'}; max constraint residual "
-                f"{worst:.1e}")
-
-    def _repr_html_(self) -> str:
-        from html import escape
-
-        return f"<pre>{escape(str(self))}</pre>"
-
-    def summary(self) -> dict[str, Any]:
-        """Plain JSON-serialisable account: method, knobs, cost, diagnostics."""
-        return {
-            "model": self.model.name,
-            "method": self.method.value,
-            "options": self.options,
-            "t0": float(self.t[0]),
-            "tf": float(self.t[-1]),
-            "n_times": int(len(self.t)),
-            "cost": self.cost,
-            "diagnostics": self.diagnostics,
-        }
 
 
 MAX_POINTS = 1_000_000
@@ -309,7 +224,9 @@ def simulate(
         ``"s2_variational"`` and ``"mechanics_variational"`` (a step that does not reach
         it raises SolverError).
     newton_max_iter : int
-        Newton iterations per implicit update of those methods.
+        Newton iterations per implicit update of those methods, at most
+        :data:`~workbench.simulation.integrators.common.MAX_NEWTON_ITER` (50; they are
+        unrolled into the step's graph); checked for every method before anything is built.
     jit : bool
         Compile the step of a geometric method to C (SX models; ~1 s once per process);
         refused for the casadi methods.
@@ -333,11 +250,18 @@ def simulate(
         ``max_steps``, ``step`` (the check of :func:`workbench.simulation.integrators.integrate`,
         raised as ModelError here) or ``degree``, a bad controller, or ``step``,
         ``degree`` or ``jit`` given to a method that does not use them.
+    ParameterError
+        ``newton_tol`` or ``newton_max_iter`` out of range.
     ManifoldError
         If ``x0`` is off the manifold.
     SolverError
         If the integrator fails (with its status), or an implicit update of a geometric
-        method does not converge (with the step and its residual).
+        method does not converge (with the step and its residual). A fixed-step run that
+        is beyond its method's stable range (status ``unstable_step``: the step, the
+        linearised estimate and the stable step estimated for it), whose conserved
+        invariant drifts by orders of magnitude (``invariant_drift``), or whose field or
+        controller returns NaN (``non_finite_field``: which, at which state and time) is
+        never returned as a Trajectory; see :mod:`workbench.simulation._stability`.
     """
     method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
@@ -347,6 +271,8 @@ def simulate(
     max_steps = count("max_steps", max_steps, error=ModelError)
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    # unrolled into the step's graph: bounded before anything is built
+    newton_tol, newton_max_iter = check_newton_options(newton_tol, newton_max_iter)
     compilation = choice(Compilation, compilation, "compilation", error=ModelError)
     if corrector is not None and method is not Method.CVODES:
         raise ModelError(f"corrector is CVODES' (method 'cvodes'); method {method.value!r} "
@@ -441,10 +367,13 @@ def simulate(
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
+    check = None
+    if method is not Method.CVODES:  # fixed step: an exploded run is refused
+        check = StepCheck(model, probe_for(model, controller, sign=sign, rk4=method is Method.RK),
+                          method.value, "rk" if method is Method.RK else None, False,
+                          float(abs(s_grid[1])) / opts["number_of_finite_elements"])
     if not np.all(np.isfinite(xs_out)):
-        raise SolverError(
-            f"{method.value} produced non-finite states for {model.name}", status="non-finite"
-        )
+        _non_finite(model, controller, check, method, tv, xs_out)
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -469,14 +398,46 @@ def simulate(
         # collocation's Newton step keeps the last state when the field turns NaN, without
         # an error: the trajectory would "stop" there and look like a result
         bad = int(np.argmin(rhs_ok & np.all(np.isfinite(u_out), axis=1)))
-        raise SolverError(
-            f"{method.value}: the {'closed-loop ' if controller is not None else ''}field of "
-            f"{model.name} (or the control) is not finite at t = {tv[bad]:g} on the computed "
-            f"trajectory (x = {np.round(xs_out[bad], 6).tolist()}); the states from there on "
-            "are not a solution", status="non-finite")
+        why = field_failure(model, controller, xs_out[bad], float(tv[bad])) or \
+            f"the field or the control is not finite at t = {tv[bad]:g}"
+        raise SolverError(f"{method.value} integrating {model.name}: {why}; the states from "
+                          f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
-    traj.diagnostics = _diagnostics(traj, closed_loop=controller is not None)
+    diag = _diagnostics(traj, closed_loop=controller is not None)
+    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T,
+                                                diag["invariant_drift"])
+    traj.diagnostics = {**diag, **checks}
     return traj
+
+
+def _non_finite(model: Model, controller: ca.Function | None, check: StepCheck | None,
+                method: Method, tv: np.ndarray, xs: np.ndarray) -> None:
+    """Raise the SolverError for non-finite states of a casadi method, saying why."""
+    bad = int(np.argmin(np.all(np.isfinite(xs), axis=1)))
+    a = bad - 1  # the last finite output (x0 is finite)
+    where = f"between t = {tv[a]:g} and t = {tv[bad]:g}"
+    nan_field = field_failure(model, controller, xs[a], float(tv[a]))
+    if nan_field is not None:
+        raise SolverError(f"{method.value} integrating {model.name}: the states became "
+                          f"non-finite {where}: {nan_field}", status="non_finite_field")
+    if check is not None and check.linearised:
+        fnd, _ = check.find_unstable(xs, [0, a])
+        if fnd is not None:
+            raise check.unstable_error(fnd, xs[fnd.index], float(tv[fnd.index]),
+                                       what=f" (its states became non-finite {where})")
+    raise SolverError(
+        f"{method.value} produced non-finite states for {model.name} {where}; the field and "
+        f"the control are finite at t = {tv[a]:g}"
+        f"{' and the linearised step is stable there' if check and check.linearised else ''}"
+        f": a step left the field's domain, or an instability grew between outputs (output "
+        f"at more times t to locate it)", status="non-finite")
+
+
+def _without_status(err: SolverError) -> str:
+    """The message of a SolverError without its ``[status: ...]`` suffix."""
+    text = str(err)
+    suffix = f" [status: {err.status}]"
+    return text[: -len(suffix)] if err.status and text.endswith(suffix) else text
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
@@ -520,73 +481,39 @@ def _simulate_geometric(
         options_used.update(newton_tol=scheme.newton_tol,
                             newton_max_iter=scheme.newton_max_iter)
     options_used["jit"] = bool(jit)
+    sign = 1.0 if tv[-1] > tv[0] else -1.0
+    dt_out = abs(tv[1] - tv[0])
+    check = StepCheck(model, probe_for(model, controller, sign=sign, step=scheme.step),
+                      method.value, "rkmk4" if method is Method.RKMK4 else "variational", True,
+                      sign * dt_out / steps_per_interval(dt_out, step))
     build_seconds = time.perf_counter() - t_build
-    run = integrate(model, scheme, x0v, tv, step=step)
+    try:
+        run = integrate(model, scheme, x0v, tv, step=step, controller=controller)
+    except SolverError as err:
+        state = getattr(err, "state", None)
+        if state is None or err.status == "non_finite_field":
+            raise
+        # a step that failed (non-finite, no solution, Newton): beyond the stable range?
+        xs = np.vstack([x0v, state])
+        fnd, _ = check.find_unstable(xs, [0, 1])
+        if fnd is None:
+            raise
+        t_bad = float(tv[0] if fnd.index == 0 else err.time)
+        if err.status == "non-finite":  # the state exploded: the instability is the cause
+            raise check.unstable_error(fnd, xs[fnd.index], t_bad,
+                                       what=f" (step {err.step_index + 1} failed)",
+                                       cause=str(err)) from err
+        # the step's own failure stays the status; the estimate says what to do about it
+        unstable = check.unstable_error(fnd, xs[fnd.index], t_bad)
+        raise SolverError(f"{_without_status(err)} Besides, {_without_status(unstable)}",
+                          status=err.status) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
-    u_out = np.asarray(loop.map(len(tv))(run.x.T, model.p)[1]).T.reshape(len(tv), -1)
+    rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
+    u_out = np.asarray(u_map).T.reshape(len(tv), -1)
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
-    traj.diagnostics = {**_diagnostics(traj, closed_loop=controller is not None),
-                        **run.diagnostics}
+    diag = _diagnostics(traj, closed_loop=controller is not None)
+    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"])
+    traj.diagnostics = {**diag, **run.diagnostics, **checks}
     return traj
-
-
-def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
-    """Max-norm constraint residual of every factor at every state, vectorised.
-
-    Parameters
-    ----------
-    model : Model
-        The model (its manifold).
-    x : array-like, shape=(n_times, ambient_dim)
-        States.
-
-    Returns
-    -------
-    dict of str to ndarray, shape=(n_times,)
-        Per factor name, ``max |h(x)|`` at each state (zeros for R^n).
-    """
-    X = np.atleast_2d(np.asarray(x, dtype=float))
-    out = {}
-    for name, factor in model.manifold.factors:
-        fns = factor.constraint_functions()  # built once per factor
-        if fns is None:
-            out[name] = np.zeros(len(X))
-            continue
-        block = X[:, model.manifold.slices[name]]
-        out[name] = np.max(np.abs(np.asarray(fns[0](block.T))), axis=0).reshape(len(X))
-    return out
-
-
-def _relative_drift(max_abs: float, initial: float) -> dict[str, Any]:
-    """``max_rel`` relative to ``|initial|``, or None with the reason when it is undefined.
-
-    An invariant that starts at 0 (an angular momentum at rest) has no relative drift:
-    ``max_rel`` is then None and ``max_rel_undefined`` says why; ``max_abs`` is the figure
-    to read. Never NaN.
-    """
-    if initial != 0 and np.isfinite(initial):
-        return {"max_rel": max_abs / abs(initial)}
-    return {"max_rel": None,
-            "max_rel_undefined": f"the invariant starts at {initial:g}: a drift relative to "
-                                 f"it is undefined; read max_abs"}
-
-
-def _diagnostics(traj: Trajectory, *, closed_loop: bool) -> dict[str, Any]:
-    model = traj.model
-    if getattr(model, "state_check", None) is not None:  # T definite at every output state
-        model.state_check(model, traj.x, t=traj.t, what="the simulated trajectory")
-    drift = {}
-    for name in model.invariant_names:
-        series = traj.invariant_series(name)
-        dev = np.abs(series - series[0])
-        drift[name] = {"initial": float(series[0]), "max_abs": float(dev.max()),
-                       **_relative_drift(float(dev.max()), float(series[0]))}
-    residual = {name: float(series.max())
-                for name, series in constraint_residuals(model, traj.x).items()}
-    return {
-        "invariant_drift": drift,
-        "constraint_residual": residual,
-        "closed_loop": closed_loop,
-    }

@@ -37,7 +37,7 @@ from typing import Any
 from workbench.core import validate
 from workbench.core.errors import ParameterError, SolverError, WorkbenchError
 from workbench.core.status import Record, StatusEnum, StatusResult
-from workbench.core.validate import choice
+from workbench.core.validate import choice, count
 
 __all__ = [
     "ItemStatus",
@@ -52,7 +52,12 @@ __all__ = [
     "grid",
     "sweep",
     "local_cluster",
+    "MAX_WORKERS",
 ]
+
+MAX_WORKERS = 1024
+"""Largest local pool of :func:`sweep`: each worker is a process (about 100 MB with casadi
+loaded); a larger fleet is a cluster's, passed as ``executor``."""
 
 
 class ItemStatus(StatusEnum):
@@ -312,8 +317,8 @@ def sweep(
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Where to run; ``None`` starts (and shuts down) a local process pool.
     workers : int, optional
-        Size of the local pool (``os.cpu_count()`` when omitted); only with
-        ``executor=None``.
+        Size of the local pool (``os.cpu_count()`` when omitted; at most
+        :data:`MAX_WORKERS`); only with ``executor=None``.
     start_method : StartMethod
         How the local pool starts processes; only with ``executor=None``.
     on_error : OnError
@@ -339,8 +344,8 @@ def sweep(
     item_list = _check_items(items)
     on_error = choice(OnError, on_error, "on_error")
     start_method = choice(StartMethod, start_method, "start_method")
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise ParameterError(f"workers must be a positive integer; got {workers!r}")
+    if workers is not None:  # processes are started for them: bounded before any is
+        count("workers", workers, maximum=MAX_WORKERS)
     if executor is not None and workers is not None:
         raise ParameterError("workers applies only to the local pool (executor=None); size "
                              "the executor you pass yourself")
@@ -430,9 +435,10 @@ def local_cluster(*, workers: int = 2, threads_per_worker: int = 1) -> Any:
     Parameters
     ----------
     workers : int
-        Worker processes.
+        Worker processes (1 to :data:`MAX_WORKERS`).
     threads_per_worker : int
-        Threads per worker (1 for CPU-bound numerics holding the GIL).
+        Threads per worker (1 for CPU-bound numerics holding the GIL; at most
+        :data:`MAX_WORKERS`).
 
     Returns
     -------
@@ -440,9 +446,14 @@ def local_cluster(*, workers: int = 2, threads_per_worker: int = 1) -> Any:
 
     Raises
     ------
+    ParameterError
+        ``workers`` or ``threads_per_worker`` not an integer in ``[1, MAX_WORKERS]``
+        (checked before anything is started).
     MissingDependencyError
         If dask.distributed is not installed.
     """
+    count("workers", workers, maximum=MAX_WORKERS)
+    count("threads_per_worker", threads_per_worker, maximum=MAX_WORKERS)
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:

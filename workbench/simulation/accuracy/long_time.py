@@ -200,7 +200,8 @@ def long_time(
     controller : casadi.Function, optional
         Feedback in the loop.
     n_samples : int
-        Equally spaced sample times (including 0 and ``horizon``).
+        Equally spaced sample times (including 0 and ``horizon``; 2 to simulate's
+        ``MAX_POINTS``, 10^6).
     energy : str or None
         Invariant measured as the energy.
 

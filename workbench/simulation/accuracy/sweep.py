@@ -21,8 +21,14 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.status import StatusEnum
-from workbench.core.validate import choice
-from workbench.simulation._simulate import Method, Trajectory, constraint_residuals, simulate
+from workbench.core.validate import choice, count
+from workbench.simulation._simulate import (
+    MAX_POINTS,
+    Method,
+    Trajectory,
+    constraint_residuals,
+    simulate,
+)
 
 __all__ = ["Knob", "AccuracySweep", "RunStatus"]
 
@@ -133,9 +139,8 @@ def _check_common(model: Model, horizon: float, energy: str | None, n_samples: i
             f"energy must name an invariant of {model.name!r} ({model.invariant_names}) or "
             f"be None; got {energy!r}"
         )
-    if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) \
-            or n_samples < 2:
-        raise ParameterError(f"n_samples must be an integer >= 2; got {n_samples!r}")
+    # allocated (and every invariant evaluated at every sample): bounded like simulate's t
+    count("n_samples", n_samples, minimum=2, maximum=MAX_POINTS)
     return T
 
 

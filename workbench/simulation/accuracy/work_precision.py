@@ -19,7 +19,6 @@ import casadi as ca
 import numpy as np
 
 from workbench.core._model import Model
-from workbench.core.errors import ParameterError
 from workbench.core.status import StatusResult
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
@@ -121,6 +120,15 @@ class Reference:
                 "wall_seconds": self.wall_seconds, "x_final": self.x_final.tolist()}
 
 
+MAX_REPEATS = 100
+"""Largest ``repeats`` of :func:`work_precision`: runs per knob value (the median is kept)."""
+
+MAX_HALVINGS = 26
+"""Largest ``halvings`` of :func:`default_reference`: its reference takes ``2^halvings``
+steps, and ``2^26`` is below :data:`~workbench.simulation.integrators.common.MAX_FIXED_STEPS`
+(1e8)."""
+
+
 def default_reference(horizon: float, *, halvings: int = 16) -> tuple[AccuracySweep, ...]:
     """The default reference: RK4 at ``step = horizon / 2^halvings``, checked at twice that step.
 
@@ -133,12 +141,14 @@ def default_reference(horizon: float, *, halvings: int = 16) -> tuple[AccuracySw
     horizon : float
         The final time ``T``.
     halvings : int
-        The reference's step is ``T / 2^halvings`` (at least 4). One halving fewer halves
+        The reference's step is ``T / 2^halvings`` (4 to :data:`MAX_HALVINGS`, 26). One
+        halving fewer halves
         the reference's cost and multiplies its error by about 16, until round-off limits
         it (the three-link chain of the ``work_precision`` problem: 2.9 s and an estimate
         of 9e-13 at 16, 1.7 s and 1.3e-12 at 15).
     """
-    k = count("halvings", halvings, minimum=4)
+    # the reference takes 2^halvings steps: at most simulate's MAX_FIXED_STEPS (1e8)
+    k = count("halvings", halvings, minimum=4, maximum=MAX_HALVINGS)
     return (AccuracySweep(Method.RK, (horizon / 2**k,), label=f"reference rk h=T/2^{k}"),
             AccuracySweep(Method.RK, (horizon / 2**(k - 1),), label=f"check rk h=T/2^{k - 1}"))
 
@@ -323,9 +333,10 @@ def work_precision(
         the reference, the spread of all is its error estimate.
     n_samples : int
         Equally spaced sample times (including 0 and ``T``) at which the energy and the
-        constraint residual are measured.
+        constraint residual are measured (2 to simulate's ``MAX_POINTS``, 10^6).
     repeats : int
-        Runs per knob value; the median wall time is reported.
+        Runs per knob value (1 to :data:`MAX_REPEATS`, 100); the median wall time is
+        reported.
     energy : str or None
         Invariant measured as the energy.
 
@@ -342,8 +353,7 @@ def work_precision(
     """
     T = _check_common(model, horizon, energy, n_samples)
     _check_sweeps(sweeps, T, n_samples)
-    if isinstance(repeats, bool) or not isinstance(repeats, (int, np.integer)) or repeats < 1:
-        raise ParameterError(f"repeats must be an integer >= 1; got {repeats!r}")
+    count("repeats", repeats, maximum=MAX_REPEATS)  # each repeat is a whole run
     refs = tuple(reference) if reference is not None else default_reference(T)
     _check_sweeps(refs, T, n_samples)
     x0v = model.check_state(x0, name="x0")

@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import shutil
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -34,10 +32,14 @@ from workbench.core._feedback import (
     feedback_function,  # re-exported: the integrators' users import it here
 )
 from workbench.core._model import Evaluator, Model
-from workbench.core.errors import ModelError, ParameterError, SolverError, WorkbenchError
+from workbench.core.errors import ParameterError, SolverError, WorkbenchError
 from workbench.core.status import Record
 from workbench.core.types import ArrayLike
 from workbench.core.validate import count, positive
+from workbench.simulation.integrators._jit import (  # re-exported: the schemes import them here
+    compile_step,
+    jit_function,
+)
 
 __all__ = [
     "DiscreteFlow",
@@ -45,11 +47,15 @@ __all__ = [
     "IntegrationCost",
     "NEWTON_TOL",
     "NEWTON_MAX_ITER",
+    "MAX_NEWTON_ITER",
     "CHUNK",
     "feedback_function",
     "controller_key",
     "newton",
     "integrate",
+    "field_failure",
+    "MAX_CHUNK",
+    "MAX_FIXED_STEPS",
     "check_newton_options",
     "compile_step",
     "jit_function",
@@ -61,6 +67,11 @@ NEWTON_TOL = 1e-13
 NEWTON_MAX_ITER = 4
 """Default cap on Newton iterations per implicit update (2 suffice for ``|h omega| < 0.1``
 from the second-order initial guesses used here)."""
+
+MAX_NEWTON_ITER = 50
+"""Largest accepted ``newton_max_iter``: the iterations are unrolled into the step's graph
+(about 20 ms of building and 0.5 MB per iteration for a small model, more for a large one),
+and Newton from the schemes' second-order guesses needs 2 to 4 where it converges at all."""
 
 CHUNK = 512
 """Steps evaluated per casadi call by :func:`integrate` (memory grows with it)."""
@@ -167,7 +178,9 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
     Raises
     ------
     ParameterError
-        ``newton_tol`` not in ``(0, 1)`` or ``newton_max_iter`` not an integer >= 1.
+        ``newton_tol`` not in ``(0, 1)``, or ``newton_max_iter`` not an integer in
+        ``[1, MAX_NEWTON_ITER]`` (checked before anything is built: the iterations are
+        unrolled into the step's graph).
     """
     try:
         tol = float(newton_tol)
@@ -179,7 +192,15 @@ def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float
             f"newton_tol (relative residual of the implicit update) must be in (0, 1); "
             f"got {newton_tol!r}"
         )
-    return tol, count("newton_max_iter", newton_max_iter)
+    if (isinstance(newton_max_iter, (int, np.integer)) and not isinstance(newton_max_iter, bool)
+            and newton_max_iter > MAX_NEWTON_ITER):
+        raise ParameterError(
+            f"newton_max_iter must be an integer >= 1 and <= {MAX_NEWTON_ITER}; got "
+            f"{newton_max_iter}: every iteration is unrolled into the step's graph (about "
+            f"20 ms of building and 0.5 MB each for a small model), and a Newton iteration "
+            f"that has not converged in {MAX_NEWTON_ITER} from the scheme's guess will not: "
+            f"reduce step instead")
+    return tol, count("newton_max_iter", newton_max_iter, maximum=MAX_NEWTON_ITER)
 
 
 def controller_key(controller: ca.Function | None) -> str:
@@ -247,106 +268,6 @@ def newton(
         r = ca.substitute(rs, zs, z)
         rel = ca.norm_inf(r) / sc
     return z, rel, its
-
-
-# ----------------------------------------------------------------------------------------
-# compiling
-
-
-_COMPILED: dict[str, ca.Function] = {}
-_COMPILED_MAX = 32  # compiled step functions kept, by the sha256 of their serialisation
-
-
-def compile_step(fn: ca.Function) -> ca.Function:
-    """Just-in-time compile a step function to C (``gcc -O2`` through casadi's shell).
-
-    The result is kept per process by the sha256 of the step's serialisation, so the same
-    graph is compiled once however many simulations use it.
-
-    Parameters
-    ----------
-    fn : casadi.Function
-        An SX step function.
-
-    Returns
-    -------
-    casadi.Function
-        The same function, compiled.
-
-    Raises
-    ------
-    SolverError
-        If the compiler fails (its message is included).
-    """
-    if not fn.is_a("SXFunction"):
-        raise ModelError(
-            f"jit=True compiles scalar (SX) step functions; {fn.name()!r} is "
-            f"{fn.class_name()} (an MX model); run it with jit=False"
-        )
-    # the same graph (by its serialisation) is compiled once per process: a study that
-    # simulates one model several times with jit (extremes: three lgvi runs) paid gcc
-    # for each, 0.3-0.5 s
-    try:
-        key = hashlib.sha256(fn.serialize().encode()).hexdigest()
-    except RuntimeError:  # a function casadi cannot serialise: compiled, not remembered
-        key = None
-    hit = _COMPILED.get(key) if key else None
-    if hit is not None:
-        return hit
-    ins = fn.sx_in()
-    out = jit_function(f"{fn.name()}_jit", ins, fn.call(ins), fn.name_in(), fn.name_out(),
-                       what=repr(fn.name()))
-    if key is None:
-        return out
-    if len(_COMPILED) >= _COMPILED_MAX:
-        _COMPILED.pop(next(iter(_COMPILED)))
-    _COMPILED[key] = out
-    return out
-
-
-def jit_function(name: str, ins: list, outs: list, names_in: list[str] | None = None,
-                 names_out: list[str] | None = None, *, what: str = "") -> ca.Function:
-    """A casadi function compiled to C (``gcc -O2`` through casadi's shell compiler).
-
-    The C source, object and shared library go to a private temporary directory that is
-    removed as soon as the library is loaded: nothing is left behind, however the process
-    ends (forked children exit without running destructors, which left casadi's own
-    temporary files in the system's temporary directory).
-
-    Parameters
-    ----------
-    name : str
-        Name of the function.
-    ins, outs : list of casadi.SX or list of casadi.MX
-        Its inputs and outputs.
-    names_in, names_out : list of str, optional
-        Their names.
-    what : str
-        What is compiled, for the error message (default: ``name``).
-
-    Returns
-    -------
-    casadi.Function
-
-    Raises
-    ------
-    SolverError
-        If the compiler fails (its message is included).
-    """
-    work = tempfile.mkdtemp(prefix="workbench-jit-")
-    opts = {"jit": True, "compiler": "shell", "jit_name": "jit", "jit_temp_suffix": False,
-            "jit_cleanup": False,  # the directory is removed below, not by casadi
-            "jit_options": {"flags": ["-O2"], "directory": work, "cleanup": False}}
-    try:
-        if names_in is None:
-            return ca.Function(name, ins, outs, opts)
-        return ca.Function(name, ins, outs, names_in, names_out, opts)
-    except RuntimeError as exc:
-        raise SolverError(
-            f"jit compilation of {what or name!r} failed: "
-            f"{str(exc).strip().splitlines()[-1]}", status="compiler error") from exc
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
 
 
 # ----------------------------------------------------------------------------------------
@@ -426,6 +347,47 @@ def check_step(
 MAX_FIXED_STEPS = 10**8
 """Fixed steps one simulation may take (1e8 steps of a small model: minutes)."""
 
+MAX_CHUNK = 100_000
+"""Largest ``chunk`` of :func:`integrate`: one call holds the states of its steps."""
+
+
+def field_failure(model: Model, controller: ca.Function | None, x: np.ndarray,
+                  t: float) -> str | None:
+    """Say so when the field or the controller is not finite at ``x`` (None: both finite).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    controller : casadi.Function or None
+        The feedback in the loop.
+    x : ndarray, shape=(ambient_dim,)
+        The state.
+    t : float
+        Its time, for the message.
+
+    Returns
+    -------
+    str or None
+        A sentence naming which returned what at which state and time.
+    """
+    state = np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
+    try:
+        u = np.asarray(feedback_function(model, controller)(x, model.p), dtype=float).ravel()
+        xdot = np.asarray(model.function("f")(x, np.nan_to_num(u), model.p),
+                          dtype=float).ravel()
+    except RuntimeError as exc:
+        return (f"the field or controller cannot be evaluated at t = {t:.6g}, x = {state}: "
+                f"{str(exc).strip().splitlines()[-1] if str(exc).strip() else exc!r}")
+    bad = [name for name, v in (("controller", u), ("field", xdot))
+           if not np.all(np.isfinite(v))]
+    if not bad:
+        return None
+    return (f"the {' and the '.join(bad)} returned non-finite values at t = {t:.6g}, "
+            f"x = {state} (u = {np.array2string(u, precision=4)}, xdot = "
+            f"{np.array2string(xdot, precision=4)}; the field evaluated with u = 0 where u is "
+            "not finite): a defect of the model or the controller there, not of the step size")
+
 
 def integrate(
     model: Model,
@@ -435,6 +397,7 @@ def integrate(
     *,
     step: float,
     chunk: int = CHUNK,
+    controller: ca.Function | None = None,
 ) -> Integration:
     """Run a scheme from ``x0`` over equally spaced output times ``t``.
 
@@ -452,7 +415,12 @@ def integrate(
         Largest step size (positive); each output interval is split into
         ``ceil(interval / step)`` equal steps, taken with the sign of ``t[-1] - t[0]``.
     chunk : int
-        Steps evaluated per casadi call.
+        Steps evaluated per casadi call, at most :data:`MAX_CHUNK` (each call holds the
+        states of its steps).
+    controller : casadi.Function, optional
+        The feedback the scheme was built with. It only serves the diagnosis of a failing
+        step: a field or controller that is not finite at the step's start is reported as
+        such (not as a step size to reduce).
 
     Returns
     -------
@@ -464,7 +432,10 @@ def integrate(
         Bad ``t``, ``step`` or ``chunk``.
     SolverError
         A step whose implicit update did not converge to ``scheme.newton_tol`` (message
-        with the step number, its time interval and residual), or a non-finite state.
+        with the step number, its time interval and residual), or a non-finite state; a
+        field or controller that is not finite at the step's start (status
+        ``non_finite_field``). The error carries ``state`` (the state at the start of the
+        failing step), ``time`` (its time) and ``step_index`` (zero-based).
     """
     tv = np.asarray(t, dtype=float).ravel()
     if tv.size < 2 or not np.all(np.isfinite(tv)):
@@ -480,7 +451,7 @@ def integrate(
         )
     horizon = abs(tv[-1] - tv[0])
     s = check_step(step, horizon)
-    chunk = count("chunk", chunk)
+    chunk = count("chunk", chunk, maximum=MAX_CHUNK)
     n_sub = steps_per_interval(dt_out, s)
     sign = 1.0 if tv[-1] > tv[0] else -1.0
     h = sign * dt_out / n_sub
@@ -508,6 +479,15 @@ def integrate(
             k = done + j  # zero-based index of the failing step
             t_k = tv[0] + k * h
             r = float(res[j])
+            x_k = x if j == 0 else X[j - 1]
+            nan_field = field_failure(model, controller, x_k, t_k)
+            if nan_field is not None:
+                err = SolverError(
+                    f"{scheme.name} failed at step {k + 1} of {n_total} (t = {t_k:.6g} -> "
+                    f"{t_k + h:.6g}, h = {h:.6g}) integrating {model.name}: {nan_field}",
+                    status="non_finite_field")
+                err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+                raise err
             if np.isinf(r):
                 what = f"the discrete update has no solution ({scheme.no_solution})"
                 status, fix = "no_solution", "Reduce step."
@@ -523,13 +503,19 @@ def integrate(
                             f" likely its rounding level (stiff or badly scaled inertia): "
                             f"raise newton_tol.")
             else:
-                what = "the state became non-finite"
+                finite = ("the field is" if controller is None else
+                          "the field and the controller are")
+                what = (f"the state became non-finite ({finite} finite at the step's start: a "
+                        "stage or the update left the field's domain, or the step is beyond "
+                        "the method's stable range)")
                 status, fix = "non-finite", "Reduce step."
-            raise SolverError(
+            err = SolverError(
                 f"{scheme.name} failed at step {k + 1} of {n_total} (t = {t_k:.6g} -> "
                 f"{t_k + h:.6g}, h = {h:.6g}) integrating {model.name}: {what}. {fix}",
                 status=status,
             )
+            err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+            raise err
         max_res = max(max_res, float(res.max()))
         its_total += int(its.sum())
         its_max = max(its_max, int(its.max()))
