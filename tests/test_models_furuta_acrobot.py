@@ -271,7 +271,8 @@ def test_furuta_swing_up_ocp_solves(furuta):
     xf = sol.x[-1]
     assert np.allclose(xf[3:5], [-1.0, 0.0], atol=1e-8)  # the link upright, the arm anywhere
     assert abs(xf[2]) <= 1e-8 and abs(xf[5]) <= 1e-8
-    assert np.all(np.abs(sol.u) <= 0.05 * (1 + 1e-7))  # Ipopt's bound_relax_factor 1e-8
+    # Ipopt relaxes bounds by bound_relax_factor = 1e-8 * max(1, |bound|): 1e-8 absolute here
+    assert np.all(np.abs(sol.u) <= 0.05 + 2e-8)
     re = sol.resimulate()  # open loop with CVODES: the transcription follows the dynamics
     assert re["end_error"] <= 1e-5, re  # 5e-7 measured at N = 60
 

@@ -406,7 +406,8 @@ ENTRIES: list[Entry] = [
     Entry("ManifoldHandling", lambda a: wb.solve_ocp(_ocp(), wb.Collocation(N=4),
                                                      handling=a["handling"], max_iter=1,
                                                      raise_on_failure=False, defect_tol=1e3),
-          lambda: {"handling": wb.ManifoldHandling.AMBIENT}, {"handling": E.ENUM}),
+          lambda: {"handling": wb.ManifoldHandling.AMBIENT}, {"handling": E.ENUM},
+          optional=frozenset({"handling"})),  # None: the default (PROJECTED)
     Entry("Symbolic", lambda a: _decay_model(_model_args()).__class__(
         name="s", manifold=wb.ProductManifold([("y", wb.Rn(1))]), n_inputs=0, parameters=[],
         values={}, vector_field=lambda c: -c["y"], symbolic=a["symbolic"]).rhs([1.0]),
