@@ -167,10 +167,14 @@ class Reduction(ReconstructionMixin):
             mu = ctx.p[n_p] if routh else 0.0
             return lift(ctx.x, ctx.p[:n_p], mu), ctx.p[:n_p]
 
+        storage, kind, quotient = self.storage, self.kind, self.quotient
+
         def field(ctx: Context) -> Any:
             x, p = lifted(ctx)
             u = ca.mtimes(sel_dm, ctx.u) if kept else ca.DM.zeros(n_full_u, 1)
-            return rate(x, full.function("f")(x, u, p))
+            rates = split_reduced(storage, rate(x, full.function("f")(x, u, p)))
+            return ca.vertcat(*quotient.ambient_rates(split_reduced(storage, ctx.x), rates,
+                                                      kind))
 
         invariants = {"energy": lambda ctx: full.function("energy")(*lifted(ctx))}
         if not routh:

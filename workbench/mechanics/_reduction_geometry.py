@@ -38,12 +38,28 @@ Three geometries:
   layer), ``Omega - Q^T Omega0`` for ``Q = R0^T R``, ``P(q') (R0^T omega - Omega0)`` for
   ``q' = R0^T q``, and ``R0^T v - Omega0 x x'`` for ``x' = R0^T x``. The group velocity is
   ``xi = Gamma . Omega0``. The section is ``R0 = sigma(Gamma)`` with ``sigma(Gamma)^T a =
-  Gamma``: the smallest rotation taking ``Gamma`` to ``a`` where ``Gamma . a >= 0`` and
-  the one taking it to ``-a`` followed by a half turn about an axis normal to ``a``
-  elsewhere (two Rodrigues charts switched with ``casadi.if_else``: automatic
+  Gamma``: ``R0 = B A^T`` with ``B`` a constant rotation taking ``e3`` to ``a`` and ``A`` an
+  orthonormal frame whose third column is ``Gamma / |Gamma|`` itself, its first two
+  columns from one of two charts switched with ``casadi.if_else`` (automatic
   differentiation sees the active one, and the reduced field does not depend on the chart
   because the full field is invariant; :func:`workbench.mechanics.reduce` checks that
-  numerically).
+  numerically; :func:`~._reduction_rotation.frame_section`).
+
+Off the manifold (an integrator's drift, an optimiser's iterates) the reduced field is
+evaluated at any ambient reduced state ``r``. Every part of ``r`` except the reference
+attitude enters the lift linearly (``R0 Q``, ``R0 q'``, ``R0 x'``, the angles seen from
+the first one, the pivot-shifted translations), so the derived rates are the full model's
+own ambient extension seen through the quotient, which keeps each factor's constraints
+(|q|, ``q . omega``, |p|) as the full model does. The section uses ``Gamma`` only through
+``Gamma / |Gamma|``: the dynamics are evaluated at the lift of that normalised point,
+and the kinematics of ``Gamma`` are written on the ambient ``Gamma`` itself
+(:meth:`Quotient.ambient_rates`): ``Gamma-dot = Gamma x Omega0`` (Lagrange-Poincare,
+``Omega0`` the stored body rate) and ``Gamma-dot = w x Gamma`` (Routh, the TS^2
+convention), so that ``|Gamma|`` is a first integral of the ambient field (and, Routh,
+``Gamma . w`` too: the derived ``w``-rate is normal to ``Gamma``) and the direction of
+``Gamma`` turns at the body rate whatever ``|Gamma|`` (the derived rate at the normalised
+point, ``(Gamma / |Gamma|) x Omega0``, would scale it by ``1 / |Gamma|``: a drift of
+``|Gamma|`` would become a phase error growing like spin times time).
 
 A quotient by rotations with no SO(3) factor turning (S^2 factors only, or R^2/R^3
 factors) is not a manifold with global ambient coordinates (the action has fixed points:
@@ -158,6 +174,18 @@ class Quotient:
     def act(self, theta: Any, c: list, nu: list) -> tuple[list, list]:
         """The group element ``theta`` applied to a full state."""
         raise NotImplementedError
+
+    def ambient_rates(self, r: list, rates: list, kind: Kind) -> list:
+        """The reduced field's parts written on the ambient reduced state ``r``.
+
+        ``rates`` are the derived ``d pi(x) [f(x)]`` at the lift, per storage part. Where
+        the section uses a part of ``r`` only through its normalisation (the reference
+        attitude ``Gamma``), the derived rate is the one at the normalised point, which
+        off the manifold is not the kinematics of ``r`` itself: this method writes those
+        rates on ``r`` (module docstring). Default: every part enters the lift as it is,
+        so the derived rates are the full field's own ambient extension, unchanged.
+        """
+        return rates
 
     def _passthrough_storage(self, f: Any) -> list[tuple[str, Any]]:
         return list(f.storage())

@@ -21,18 +21,39 @@ from workbench.mechanics._reduction_geometry import (
     normal_part,
 )
 
-__all__ = ["Rotation", "rodrigues_section"]
+__all__ = ["Rotation", "frame_section", "axis_frame"]
 
 
-def _half_turn_axis(a: np.ndarray) -> np.ndarray:
-    """A unit vector normal to ``a`` (the axis of the second chart's half turn)."""
+def axis_frame(a: np.ndarray) -> np.ndarray:
+    """A constant rotation ``B`` with ``B e3 = a`` (the identity for ``a = e3``).
+
+    Parameters
+    ----------
+    a : ndarray, shape=(3,)
+        The unit axis.
+
+    Returns
+    -------
+    ndarray, shape=(3, 3)
+    """
     e = np.eye(3)[int(np.argmin(np.abs(a)))]
-    b = np.cross(a, e)
-    return b / np.linalg.norm(b)
+    b1 = e - (e @ a) * a
+    b1 = b1 / np.linalg.norm(b1)
+    return np.column_stack([b1, np.cross(a, b1), a])
 
 
-def rodrigues_section(gamma: Any, a: np.ndarray) -> Any:
-    """A rotation ``R`` with ``R^T a = gamma / |gamma|``, two charts (module docstring).
+def frame_section(gamma: Any, a: np.ndarray) -> Any:
+    """A rotation ``R`` with ``R^T a = gamma / |gamma|``: ``R = B A^T``, two charts.
+
+    ``B`` is :func:`axis_frame` and ``A = [c1, c2, g]`` an orthonormal frame whose third
+    column is ``g = gamma / |gamma|`` itself (so ``R^T a = A e3`` is ``g`` as an
+    expression, not a combination of chart entries): the rotation taking ``e3`` to ``g``
+    where ``g3 >= 0`` (singular only at ``g = -e3``) and the one taking ``e3`` to ``-g``
+    followed by a half turn about ``e1`` elsewhere (singular only at ``g = e3``), switched
+    with ``casadi.if_else`` (both charts are a few products of ``g``; the reduced field
+    does not depend on the chart because the full field is invariant). Only the first two
+    columns depend on the chart: a full field that sees the attitude through ``R^T a``
+    alone (gravity along the axis) never evaluates a chart.
 
     Parameters
     ----------
@@ -46,16 +67,16 @@ def rodrigues_section(gamma: Any, a: np.ndarray) -> Any:
     -------
     casadi.SX or casadi.MX, shape=(3, 3)
     """
-    A = ca.DM(a)
     g = gamma / ca.norm_2(gamma)
-    c = ca.dot(g, A)
-    K = ca.skew(ca.cross(g, A))
-    near = ca.DM.eye(3) + K + (K @ K) / (1 + c)  # takes g to a, singular at g = -a
-    Km = -K
-    b = ca.DM(_half_turn_axis(a))
-    F = 2 * (b @ b.T) - ca.DM.eye(3)  # half turn about b: -a -> a
-    far = F @ (ca.DM.eye(3) + Km + (Km @ Km) / (1 - c))  # g -> -a -> a, singular at g = a
-    return ca.if_else(c >= 0, near, far)
+    g0, g1, g2 = g[0], g[1], g[2]
+    s, t = 1 + g2, 1 - g2
+    near1 = ca.vertcat(1 - g0 * g0 / s, -g0 * g1 / s, -g0)
+    near2 = ca.vertcat(-g0 * g1 / s, 1 - g1 * g1 / s, -g1)
+    far1 = ca.vertcat(1 - g0 * g0 / t, -g0 * g1 / t, g0)
+    far2 = ca.vertcat(g0 * g1 / t, g1 * g1 / t - 1, -g1)
+    up = g2 >= 0
+    A = ca.horzcat(ca.if_else(up, near1, far1), ca.if_else(up, near2, far2), g)
+    return ca.DM(axis_frame(a)) @ A.T
 
 
 class Rotation(Quotient):
@@ -144,7 +165,7 @@ class Rotation(Quotient):
 
     def section(self, r: list, kind: Kind) -> list:  # noqa: D102
         parts = self._named(r, kind)
-        R0 = rodrigues_section(parts[self.gamma_name][0:3], self.a)
+        R0 = frame_section(parts[self.gamma_name][0:3], self.a)
         out = []
         for j, f in enumerate(self.factors):
             if j == self.k0:
@@ -182,6 +203,17 @@ class Rotation(Quotient):
             else:
                 v = parts[self._rel(f.velocity_name)]
                 out.append(R0 @ v if lp else R0 @ (v + ca.cross(W0, R0.T @ c[j])))
+        return out
+
+    def ambient_rates(self, r: list, rates: list, kind: Kind) -> list:
+        """``Gamma-dot`` on the ambient ``Gamma`` (see :mod:`._reduction_geometry`)."""
+        names = [n for n, _ in self.storage(kind)]
+        i = names.index(self.gamma_name)
+        out = list(rates)
+        if kind is Kind.LAGRANGE_POINCARE:  # Gamma x Omega0, Omega0 the stored body rate
+            out[i] = ca.cross(r[i], r[names.index(self.factors[self.k0].velocity_name)])
+        else:  # TS^2 (Gamma, w): Gamma-dot = w x Gamma; the derived w-rate is kept
+            out[i] = ca.vertcat(ca.cross(r[i][3:6], r[i][0:3]), rates[i][3:6])
         return out
 
     def rotation(self, theta: Any) -> Any:
