@@ -106,6 +106,14 @@ class Reduction(ReconstructionMixin):
         self.n_r = sum(m.ambient_dim for _, m in self.storage)
         self.n_p = full.n_params
         self._J = der.momentum(der.ing.momenta[symmetry])
+        self._J_affine = self._J
+        if der.homogeneous:  # T a quadratic form: Pi = M nu, J = eta . M nu (fewer products)
+            gens = der.ing.momenta[symmetry]
+            eta = ca.vertcat(*[gens.get(id(f), ca.SX.zeros(f.velocity_sym.shape[0], 1))
+                               for f in self.factors])
+            self._J_affine = ca.Function("J", [der.x, der.ing.p],
+                                         [ca.dot(eta, ca.mtimes(der.M, der.nu))], ["x", "p"],
+                                         ["J"])
         self._functions()
         self.held_inputs: tuple[int, ...] = ()
         self._model: Model | None = None
@@ -118,7 +126,7 @@ class Reduction(ReconstructionMixin):
         c = self.quotient.section(parts, self.kind)
         if self.kind is Kind.ROUTH:
             x_xi = join_state(c, self.quotient.velocity(c, parts, self.kind, xi))
-            J = self._J(x_xi, p)
+            J = self._J_affine(x_xi, p)
             inertia = ca.jacobian(J, xi)
             if ca.depends_on(inertia, xi):
                 raise ModelError(
@@ -173,8 +181,11 @@ class Reduction(ReconstructionMixin):
             x, p = lifted(ctx)
             u = ca.mtimes(sel_dm, ctx.u) if kept else ca.DM.zeros(n_full_u, 1)
             rates = split_reduced(storage, rate(x, full.function("f")(x, u, p)))
-            return ca.vertcat(*quotient.ambient_rates(split_reduced(storage, ctx.x), rates,
-                                                      kind))
+            out = ca.vertcat(*quotient.ambient_rates(split_reduced(storage, ctx.x), rates,
+                                                     kind))
+            # the lift, the full field and the projection repeat subexpressions (the mass
+            # matrix, the section's entries): merged (SX only, as the full model's assembly)
+            return ca.cse(out) if isinstance(out, ca.SX) else out
 
         invariants = {"energy": lambda ctx: full.function("energy")(*lifted(ctx))}
         if not routh:

@@ -92,7 +92,7 @@ class ReconstructionMixin:
             k += n
         if self.kind is Kind.ROUTH:
             x_xi = join_state(cs, q.velocity(cs, parts, self.kind, xi))
-            J = self._J(x_xi, p)
+            J = self._J_affine(x_xi, p)
             slope = ca.jacobian(J, xi)
             x = ca.substitute(x_xi, xi, (mu - ca.substitute(J, xi, 0)) / slope)
             Jv = mu
