@@ -175,14 +175,10 @@ class Reduction(ReconstructionMixin):
             mu = ctx.p[n_p] if routh else 0.0
             return lift(ctx.x, ctx.p[:n_p], mu), ctx.p[:n_p]
 
-        storage, kind, quotient = self.storage, self.kind, self.quotient
-
         def field(ctx: Context) -> Any:
             x, p = lifted(ctx)
             u = ca.mtimes(sel_dm, ctx.u) if kept else ca.DM.zeros(n_full_u, 1)
-            rates = split_reduced(storage, rate(x, full.function("f")(x, u, p)))
-            out = ca.vertcat(*quotient.ambient_rates(split_reduced(storage, ctx.x), rates,
-                                                     kind))
+            out = rate(x, full.function("f")(x, u, p))
             # the lift, the full field and the projection repeat subexpressions (the mass
             # matrix, the section's entries): merged (SX only, as the full model's assembly)
             return ca.cse(out) if isinstance(out, ca.SX) else out

@@ -46,20 +46,24 @@ Three geometries:
   numerically; :func:`~._reduction_rotation.frame_section`).
 
 Off the manifold (an integrator's drift, an optimiser's iterates) the reduced field is
-evaluated at any ambient reduced state ``r``. Every part of ``r`` except the reference
-attitude enters the lift linearly (``R0 Q``, ``R0 q'``, ``R0 x'``, the angles seen from
-the first one, the pivot-shifted translations), so the derived rates are the full model's
-own ambient extension seen through the quotient, which keeps each factor's constraints
-(|q|, ``q . omega``, |p|) as the full model does. The section uses ``Gamma`` only through
-``Gamma / |Gamma|``: the dynamics are evaluated at the lift of that normalised point,
-and the kinematics of ``Gamma`` are written on the ambient ``Gamma`` itself
-(:meth:`Quotient.ambient_rates`): ``Gamma-dot = Gamma x Omega0`` (Lagrange-Poincare,
-``Omega0`` the stored body rate) and ``Gamma-dot = w x Gamma`` (Routh, the TS^2
-convention), so that ``|Gamma|`` is a first integral of the ambient field (and, Routh,
-``Gamma . w`` too: the derived ``w``-rate is normal to ``Gamma``) and the direction of
-``Gamma`` turns at the body rate whatever ``|Gamma|`` (the derived rate at the normalised
-point, ``(Gamma / |Gamma|) x Omega0``, would scale it by ``1 / |Gamma|``: a drift of
-``|Gamma|`` would become a phase error growing like spin times time).
+evaluated at any ambient reduced state ``r``, and the lift is one of *that* state: the
+quotient of the lift is ``r`` itself (for TS^2 parts: where ``q . w = 0``), so the derived
+rates are the full model's own ambient extension seen through the quotient, which keeps
+each factor's constraints (``|q|``, ``q . omega``, ``|p|``) as the full model does. Every
+part except the reference attitude enters the lift linearly (``R0 Q``, ``R0 q'``,
+``R0 x'``, the angles seen from the first one, the pivot-shifted translations; projections
+normal to ``q`` divide by ``q . q``). The reference attitude of the lift is the section at
+``Gamma / |Gamma|`` with its component along ``a`` stretched by ``|Gamma|``, so that
+``R0^T a = Gamma`` exactly: then ``Gamma-dot = Gamma x Omega0`` (Lagrange-Poincare) and
+``w x Gamma`` (Routh, where ``Omega0 = -w + xi Gamma``) for any ``|Gamma|``, ``|Gamma|``
+is a first integral of the ambient field (Routh: ``Gamma . w`` too), and the full field
+sees ``Gamma`` as it sees ``R^T a`` (gravity's moment ``m g rho x Gamma``, as in paper
+000's transcribed models). The other turning factors are seen from the reference
+attitude with that component scaled back to unit length (:meth:`Rotation.unit`, the
+identity on SO(3)), which turns rigidly with ``Omega0`` along the flow. (A lift at the
+normalised ``Gamma / |Gamma|`` would turn ``Gamma`` at ``(Gamma / |Gamma|) x Omega0``: a
+drift of ``|Gamma|`` by the integrator would become a phase error growing like spin times
+time.)
 
 A quotient by rotations with no SO(3) factor turning (S^2 factors only, or R^2/R^3
 factors) is not a manifold with global ambient coordinates (the action has fixed points:
@@ -131,8 +135,8 @@ def split_velocity(factors: list, v: Any) -> list:
 
 
 def normal_part(q: Any, v: Any) -> Any:
-    """The part of ``v`` normal to the unit vector ``q``."""
-    return v - ca.dot(q, v) * q
+    """The part of ``v`` normal to ``q`` (any nonzero ``q``: the orthogonal projection)."""
+    return v - (ca.dot(q, v) / ca.dot(q, q)) * q
 
 
 def matrix(M: Any) -> Any:
@@ -174,18 +178,6 @@ class Quotient:
     def act(self, theta: Any, c: list, nu: list) -> tuple[list, list]:
         """The group element ``theta`` applied to a full state."""
         raise NotImplementedError
-
-    def ambient_rates(self, r: list, rates: list, kind: Kind) -> list:
-        """The reduced field's parts written on the ambient reduced state ``r``.
-
-        ``rates`` are the derived ``d pi(x) [f(x)]`` at the lift, per storage part. Where
-        the section uses a part of ``r`` only through its normalisation (the reference
-        attitude ``Gamma``), the derived rate is the one at the normalised point, which
-        off the manifold is not the kinematics of ``r`` itself: this method writes those
-        rates on ``r`` (module docstring). Default: every part enters the lift as it is,
-        so the derived rates are the full field's own ambient extension, unchanged.
-        """
-        return rates
 
     def _passthrough_storage(self, f: Any) -> list[tuple[str, Any]]:
         return list(f.storage())

@@ -42,8 +42,8 @@ def axis_frame(a: np.ndarray) -> np.ndarray:
     return np.column_stack([b1, np.cross(a, b1), a])
 
 
-def frame_section(gamma: Any, a: np.ndarray) -> Any:
-    """A rotation ``R`` with ``R^T a = gamma / |gamma|``: ``R = B A^T``, two charts.
+def frame_section(gamma: Any, a: np.ndarray) -> tuple[Any, Any]:
+    """Rotations over ``gamma``: ``R = B A^T`` with ``R^T a = gamma / |gamma|``, two charts.
 
     ``B`` is :func:`axis_frame` and ``A = [c1, c2, g]`` an orthonormal frame whose third
     column is ``g = gamma / |gamma|`` itself (so ``R^T a = A e3`` is ``g`` as an
@@ -58,14 +58,18 @@ def frame_section(gamma: Any, a: np.ndarray) -> Any:
     Parameters
     ----------
     gamma : casadi.SX or casadi.MX, shape=(3, 1)
-        The reduced attitude (normalised here: the section is a rotation for any nonzero
-        ``gamma``).
+        The reduced attitude, any nonzero vector.
     a : ndarray, shape=(3,)
         The unit axis.
 
     Returns
     -------
-    casadi.SX or casadi.MX, shape=(3, 3)
+    R : casadi.SX or casadi.MX, shape=(3, 3)
+        The rotation ``B A^T``.
+    R_scaled : casadi.SX or casadi.MX, shape=(3, 3)
+        ``B [c1, c2, gamma]^T = R + a (gamma - g)^T``: equal to ``R`` on the sphere, and
+        off it the rotation with its component along ``a`` stretched by ``|gamma|``, so
+        that ``R_scaled^T a = gamma`` exactly (the lift of an ambient ``gamma``).
     """
     g = gamma / ca.norm_2(gamma)
     g0, g1, g2 = g[0], g[1], g[2]
@@ -75,8 +79,9 @@ def frame_section(gamma: Any, a: np.ndarray) -> Any:
     far1 = ca.vertcat(1 - g0 * g0 / t, -g0 * g1 / t, g0)
     far2 = ca.vertcat(g0 * g1 / t, g1 * g1 / t - 1, -g1)
     up = g2 >= 0
-    A = ca.horzcat(ca.if_else(up, near1, far1), ca.if_else(up, near2, far2), g)
-    return ca.DM(axis_frame(a)) @ A.T
+    c1, c2 = ca.if_else(up, near1, far1), ca.if_else(up, near2, far2)
+    B = ca.DM(axis_frame(a))
+    return B @ ca.horzcat(c1, c2, g).T, B @ ca.horzcat(c1, c2, gamma).T
 
 
 class Rotation(Quotient):
@@ -139,9 +144,19 @@ class Rotation(Quotient):
                 out += [(self._rel(f.name), Rn(3)), (self._rel(f.velocity_name), Rn(3))]
         return out
 
+    def unit(self, R: Any, gam: Any) -> Any:
+        """``R`` with its component along ``a`` scaled to unit length.
+
+        ``R + (1 / |gam| - 1) a gam^T`` for ``gam = R^T a``: the identity on SO(3), and
+        the rotation under the lift's stretched reference attitude, from which the other
+        turning factors are seen.
+        """
+        return R + (1 / ca.norm_2(gam) - 1) * (ca.DM(self.a) @ gam.T)
+
     def quotient(self, c: list, nu: list, kind: Kind) -> list:  # noqa: D102
-        R0, W0 = matrix(c[self.k0]), nu[self.k0]
-        gam = R0.T @ ca.DM(self.a)
+        Rs, W0 = matrix(c[self.k0]), nu[self.k0]
+        gam = Rs.T @ ca.DM(self.a)
+        R0 = self.unit(Rs, gam)
         lp = kind is Kind.LAGRANGE_POINCARE
         out: list = []
         for j, f in enumerate(self.factors):
@@ -165,11 +180,11 @@ class Rotation(Quotient):
 
     def section(self, r: list, kind: Kind) -> list:  # noqa: D102
         parts = self._named(r, kind)
-        R0 = frame_section(parts[self.gamma_name][0:3], self.a)
+        R0, Rs = frame_section(parts[self.gamma_name][0:3], self.a)
         out = []
         for j, f in enumerate(self.factors):
             if j == self.k0:
-                out.append(ca.vec(R0))
+                out.append(ca.vec(Rs))
             elif j not in self.turning:
                 k = [n for n, _ in f.storage()]
                 out.append(self._passthrough_from(f, [parts[n] for n in k])[0])
@@ -182,8 +197,9 @@ class Rotation(Quotient):
     def velocity(self, c: list, r: list, kind: Kind, xi: Any) -> list:  # noqa: D102
         parts = self._named(r, kind)
         lp = kind is Kind.LAGRANGE_POINCARE
-        R0 = matrix(c[self.k0])
-        gam = R0.T @ ca.DM(self.a)
+        Rs = matrix(c[self.k0])
+        gam = Rs.T @ ca.DM(self.a)
+        R0 = self.unit(Rs, gam)
         W0 = (parts[self.factors[self.k0].velocity_name] if lp
               else -parts[self.gamma_name][3:6] + xi * gam)
         out = []
@@ -203,17 +219,6 @@ class Rotation(Quotient):
             else:
                 v = parts[self._rel(f.velocity_name)]
                 out.append(R0 @ v if lp else R0 @ (v + ca.cross(W0, R0.T @ c[j])))
-        return out
-
-    def ambient_rates(self, r: list, rates: list, kind: Kind) -> list:
-        """``Gamma-dot`` on the ambient ``Gamma`` (see :mod:`._reduction_geometry`)."""
-        names = [n for n, _ in self.storage(kind)]
-        i = names.index(self.gamma_name)
-        out = list(rates)
-        if kind is Kind.LAGRANGE_POINCARE:  # Gamma x Omega0, Omega0 the stored body rate
-            out[i] = ca.cross(r[i], r[names.index(self.factors[self.k0].velocity_name)])
-        else:  # TS^2 (Gamma, w): Gamma-dot = w x Gamma; the derived w-rate is kept
-            out[i] = ca.vertcat(ca.cross(r[i][3:6], r[i][0:3]), rates[i][3:6])
         return out
 
     def rotation(self, theta: Any) -> Any:
