@@ -488,3 +488,16 @@ def test_off_the_sphere_the_lagrange_poincare_field_is_paper_000s(pendulum):
         expect = np.eye(3) + 0.5 * (s**2 - 1) * (np.eye(3) - np.outer(g, g))
         np.testing.assert_allclose(body["J"] @ B[3:], expect, rtol=0, atol=1e-12)
         np.testing.assert_allclose(B[:3], 0.0, atol=0)
+
+
+def test_reconstruct_builds_its_map_once_per_trajectory_length(pendulum):
+    _, full, lp, _ = pendulum
+    rng = np.random.default_rng(13)
+    x0 = full.manifold.random_point(rng)
+    z = lp.reconstruction_state(x0)
+    first = lp.reconstruct(np.tile(z, (4, 1)))
+    fn = lp._reconstruct_map(4)
+    second = lp.reconstruct(np.tile(z, (4, 1)))
+    assert lp._reconstruct_map(4) is fn  # cached, not rebuilt
+    np.testing.assert_array_equal(first.x, second.x)
+    np.testing.assert_allclose(first.x[0], x0, atol=1e-13)  # phase 0: the state itself
