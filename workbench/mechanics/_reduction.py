@@ -62,8 +62,9 @@ class Reduction(ReconstructionMixin):
     ----------
     model : Model
         The reduced model: an ordinary :class:`workbench.Model` (simulate, linearise,
-        equilibria, continuation, OCP and C export accept it). Routh: parameters of the
-        full model plus the momentum value (``momentum_parameter``).
+        equilibria, continuation, OCP and C export accept it), carrying this reduction as
+        ``model.reduction``. Routh: parameters of the full model plus the momentum value
+        (``momentum_parameter``).
     full : Model
         The full mechanics model.
     kind : ReductionKind
@@ -209,6 +210,20 @@ class Reduction(ReconstructionMixin):
             input_description=(f"full-model inputs {in_desc} of: {full.input_description}"
                                if kept else ""),
             spd_solves=full.spd_solves, value_check=value_check)
+
+    @property
+    def configuration(self) -> list[str]:
+        """The reduced model's factors that are configuration (the shape coordinates).
+
+        Its S^1, S^2, SO(3) and TS^2 factors (a TS^2 factor: its direction) and the R^k
+        factors that are positions (a factor's configuration, seen from the reference or
+        with the group's coordinate dropped); the others are velocities. What
+        :meth:`workbench.equilibria.ConfigurationFunction.from_state` reads by default
+        (e.g. for the critical points of :attr:`amended_potential`).
+        """
+        positions = {f.name for f in self.factors} | {f"{f.name}_rel" for f in self.factors}
+        return [n for n, m in self.storage
+                if m.kind in ("S1", "S2", "SO3", "TS2") or n in positions]
 
     @property
     def model(self) -> Model:
@@ -534,4 +549,5 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     kept = [k for k in range(full.n_inputs) if k not in broken]
     default = f"{full.name}_{'routh' if kind is Kind.ROUTH else 'reduced'}"
     red._model = red._build_model(kept, name or default, mu)
+    red._model.reduction = red  # the reduction, for inspection (configuration, lift)
     return red
