@@ -501,3 +501,25 @@ def test_reconstruct_builds_its_map_once_per_trajectory_length(pendulum):
     assert lp._reconstruct_map(4) is fn  # cached, not rebuilt
     np.testing.assert_array_equal(first.x, second.x)
     np.testing.assert_allclose(first.x[0], x0, atol=1e-13)  # phase 0: the state itself
+
+
+def _unforced(model):
+    """The field at u = 0 as one SX function of (x, p) (what an unforced simulation runs)."""
+    x, p = ca.SX.sym("x", model.manifold.ambient_dim), ca.SX.sym("p", model.n_params)
+    return ca.Function("f0", [x, p], [model.function("f")(x, ca.DM.zeros(model.n_inputs), p)])
+
+
+def test_the_unforced_fields_evaluate_no_chart_and_no_more_than_the_full_model(pendulum):
+    """Gravity along the symmetry axis sees the lift only through R^T e3 = Gamma: the
+    unforced reduced fields contain no chart switch (if_else) and no normalisation, and
+    the Lagrange-Poincare one has fewer operations than the full model's (a graph size,
+    not a time; benchmarks/bench_reduction.py times them)."""
+    _, full, lp, ro = pendulum
+    ops = {}
+    for name, model in (("full", full), ("lp", lp.model), ("routh", ro.model)):
+        fn = _unforced(model)
+        ids = [fn.instruction_id(k) for k in range(fn.n_instructions())]
+        assert ca.OP_IF_ELSE_ZERO not in ids and ca.OP_SQRT not in ids, name
+        ops[name] = fn.n_instructions()
+    assert ops["lp"] < ops["full"], ops
+    assert ops["routh"] < 1.5 * ops["full"], ops
