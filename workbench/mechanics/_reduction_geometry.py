@@ -58,9 +58,14 @@ normal to ``q`` divide by ``q . q``). The reference attitude of the lift is the 
 ``w x Gamma`` (Routh, where ``Omega0 = -w + xi Gamma``) for any ``|Gamma|``, ``|Gamma|``
 is a first integral of the ambient field (Routh: ``Gamma . w`` too), and the full field
 sees ``Gamma`` as it sees ``R^T a`` (gravity's moment ``m g rho x Gamma``, as in paper
-000's transcribed models). The other turning factors are seen from the reference
-attitude with that component scaled back to unit length (:meth:`Rotation.unit`, the
-identity on SO(3)), which turns rigidly with ``Omega0`` along the flow. (A lift at the
+000's transcribed models). What the full model makes of a stretched attitude elsewhere is
+its own extension: a body moment ``u`` acts through ``R^T R = I + (s^2 - 1) g g^T``
+(``s = |Gamma|``, ``g = Gamma / s``), i.e. as ``u + (s^2 - 1)/2 (I - g g^T) u``: exact on
+the sphere, never below half of it off the sphere (what wins: the phase of ``Gamma``
+under the integrator's drift over an input exact off the manifold). The other turning
+factors are seen from the reference attitude with that component scaled back to unit
+length (:meth:`Rotation.unit`, the identity on SO(3)), which turns rigidly with
+``Omega0`` along the flow. (A lift at the
 normalised ``Gamma / |Gamma|`` would turn ``Gamma`` at ``(Gamma / |Gamma|) x Omega0``: a
 drift of ``|Gamma|`` by the integrator would become a phase error growing like spin times
 time.)
