@@ -5,12 +5,12 @@ For each scene (initial states, a horizon, the outputs that matter, a tolerance 
 model, its Lagrange-Poincare and Routh models by each symmetry (derived by
 ``workbench.mechanics.reduce``, with reconstruction when the outputs are not invariant),
 paper 000's special cases whose assumptions the scene meets (Lagrange top, spherical,
-planar; checked numerically), the linearisation when the scene stays near an
-equilibrium -- times each (CPU, median of repeats) and measures its output error against
-the full model at a tight, checked tolerance, and picks the cheapest level within the
-tolerance. Scenes: paper 000's elliptic cylinder near hanging and tumbling, an
-axisymmetric top spinning and swinging in a plane, and (beyond the papers) the 3D
-pendulum on a cart drifting near hanging.
+planar; checked numerically: ``models.pendulum3d_levels.special_cases``), the
+linearisation when the scene stays near an equilibrium -- times each (CPU, median of
+repeats) and measures its output error against the full model at a tight, checked
+tolerance, and picks the cheapest level within the tolerance. Scenes: paper 000's
+elliptic cylinder near hanging and tumbling, an axisymmetric top spinning and swinging
+in a plane, and (beyond the papers) the 3D pendulum on a cart drifting near hanging.
 """
 
 from __future__ import annotations

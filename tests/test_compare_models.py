@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 from models import pendulum3d as p3
-from problems._model_choice_levels import TOP, at_tilt, com_position, gamma, special_cases
+from models.pendulum3d_levels import at_tilt, com_position, gamma, special_cases
+from problems._model_choice_levels import TOP
 from tests.conftest import assert_close
 from workbench import mechanics, simulate
 from workbench.core import Model, Parameter
-from workbench.core.errors import ParameterError, SolverError
+from workbench.core.errors import ModelError, ParameterError, SolverError
 from workbench.core.manifolds import ProductManifold, Rn
 from workbench.study import (
     ChoiceStatus,
@@ -233,3 +234,8 @@ def test_bad_scenes_and_knobs_are_refused():
         compare_models(scene, step=0.01)
     with pytest.raises(ParameterError, match="'cvodes' or 'rk'"):
         compare_models(scene, method="lgvi")
+
+
+def test_special_cases_belong_to_the_3d_pendulum():
+    with pytest.raises(ModelError, match="models.pendulum3d.full"):
+        special_cases(_oscillator())

@@ -310,3 +310,60 @@ def test_chain_with_eight_links_has_256_equilibria():
     assert res.ok and len(res) == 256 and res.check.perfect
     assert sorted(res.indices) == sorted(2 * bin(k).count("1") for k in range(256))
     assert max(s.field_residual for s in res.sets) <= 1e-12
+
+
+def test_the_mechanics_hooks_give_the_potential_on_the_configuration():
+    """``model.mechanics`` exposes Q, V(c, p) and the state at rest: V at rest is the
+    model's energy there (T = 0), and the state at rest is on the model's manifold."""
+    rng = np.random.default_rng(21)
+    model = double_pendulum3d()
+    der = model.mechanics
+    Q = der.configuration_manifold()
+    assert [n for n, _ in Q.factors] == ["R1", "R2"] and Q.dim == 6
+    V, rest = der.potential_function(), der.rest_state()
+    energy = model.function("energy")
+    for _ in range(3):
+        c = Q.random_point(rng)
+        x = np.asarray(rest(c), dtype=float).ravel()
+        model.check_state(x, tol=1e-12)
+        assert float(V(c, model.p)) == pytest.approx(float(energy(x, model.p)), rel=1e-13)
+        assert potential_function(model).value(c) == pytest.approx(float(V(c, model.p)))
+
+
+def test_the_amended_potential_of_a_derived_routh_model_gives_the_relative_equilibria():
+    """The derived Routh model says which factors are configuration (Gamma): the critical
+    points of its amended potential, with no configuration named, are those of paper
+    000's transcribed Routh energy (2 at mu = 0, 6 at mu = 3)."""
+    J, rho = np.diag([0.4486, 0.3943, 0.0772]), np.array([-0.014, 0.1044, 0.4989])
+    full = pendulum3d.full(J=J, rho=rho)
+    for mu, count in ((0.0, 2), (3.0, 6)):
+        red = mechanics.reduce(full, "h", momentum=mu, breaking_inputs="hold_zero")
+        assert red.configuration == ["Gamma"] and red.model.reduction is red
+        derived = critical_points(ConfigurationFunction.from_state(red.model,
+                                                                   red.amended_potential))
+        paper = pendulum3d.routh(J=J, rho=rho, mu=mu)
+        ref = critical_points(ConfigurationFunction.from_state(paper, paper.function("energy")))
+        assert derived.ok and len(derived) == len(ref) == count
+        assert derived.indices == ref.indices
+        for a, b in zip(derived.sets, ref.sets):
+            np.testing.assert_allclose(a.point, b.point, atol=1e-10)
+            assert a.value == pytest.approx(b.value, rel=1e-12, abs=1e-12)
+
+
+def test_a_reduction_names_its_configuration_factors():
+    rng = np.random.default_rng(22)
+    cart = mechanics.System("cart_link")
+    x, link = cart.rn("x", 2, velocity="v"), cart.s2("q")
+    cart.point_mass(1.5, ca.vertcat(x.x, 0))
+    cart.point_mass(0.4, ca.vertcat(x.x, 0) + 0.7 * link.q)
+    cart.gravity(9.81)
+    cart.momentum("px", translate={x: [1.0, 0.0]})
+    red = mechanics.reduce(cart, "px", momentum=0.2)
+    assert red.model.manifold.names == ["x", "v", "q"] and red.configuration == ["x", "q"]
+    lp = mechanics.reduce(double_pendulum3d(), "L_z", kind="lagrange_poincare")
+    assert lp.configuration == ["Gamma", "R2_rel"]
+    fn = ConfigurationFunction.from_state(red.model, red.amended_potential)
+    assert fn.manifold.names == ["x", "q"]  # the cart's y is a position, read by default
+    c = fn.manifold.random_point(rng)
+    state = fn.state(c)
+    assert np.all(state[red.model.manifold.slices["v"]] == 0)

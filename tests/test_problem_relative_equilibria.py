@@ -43,3 +43,7 @@ def test_chain_equilibria_quick():
     assert [per_n[str(n)]["equilibria"] for n in range(1, 6)] == [2, 4, 8, 16, 32]
     assert res.values["pushed"]["status"] == "stagnated"
     assert res.values["far_start"]["status"] == "max_iterations"
+    # without guesses: the same 2^n equilibria, every sign pattern, at the same states
+    assert [per_n[str(n)]["guess_free"]["sets"] for n in range(1, 6)] == [2, 4, 8, 16, 32]
+    rows = [c for c in res.comparisons if "guess" in c.quantity or "(Newton)" in c.quantity]
+    assert len(rows) == 4 * 5 and all(c.ok for c in rows)

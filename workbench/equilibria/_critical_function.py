@@ -13,8 +13,9 @@ manifold (no velocities) and derives, by automatic differentiation:
   (from ``d^2/ds^2 exp(s hat(xi)) q = -|xi|^2 q`` for ``xi`` normal to ``q`` and
   ``hat(v)^2 = v v^T - |v|^2 I``).
 
-:func:`potential_function` reads the potential of a model made by :mod:`workbench.mechanics` (the
-derivation it carries as ``model.mechanics``); :meth:`ConfigurationFunction.from_state`
+:func:`potential_function` takes the potential of a model made by :mod:`workbench.mechanics`
+from the hooks of the derivation it carries (``model.mechanics.configuration_manifold()``,
+``potential_function()``, ``rest_state()``); :meth:`ConfigurationFunction.from_state`
 takes any function of a model's state (an amended potential ``V + mu^2 / (2 I)`` on the
 shape space of a Routh model), with its velocities set to zero.
 """
@@ -164,8 +165,10 @@ class ConfigurationFunction:
             ``(x, p) -> V`` (e.g. a Routh model's amended potential).
         configuration : sequence of str, optional
             The model's factors that are configuration (S1, S2, SO3, Rn; a TS2 factor
-            contributes its direction ``q``). Default: every S1, S2, SO3 and TS2 factor;
-            R^k factors are velocities unless named here.
+            contributes its direction ``q``). Default: for a reduced model (it carries its
+            :class:`workbench.mechanics.Reduction` as ``model.reduction``) the reduction's
+            ``configuration`` (the shape coordinates, R^k ones included); otherwise every
+            S1, S2, SO3 and TS2 factor, R^k factors being velocities unless named here.
         p : array-like, optional
             The function's parameter values (default ``model.p``).
         name : str, optional
@@ -178,6 +181,9 @@ class ConfigurationFunction:
         if not isinstance(model, Model):
             raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
         man = model.manifold
+        reduction = getattr(model, "reduction", None)
+        if configuration is None and reduction is not None:
+            configuration = list(reduction.configuration)
         if configuration is None:
             configuration = [n for n, f in man.factors if isinstance(f, (S1, S2, SO3, TS2))]
         unknown = [n for n in configuration if n not in man.names]
@@ -265,8 +271,8 @@ class ConfigurationFunction:
 def potential_function(model: Model) -> ConfigurationFunction:
     """The potential energy of a model made by :mod:`workbench.mechanics`, on its configuration.
 
-    Reads the derivation the model carries (``model.mechanics``: its factors and the
-    potential ``V`` as an expression of the configuration and parameters), with the
+    Uses the hooks of the derivation the model carries (``model.mechanics``:
+    ``configuration_manifold()``, ``potential_function()`` and ``rest_state()``), with the
     model's current parameter values.
 
     Parameters
@@ -289,28 +295,12 @@ def potential_function(model: Model) -> ConfigurationFunction:
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     der = getattr(model, "mechanics", None)
-    if der is None or not hasattr(der, "V") or not hasattr(der, "ing"):
+    if der is None or not hasattr(der, "potential_function"):
         raise ModelError(
             f"model {model.name!r} was not made by workbench.mechanics (it carries no "
             "derivation with a potential); pass a ConfigurationFunction, or use "
             "ConfigurationFunction.from_state(model, V) with V a casadi.Function (x, p) -> V")
-    if ca.depends_on(der.V, der.nu):
-        raise ModelError(f"the potential of {model.name!r} depends on the velocities")
-    factors, names = [], []
-    for f in der.ing.factors:
-        name, fac = f.storage()[0]
-        factors.append((name, S2() if isinstance(fac, TS2) else fac))
-        names.append(name)
-    cman = ProductManifold(factors)
-    fn = ca.Function(f"{model.name}_potential", [der.c, der.ing.p], [der.V], ["c", "p"], ["V"])
-    man = model.manifold
-
-    def state(c: Vector) -> Vector:
-        x = np.zeros(man.ambient_dim)
-        for n in names:
-            part = c[cman.slices[n]]
-            x[man.slices[n].start: man.slices[n].start + part.size] = part
-        return x
-
-    return ConfigurationFunction(cman, fn, p=model.p, name=f"potential of {model.name}",
-                                 state=state)
+    rest = DenseEvaluator(der.rest_state())
+    return ConfigurationFunction(der.configuration_manifold(), der.potential_function(),
+                                 p=model.p, name=f"potential of {model.name}",
+                                 state=lambda c: rest(np.asarray(c, dtype=float))[0])

@@ -39,7 +39,9 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
+from workbench.core.manifolds import S2
 from workbench.mechanics._bodies import kinetic_energy_of_bodies
+from workbench.mechanics._engine import TS2, ModelError, ProductManifold
 from workbench.mechanics._forces import load_covector
 
 __all__ = ["Derivation", "Ingredients", "SPARSE_JACOBIAN_MAX", "FORWARD_BATCH"]
@@ -316,3 +318,36 @@ class Derivation:
         """``(x, p) -> M`` (the Hessian of T in the velocities, ambient)."""
         return ca.Function(f"{self.name}_mass", [self.x, self.ing.p], [self.M], ["x", "p"],
                            ["M"])
+
+    # the configuration space (for critical points and equilibria at rest) -------------------
+
+    def configuration_manifold(self) -> ProductManifold:
+        """The configuration manifold ``Q``: each factor's configuration, in storage order.
+
+        Named as the factors' configurations are stored (R^k: ``Rn(k)``, S^1: ``S1``,
+        SO(3): ``SO3``, S^2: ``S2``, the direction ``q`` of its TS^2 storage); its
+        ambient coordinates are :attr:`c`.
+        """
+        out = []
+        for f in self.ing.factors:
+            name, fac = f.storage()[0]
+            out.append((name, S2() if isinstance(fac, TS2) else fac))
+        return ProductManifold(out)
+
+    def potential_function(self) -> ca.Function:
+        """``(c, p) -> V``: the potential energy (gravity included) on the configuration.
+
+        Raises
+        ------
+        ModelError
+            If the potential depends on the velocities.
+        """
+        if ca.depends_on(self.V, self.nu):
+            raise ModelError(f"the potential of {self.name!r} depends on the velocities")
+        return ca.Function(f"{self.name}_potential", [self.c, self.ing.p], [self.V],
+                           ["c", "p"], ["V"])
+
+    def rest_state(self) -> ca.Function:
+        """``c -> x``: the state at rest over a configuration (every velocity zero)."""
+        x = ca.substitute(self.x, self.nu, ca.SX.zeros(self.n_nu))
+        return ca.Function(f"{self.name}_rest_state", [self.c], [x], ["c"], ["x"])

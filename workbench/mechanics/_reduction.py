@@ -62,8 +62,9 @@ class Reduction(ReconstructionMixin):
     ----------
     model : Model
         The reduced model: an ordinary :class:`workbench.Model` (simulate, linearise,
-        equilibria, continuation, OCP and C export accept it). Routh: parameters of the
-        full model plus the momentum value (``momentum_parameter``).
+        equilibria, continuation, OCP and C export accept it), carrying this reduction as
+        ``model.reduction``. Routh: parameters of the full model plus the momentum value
+        (``momentum_parameter``).
     full : Model
         The full mechanics model.
     kind : ReductionKind
@@ -106,6 +107,14 @@ class Reduction(ReconstructionMixin):
         self.n_r = sum(m.ambient_dim for _, m in self.storage)
         self.n_p = full.n_params
         self._J = der.momentum(der.ing.momenta[symmetry])
+        self._J_affine = self._J
+        if der.homogeneous:  # T a quadratic form: Pi = M nu, J = eta . M nu (fewer products)
+            gens = der.ing.momenta[symmetry]
+            eta = ca.vertcat(*[gens.get(id(f), ca.SX.zeros(f.velocity_sym.shape[0], 1))
+                               for f in self.factors])
+            self._J_affine = ca.Function("J", [der.x, der.ing.p],
+                                         [ca.dot(eta, ca.mtimes(der.M, der.nu))], ["x", "p"],
+                                         ["J"])
         self._functions()
         self.held_inputs: tuple[int, ...] = ()
         self._model: Model | None = None
@@ -118,7 +127,7 @@ class Reduction(ReconstructionMixin):
         c = self.quotient.section(parts, self.kind)
         if self.kind is Kind.ROUTH:
             x_xi = join_state(c, self.quotient.velocity(c, parts, self.kind, xi))
-            J = self._J(x_xi, p)
+            J = self._J_affine(x_xi, p)
             inertia = ca.jacobian(J, xi)
             if ca.depends_on(inertia, xi):
                 raise ModelError(
@@ -170,7 +179,10 @@ class Reduction(ReconstructionMixin):
         def field(ctx: Context) -> Any:
             x, p = lifted(ctx)
             u = ca.mtimes(sel_dm, ctx.u) if kept else ca.DM.zeros(n_full_u, 1)
-            return rate(x, full.function("f")(x, u, p))
+            out = rate(x, full.function("f")(x, u, p))
+            # the lift, the full field and the projection repeat subexpressions (the mass
+            # matrix, the section's entries): merged (SX only, as the full model's assembly)
+            return ca.cse(out) if isinstance(out, ca.SX) else out
 
         invariants = {"energy": lambda ctx: full.function("energy")(*lifted(ctx))}
         if not routh:
@@ -198,6 +210,20 @@ class Reduction(ReconstructionMixin):
             input_description=(f"full-model inputs {in_desc} of: {full.input_description}"
                                if kept else ""),
             spd_solves=full.spd_solves, value_check=value_check)
+
+    @property
+    def configuration(self) -> list[str]:
+        """The reduced model's factors that are configuration (the shape coordinates).
+
+        Its S^1, S^2, SO(3) and TS^2 factors (a TS^2 factor: its direction) and the R^k
+        factors that are positions (a factor's configuration, seen from the reference or
+        with the group's coordinate dropped); the others are velocities. What
+        :meth:`workbench.equilibria.ConfigurationFunction.from_state` reads by default
+        (e.g. for the critical points of :attr:`amended_potential`).
+        """
+        positions = {f.name for f in self.factors} | {f"{f.name}_rel" for f in self.factors}
+        return [n for n, m in self.storage
+                if m.kind in ("S1", "S2", "SO3", "TS2") or n in positions]
 
     @property
     def model(self) -> Model:
@@ -523,4 +549,5 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     kept = [k for k in range(full.n_inputs) if k not in broken]
     default = f"{full.name}_{'routh' if kind is Kind.ROUTH else 'reduced'}"
     red._model = red._build_model(kept, name or default, mu)
+    red._model.reduction = red  # the reduction, for inspection (configuration, lift)
     return red

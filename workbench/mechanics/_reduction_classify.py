@@ -66,18 +66,22 @@ def classify(factors: list, generators: dict, evaluate: Any, states: list[np.nda
                          for j, v in d.items())
         return Translation(factors, d, f"translation of {what} (momentum {name!r})")
     axis = None
+    # first at the identity attitudes: there R @ eta = eta is the axis as declared (e3
+    # exactly, not e3 up to rounding), so that the section sees R^T a as Gamma itself
+    starts = [x.copy() for x in states[:1]]
+    offsets = np.cumsum([0] + [f.config_sym.shape[0] + f.velocity_sym.shape[0]
+                               for f in factors])
+    for i, f in enumerate(factors):
+        if isinstance(f, SO3Factor):
+            starts[0][offsets[i] : offsets[i] + 9] = np.eye(3).reshape(9)
     for j, g in moved.items():
         f = factors[j]
-        vals = [evaluate(g, x) for x in states]
+        at = [*starts, *states]
+        vals = [evaluate(g, x) for x in at]
         if isinstance(f, S2Factor):
             axes = vals
         elif isinstance(f, SO3Factor):
-            c0 = [f.config_sym.shape[0] for f in factors]
-            axes = []
-            for x, v in zip(states, vals):
-                k = sum(c0[i] + factors[i].velocity_sym.shape[0] for i in range(j))
-                R = x[k : k + 9].reshape(3, 3).T
-                axes.append(R @ v)
+            axes = [x[offsets[j] : offsets[j] + 9].reshape(3, 3).T @ v for x, v in zip(at, vals)]
         else:
             continue
         for ax in axes:

@@ -38,12 +38,37 @@ Three geometries:
   layer), ``Omega - Q^T Omega0`` for ``Q = R0^T R``, ``P(q') (R0^T omega - Omega0)`` for
   ``q' = R0^T q``, and ``R0^T v - Omega0 x x'`` for ``x' = R0^T x``. The group velocity is
   ``xi = Gamma . Omega0``. The section is ``R0 = sigma(Gamma)`` with ``sigma(Gamma)^T a =
-  Gamma``: the smallest rotation taking ``Gamma`` to ``a`` where ``Gamma . a >= 0`` and
-  the one taking it to ``-a`` followed by a half turn about an axis normal to ``a``
-  elsewhere (two Rodrigues charts switched with ``casadi.if_else``: automatic
+  Gamma``: ``R0 = B A^T`` with ``B`` a constant rotation taking ``e3`` to ``a`` and ``A`` an
+  orthonormal frame whose third column is ``Gamma / |Gamma|`` itself, its first two
+  columns from one of two charts switched with ``casadi.if_else`` (automatic
   differentiation sees the active one, and the reduced field does not depend on the chart
   because the full field is invariant; :func:`workbench.mechanics.reduce` checks that
-  numerically).
+  numerically; :func:`~._reduction_rotation.frame_section`).
+
+Off the manifold (an integrator's drift, an optimiser's iterates) the reduced field is
+evaluated at any ambient reduced state ``r``, and the lift is one of *that* state: the
+quotient of the lift is ``r`` itself (for TS^2 parts: where ``q . w = 0``), so the derived
+rates are the full model's own ambient extension seen through the quotient, which keeps
+each factor's constraints (``|q|``, ``q . omega``, ``|p|``) as the full model does. Every
+part except the reference attitude enters the lift linearly (``R0 Q``, ``R0 q'``,
+``R0 x'``, the angles seen from the first one, the pivot-shifted translations; projections
+normal to ``q`` divide by ``q . q``). The reference attitude of the lift is the section at
+``Gamma / |Gamma|`` with its component along ``a`` stretched by ``|Gamma|``, so that
+``R0^T a = Gamma`` exactly: then ``Gamma-dot = Gamma x Omega0`` (Lagrange-Poincare) and
+``w x Gamma`` (Routh, where ``Omega0 = -w + xi Gamma``) for any ``|Gamma|``, ``|Gamma|``
+is a first integral of the ambient field (Routh: ``Gamma . w`` too), and the full field
+sees ``Gamma`` as it sees ``R^T a`` (gravity's moment ``m g rho x Gamma``, as in paper
+000's transcribed models). What the full model makes of a stretched attitude elsewhere is
+its own extension: a body moment ``u`` acts through ``R^T R = I + (s^2 - 1) g g^T``
+(``s = |Gamma|``, ``g = Gamma / s``), i.e. as ``u + (s^2 - 1)/2 (I - g g^T) u``: exact on
+the sphere, never below half of it off the sphere (what wins: the phase of ``Gamma``
+under the integrator's drift over an input exact off the manifold). The other turning
+factors are seen from the reference attitude with that component scaled back to unit
+length (:meth:`Rotation.unit`, the identity on SO(3)), which turns rigidly with
+``Omega0`` along the flow. (A lift at the
+normalised ``Gamma / |Gamma|`` would turn ``Gamma`` at ``(Gamma / |Gamma|) x Omega0``: a
+drift of ``|Gamma|`` by the integrator would become a phase error growing like spin times
+time.)
 
 A quotient by rotations with no SO(3) factor turning (S^2 factors only, or R^2/R^3
 factors) is not a manifold with global ambient coordinates (the action has fixed points:
@@ -115,8 +140,8 @@ def split_velocity(factors: list, v: Any) -> list:
 
 
 def normal_part(q: Any, v: Any) -> Any:
-    """The part of ``v`` normal to the unit vector ``q``."""
-    return v - ca.dot(q, v) * q
+    """The part of ``v`` normal to ``q`` (any nonzero ``q``: the orthogonal projection)."""
+    return v - (ca.dot(q, v) / ca.dot(q, q)) * q
 
 
 def matrix(M: Any) -> Any:

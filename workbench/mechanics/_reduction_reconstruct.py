@@ -42,6 +42,9 @@ __all__ = ["Reconstructed", "ReconstructionMixin", "PHASE"]
 PHASE = "phase"
 """Name of the reconstruction model's phase factor."""
 
+_MAPS_KEPT = 8
+"""Reconstruction maps kept per reduction (one per trajectory length; the oldest goes)."""
+
 
 @dataclass
 class Reconstructed:
@@ -75,6 +78,8 @@ class ReconstructionMixin:
 
     _recon: Model | None = None
     _recon_fn: ca.Function | None = None
+    _recon_point: ca.Function | None = None
+    _recon_maps: dict[int, ca.Function] | None = None
 
     def _horizontal(self) -> ca.Function:
         """``(r, c_hor, p, mu) -> (x, c_hor-dot, theta-dot)``, SX."""
@@ -92,7 +97,7 @@ class ReconstructionMixin:
             k += n
         if self.kind is Kind.ROUTH:
             x_xi = join_state(cs, q.velocity(cs, parts, self.kind, xi))
-            J = self._J(x_xi, p)
+            J = self._J_affine(x_xi, p)
             slope = ca.jacobian(J, xi)
             x = ca.substitute(x_xi, xi, (mu - ca.substitute(J, xi, 0)) / slope)
             Jv = mu
@@ -206,9 +211,22 @@ class ReconstructionMixin:
         pv = used.p if isinstance(used, Model) and used.manifold.names == \
             model.manifold.names and used.n_params == model.n_params else model.p
         mu = float(pv[n_p]) if self.kind is Kind.ROUTH else 0.0
-        xs = ca.SX.sym("s", n)
-        x_hor, _, _ = self._horizontal()(xs[:n_r], xs[n_r : n_r + n_c], pv[:n_p], mu)
-        full = self.act(x_hor, xs[-1])
-        fn = ca.Function("reconstruct", [xs], [full]).map(X.shape[0])
-        Xf = np.asarray(fn(X.T), dtype=float).T
+        Xf = np.asarray(self._reconstruct_map(X.shape[0])(X.T, pv[:n_p], mu), dtype=float).T
         return Reconstructed(t, Xf, X[:, -1].copy(), X[:, n_r : n_r + n_c].copy())
+
+    def _reconstruct_map(self, n_times: int) -> ca.Function:
+        """``(states, p, mu) -> full states``, mapped over ``n_times`` columns (cached)."""
+        if self._recon_maps is None:
+            self._recon_maps = {}
+        if n_times not in self._recon_maps:
+            if self._recon_point is None:
+                n_r, n_c = self.n_r, int(self._der.c.shape[0])
+                xs = ca.SX.sym("s", self.reconstruction.manifold.ambient_dim)
+                p, mu = ca.SX.sym("p", self.n_p), ca.SX.sym("mu")
+                x_hor, _, _ = self._horizontal()(xs[:n_r], xs[n_r : n_r + n_c], p, mu)
+                self._recon_point = ca.Function("reconstruct", [xs, p, mu],
+                                                [self.act(x_hor, xs[-1])])
+            if len(self._recon_maps) >= _MAPS_KEPT:
+                self._recon_maps.pop(next(iter(self._recon_maps)))
+            self._recon_maps[n_times] = self._recon_point.map(n_times, "serial")
+        return self._recon_maps[n_times]

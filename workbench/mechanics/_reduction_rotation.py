@@ -21,41 +21,67 @@ from workbench.mechanics._reduction_geometry import (
     normal_part,
 )
 
-__all__ = ["Rotation", "rodrigues_section"]
+__all__ = ["Rotation", "frame_section", "axis_frame"]
 
 
-def _half_turn_axis(a: np.ndarray) -> np.ndarray:
-    """A unit vector normal to ``a`` (the axis of the second chart's half turn)."""
-    e = np.eye(3)[int(np.argmin(np.abs(a)))]
-    b = np.cross(a, e)
-    return b / np.linalg.norm(b)
-
-
-def rodrigues_section(gamma: Any, a: np.ndarray) -> Any:
-    """A rotation ``R`` with ``R^T a = gamma / |gamma|``, two charts (module docstring).
+def axis_frame(a: np.ndarray) -> np.ndarray:
+    """A constant rotation ``B`` with ``B e3 = a`` (the identity for ``a = e3``).
 
     Parameters
     ----------
-    gamma : casadi.SX or casadi.MX, shape=(3, 1)
-        The reduced attitude (normalised here: the section is a rotation for any nonzero
-        ``gamma``).
     a : ndarray, shape=(3,)
         The unit axis.
 
     Returns
     -------
-    casadi.SX or casadi.MX, shape=(3, 3)
+    ndarray, shape=(3, 3)
     """
-    A = ca.DM(a)
+    e = np.eye(3)[int(np.argmin(np.abs(a)))]
+    b1 = e - (e @ a) * a
+    b1 = b1 / np.linalg.norm(b1)
+    return np.column_stack([b1, np.cross(a, b1), a])
+
+
+def frame_section(gamma: Any, a: np.ndarray) -> tuple[Any, Any]:
+    """Rotations over ``gamma``: ``R = B A^T`` with ``R^T a = gamma / |gamma|``, two charts.
+
+    ``B`` is :func:`axis_frame` and ``A = [c1, c2, g]`` an orthonormal frame whose third
+    column is ``g = gamma / |gamma|`` itself (so ``R^T a = A e3`` is ``g`` as an
+    expression, not a combination of chart entries): the rotation taking ``e3`` to ``g``
+    where ``g3 >= 0`` (singular only at ``g = -e3``) and the one taking ``e3`` to ``-g``
+    followed by a half turn about ``e1`` elsewhere (singular only at ``g = e3``), switched
+    with ``casadi.if_else`` (both charts are a few products of ``g``; the reduced field
+    does not depend on the chart because the full field is invariant). Only the first two
+    columns depend on the chart: a full field that sees the attitude through ``R^T a``
+    alone (gravity along the axis) never evaluates a chart.
+
+    Parameters
+    ----------
+    gamma : casadi.SX or casadi.MX, shape=(3, 1)
+        The reduced attitude, any nonzero vector.
+    a : ndarray, shape=(3,)
+        The unit axis.
+
+    Returns
+    -------
+    R : casadi.SX or casadi.MX, shape=(3, 3)
+        The rotation ``B A^T``.
+    R_scaled : casadi.SX or casadi.MX, shape=(3, 3)
+        ``B [c1, c2, gamma]^T = R + a (gamma - g)^T``: equal to ``R`` on the sphere, and
+        off it the rotation with its component along ``a`` stretched by ``|gamma|``, so
+        that ``R_scaled^T a = gamma`` exactly (the lift of an ambient ``gamma``).
+    """
     g = gamma / ca.norm_2(gamma)
-    c = ca.dot(g, A)
-    K = ca.skew(ca.cross(g, A))
-    near = ca.DM.eye(3) + K + (K @ K) / (1 + c)  # takes g to a, singular at g = -a
-    Km = -K
-    b = ca.DM(_half_turn_axis(a))
-    F = 2 * (b @ b.T) - ca.DM.eye(3)  # half turn about b: -a -> a
-    far = F @ (ca.DM.eye(3) + Km + (Km @ Km) / (1 - c))  # g -> -a -> a, singular at g = a
-    return ca.if_else(c >= 0, near, far)
+    g0, g1, g2 = g[0], g[1], g[2]
+    s, t = 1 + g2, 1 - g2
+    near1 = ca.vertcat(1 - g0 * g0 / s, -g0 * g1 / s, -g0)
+    near2 = ca.vertcat(-g0 * g1 / s, 1 - g1 * g1 / s, -g1)
+    far1 = ca.vertcat(1 - g0 * g0 / t, -g0 * g1 / t, g0)
+    far2 = ca.vertcat(g0 * g1 / t, g1 * g1 / t - 1, -g1)
+    up = g2 >= 0
+    c1, c2 = ca.if_else(up, near1, far1), ca.if_else(up, near2, far2)
+    B = ca.DM(axis_frame(a))
+    return B @ ca.horzcat(c1, c2, g).T, B @ ca.horzcat(c1, c2, gamma).T
 
 
 class Rotation(Quotient):
@@ -118,9 +144,19 @@ class Rotation(Quotient):
                 out += [(self._rel(f.name), Rn(3)), (self._rel(f.velocity_name), Rn(3))]
         return out
 
+    def unit(self, R: Any, gam: Any) -> Any:
+        """``R`` with its component along ``a`` scaled to unit length.
+
+        ``R + (1 / |gam| - 1) a gam^T`` for ``gam = R^T a``: the identity on SO(3), and
+        the rotation under the lift's stretched reference attitude, from which the other
+        turning factors are seen.
+        """
+        return R + (1 / ca.norm_2(gam) - 1) * (ca.DM(self.a) @ gam.T)
+
     def quotient(self, c: list, nu: list, kind: Kind) -> list:  # noqa: D102
-        R0, W0 = matrix(c[self.k0]), nu[self.k0]
-        gam = R0.T @ ca.DM(self.a)
+        Rs, W0 = matrix(c[self.k0]), nu[self.k0]
+        gam = Rs.T @ ca.DM(self.a)
+        R0 = self.unit(Rs, gam)
         lp = kind is Kind.LAGRANGE_POINCARE
         out: list = []
         for j, f in enumerate(self.factors):
@@ -144,11 +180,11 @@ class Rotation(Quotient):
 
     def section(self, r: list, kind: Kind) -> list:  # noqa: D102
         parts = self._named(r, kind)
-        R0 = rodrigues_section(parts[self.gamma_name][0:3], self.a)
+        R0, Rs = frame_section(parts[self.gamma_name][0:3], self.a)
         out = []
         for j, f in enumerate(self.factors):
             if j == self.k0:
-                out.append(ca.vec(R0))
+                out.append(ca.vec(Rs))
             elif j not in self.turning:
                 k = [n for n, _ in f.storage()]
                 out.append(self._passthrough_from(f, [parts[n] for n in k])[0])
@@ -161,8 +197,9 @@ class Rotation(Quotient):
     def velocity(self, c: list, r: list, kind: Kind, xi: Any) -> list:  # noqa: D102
         parts = self._named(r, kind)
         lp = kind is Kind.LAGRANGE_POINCARE
-        R0 = matrix(c[self.k0])
-        gam = R0.T @ ca.DM(self.a)
+        Rs = matrix(c[self.k0])
+        gam = Rs.T @ ca.DM(self.a)
+        R0 = self.unit(Rs, gam)
         W0 = (parts[self.factors[self.k0].velocity_name] if lp
               else -parts[self.gamma_name][3:6] + xi * gam)
         out = []
