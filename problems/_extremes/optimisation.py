@@ -11,7 +11,9 @@ def optimisation(cases: Cases, res: Result, *, quick: bool) -> None:
     """Swing-up of the spherical pendulum on a cart at extreme bounds and horizons.
 
     The problem of :mod:`problems.swingup_spherical_cart` (|u_i| <= u_max, T free in
-    [0.5, 3] s, Legendre collocation of degree 3, geodesic guess). A converged solve is
+    [0.5, 3] s, Legendre collocation of degree 3), solved from the defaults (the Auto
+    strategy: structured starts, relaxation and polish, continuation; ``max_iter`` caps
+    each of its solves). A converged solve is
     correct when its local defect (each node integrated over its interval by CVODES against
     the next node, ``OCPSolution.error["local_defect"]``) is at most 1e-2, which every solve
     also demands through ``defect_tol``; the open-loop re-simulation error is shown too (it
@@ -43,10 +45,10 @@ def optimisation(cases: Cases, res: Result, *, quick: bool) -> None:
                                  defect_tol=tol)
         return check(sol, f"continuation 10 -> 6 -> 4 -> 3 -> 2 N ({len(path)} solves)")
 
-    # the three cases that run out of iterations get 40, 60 and 60 in quick mode, 150, 300
-    # and 300 in full (were 300, 500 and 300: 21, 9 and 3 s); none has converged at the
-    # full cap, so a smaller one ends in the same status (Maximum_Iterations_Exceeded);
-    # |u| <= 1 N costs ~70 ms per iteration, T = 0.05 s ~10 ms
+    # the hopeless cases get 40, 60 and 60 iterations per solve in quick mode, 150, 300 and
+    # 300 in full; none converges at the full cap, so a smaller one ends in the same status;
+    # |u| <= 1 N, which ran out of iterations from the geodesic guess, is solved by the
+    # default strategy's structured starts
     cap = (40, 60, 60) if quick else (150, 300, 300)
     plan: list[tuple[str, Any]] = [
         ("reference: |u| <= 10 N, T in [0.5, 3] s", run),

@@ -39,7 +39,9 @@ from workbench.control._tvlqr import (
 )
 from workbench.control.ocp import (
     OCP,
+    Auto,
     Collocation,
+    Direct,
     Guess,
     HermiteSimpson,
     Integrator,
@@ -55,10 +57,12 @@ from workbench.control.ocp import (
     TargetSet,
     Transcription,
     coarse_to_fine,
+    energy_pumping,
     homotopy,
     local_for,
     multistart,
     refine,
+    structured_guesses,
     sx_function,
     transcribe,
 )
@@ -67,6 +71,7 @@ from workbench.control.ocp import (
 )
 
 __all__ = [
+    "Auto",
     "BasinEstimate",
     "ClosedLoopRun",
     "ClosedLoopStatus",
@@ -75,6 +80,7 @@ __all__ = [
     "ConvergenceCost",
     "ConvergenceReport",
     "ConvergenceStatus",
+    "Direct",
     "Extremum",
     "ExtremumStatus",
     "Guess",
@@ -94,6 +100,8 @@ __all__ = [
     "Stepper",
     "SublevelSet",
     "TVLQR",
+    "TVLQRChecks",
+    "TVLQRCost",
     "TargetPoint",
     "TargetSet",
     "Transcription",
@@ -102,8 +110,9 @@ __all__ = [
     "clopper_pearson",
     "closed_loop",
     "coarse_to_fine",
-    "homotopy",
+    "energy_pumping",
     "estimate_basin",
+    "homotopy",
     "level_in_domain",
     "local_for",
     "multistart",
@@ -114,10 +123,9 @@ __all__ = [
     "refine",
     "solve_ocp",
     "state_function",
+    "structured_guesses",
     "sx_function",
     "transcribe",
     "tvlqr",
     "tvlqr_along",
-    "TVLQRCost",
-    "TVLQRChecks",
 ]

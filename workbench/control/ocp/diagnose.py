@@ -89,6 +89,11 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float,
         out.append("the target is not reached: a longer horizon (T or its range), a larger "
                    "input bound, or more swings in the guess (the default strategy continues "
                    "in the bound and the terminal condition)")
+    elif worst["kind"] == "continuity" and name == "INFEASIBLE" and \
+            worst["knot"] >= 0.8 * tr.N:
+        out.append(f"the trajectory cannot be closed near the end (knot {worst['knot']} of "
+                   f"{tr.N}): the target may be out of reach within the horizon and the "
+                   f"bounds: a longer horizon (T or its range) or a larger input bound")
     elif worst["kind"] == "defect":
         out.append(f"the dynamics are violated most on interval {worst['knot']}: more "
                    f"intervals N, or a guess closer to a trajectory of the model")
