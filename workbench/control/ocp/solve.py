@@ -328,7 +328,7 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
         args["lbg"][rows], args["ubg"][rows] = -terminal_slack, terminal_slack
     out = _run(tr, ocp, built, args, opts, conf.compiled)
     if tr.i_gauge is not None and out.status.ok:
-        out = _check_gauge(out, tr, args, opts, not conf.user_ipopt, conf.compiled)
+        out, tr, args = _check_gauge(out, tr, args, opts, not conf.user_ipopt, conf.compiled)
     if out.status.ok and conf.manifold_tol is not None and \
             not out.error["manifold_residual"] <= conf.manifold_tol:
         out = _polish(out, tr, args, opts, conf)
@@ -472,23 +472,25 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
 
 
 def _check_gauge(out: OCPSolution, tr: Transcription, args: dict[str, Any],
-                 opts: dict[str, Any], warm_options: bool,
-                 compiled: Compiled | None) -> OCPSolution:
+                 opts: dict[str, Any], warm_options: bool, compiled: Compiled | None
+                 ) -> tuple[OCPSolution, Transcription, dict[str, Any]]:
     """Read the phase condition's multiplier; if it binds, re-solve without the gauge.
 
     The gauge only selects one optimum of a circle when the problem is symmetric along the
     solution (multiplier zero). Control bounds are not rotation invariant: where they are
     active the gauge can bind, and the gauged optimum is not one of the problem as posed.
+    Returns the solution with the transcription and the solver arguments it was solved with
+    (the ungauged ones after a re-solve; the solution's ``ocp`` stays the problem as posed).
     """
     lam = float(out.lam_g[tr.i_gauge])
     out.error["gauge_multiplier"] = lam
     if not np.any(args["p"][out.ocp.model.n_params:]):
         out.gauge = (f"{tr.symmetry.describe()}; not gauged: the guess is invariant (no "
                      f"phase condition through it)")
-        return out
+        return out, tr, args
     if abs(lam) <= GAUGE_BINDING * max(1.0, abs(out.objective)):
         out.gauge += f" (multiplier {lam:.1e}: not binding)"
-        return out
+        return out, tr, args
     free = out.ocp.with_bounds(gauge=False)
     tr2, built = transcribe(free, tr.method, handling=tr.handling, graph=tr.graph)
     lbw, ubw = tr2.bounds(free)
@@ -505,7 +507,8 @@ def _check_gauge(out: OCPSolution, tr: Transcription, args: dict[str, Any],
     again.gauge = (f"{tr.symmetry.describe()}; the gauge bound (multiplier {lam:.2e}: the "
                    f"control bounds break the symmetry here), so the gauged solution "
                    f"(cost {out.objective:.6g}) was re-solved without it")
-    return again
+    again.ocp = out.ocp  # the problem as posed (the ungauged copy shares its builds)
+    return again, tr2, args
 
 
 def _local_defect(sol: OCPSolution) -> float:
