@@ -14,10 +14,25 @@ from problems import swingup_3d_pendulum as p3d
 from problems import swingup_double_spherical_cart as dbl
 from problems import swingup_drake_reference as drake_ref
 from problems import swingup_spherical_cart as cart
-from workbench.control.ocp import Collocation, Guess, ManifoldHandling, solve
+from workbench.control.ocp import Collocation, Direct, Guess, ManifoldHandling, solve
 from workbench.control.ocp.stepper import Stepper
 from workbench.control.ocp.study import swings
-from workbench.core.manifolds import SO3
+from workbench.core.manifolds import SO3, so3_exp
+
+AMBIENT_ONE = {"strategy": Direct(), "handling": ManifoldHandling.AMBIENT}
+"""One ambient solve from the guess given: the transcriptions compared, not a strategy."""
+
+
+def lift(sol, full):
+    """A full-model guess from a reduced solution: R_{k+1} = R_k exp(h (w_k + w_{k+1})/2)."""
+    R = np.eye(3)
+    Xs = []
+    h = sol.T / len(sol.u)
+    for k, x in enumerate(sol.x):
+        Xs.append(np.r_[SO3.flat(R), x[3:6]])
+        if k < len(sol.u):
+            R = R @ so3_exp(h * 0.5 * (x[3:6] + sol.x[k + 1, 3:6]))
+    return Guess.from_samples(full, sol.t, np.array(Xs), sol.u)
 
 
 def test_swing_classification():
@@ -60,7 +75,7 @@ def test_lift_integrates_the_attitude_kinematics():
     X = np.array(X)
     g = Guess.from_samples(red, np.linspace(0, 0.4, 41), X, U)
     sol = type("S", (), {"x": X, "u": U, "t": np.linspace(0, 0.4, 41), "T": 0.4})()
-    lifted = p3d.lift(sol, full)
+    lifted = lift(sol, full)
     gam = np.array([SO3.matrix(r[:9]).T @ p3d.E3 for r in lifted.x])
     assert np.max(np.abs(gam - X[:, 0:3])) < 1e-4  # second order in h = 0.01
     assert g.T == pytest.approx(0.4)
@@ -71,15 +86,16 @@ def test_full_and_reduced_transcriptions_are_equivalent():
     red, full = p3d.problems("time")
     red = red.with_bounds(u_lower=-3.0, u_upper=3.0, T=(0.5, 5.0))
     full = full.with_bounds(u_lower=-3.0, u_upper=3.0, T=(0.5, 5.0))
-    s_red = solve(red, Collocation(N=20), guess=Guess.geodesic(red, T=1.5))
-    s_full = solve(full, Collocation(N=20), guess=p3d.lift(s_red, full))
+    s_red = solve(red, Collocation(N=20), guess=Guess.geodesic(red, T=1.5), **AMBIENT_ONE)
+    s_full = solve(full, Collocation(N=20), guess=lift(s_red, full), **AMBIENT_ONE)
     # the full solution, reduced, is a KKT point of the reduced transcription
-    back = solve(red, Collocation(N=20), guess=p3d.reduce(s_full, red))
+    back = solve(red, Collocation(N=20), guess=p3d.reduce(s_full, red), **AMBIENT_ONE)
     assert back.objective == pytest.approx(s_full.objective, rel=1e-8)
     gam = np.array([SO3.matrix(r[:9]).T @ p3d.E3 for r in s_full.x])
     assert np.allclose(gam, back.x[:, 0:3], atol=1e-6)
     assert np.allclose(s_full.x[:, 9:12], back.x[:, 3:6], atol=1e-5)
-    lie = solve(full, Collocation(N=20), handling=ManifoldHandling.LIE_GROUP, guess=s_full)
+    lie = solve(full, Collocation(N=20), handling=ManifoldHandling.LIE_GROUP, guess=s_full,
+                strategy=Direct())
     assert lie.objective == pytest.approx(s_full.objective, rel=2e-2)
 
 
@@ -137,7 +153,7 @@ def test_drake_peer_maps_to_the_workbench_state():
     assert ocp.target.distance(X[-1]) < 1e-8 and np.allclose(X[0], ocp.x0)
     # Drake's optimum is (to its tolerance) a KKT point of the Lie-group Hermite-Simpson NLP
     s = solve(ocp, drake_ref.METHOD, handling=ManifoldHandling.LIE_GROUP,
-              guess=Guess.from_samples(ocp, t, X, U))
+              guess=Guess.from_samples(ocp, t, X, U), strategy=Direct())
     assert s.objective == pytest.approx(d["cost"], rel=1e-7)
     assert np.allclose(s.x, X, atol=1e-5)
 
