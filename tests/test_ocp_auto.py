@@ -225,3 +225,68 @@ def test_strategy_and_handling_must_be_of_their_kinds(rail):
         solve(rail, Collocation(N=10), handling="projected")
     with pytest.raises(ParameterError, match="manifold_tol"):
         solve(rail, Collocation(N=10), manifold_tol=-1.0)
+
+
+# --- multistart over the structured starts, here and on a dask cluster ------------------------
+
+
+def rail_problem(u_max: float = 10.0):
+    """A module-level builder (picklable): the rail swing-up of the fixture, T free."""
+    model = rail_pendulum.rail_pendulum()
+    return OCP(model, x0=rail_pendulum.hanging(model),
+               target=TargetPoint(model.manifold, rail_pendulum.inverted(model)),
+               u_lower=-u_max, u_upper=u_max, T=(1.0, 3.0),
+               running_cost=lambda x, u: ca.dot(u, u), terminal_cost=lambda x, T: T,
+               name="rail")
+
+
+def test_structured_multistart_keeps_the_cheapest_of_the_deterministic_starts():
+    from workbench.control.ocp import multistart
+
+    ocp = rail_problem()
+    best, records = multistart(ocp, Collocation(N=20), starts="structured", max_iter=150,
+                               defect_tol=None)
+    names = [g.name for g in structured_guesses(ocp)]
+    assert [r["seed"] for r in records] == names  # one record per structured start
+    ok = [r["objective"] for r in records if r["status"] in ("SUCCESS", "ACCEPTABLE")]
+    assert ok and best.objective == pytest.approx(min(ok), rel=1e-9)
+    assert best.error["manifold_residual"] <= 1e-10
+
+
+def test_multistart_on_a_dask_cluster_equals_multistart_here():
+    import functools
+
+    from workbench.control.ocp import multistart
+    from workbench.simulation import local_cluster
+
+    pytest.importorskip("dask.distributed")
+    ocp = rail_problem()
+    options = {"starts": "structured", "max_iter": 150, "defect_tol": None}
+    here, rec_here = multistart(ocp, Collocation(N=20), **options)
+    with local_cluster(workers=1) as client:  # a worker process: the OCP must be rebuilt
+        there, rec_there = multistart(ocp, Collocation(N=20), executor=client,
+                                      build=functools.partial(rail_problem, 10.0), **options)
+    assert [r["status"] for r in rec_there] == [r["status"] for r in rec_here]
+    for a, b in zip(rec_here, rec_there):  # the same deterministic solves, elsewhere
+        assert a["objective"] == pytest.approx(b["objective"], rel=1e-8)
+        assert a["iterations"] == b["iterations"]
+    assert there.objective == pytest.approx(here.objective, rel=1e-8)
+
+
+def test_multistart_on_an_executor_needs_a_picklable_build_of_the_same_problem():
+    from concurrent.futures import ThreadPoolExecutor
+
+    from workbench.control.ocp import multistart
+
+    ocp = rail_problem()
+    with ThreadPoolExecutor(1) as pool:
+        with pytest.raises(ParameterError, match="build must be"):
+            multistart(ocp, Collocation(N=10), executor=pool)
+        with pytest.raises(ParameterError, match="picklable"):
+            multistart(ocp, Collocation(N=10), executor=pool, build=lambda: ocp)
+        with pytest.raises(ParameterError, match="same problem"):
+            import functools
+            multistart(ocp, Collocation(N=10), executor=pool,
+                       build=functools.partial(rail_problem, 5.0))
+    with pytest.raises(ParameterError, match="starts must be"):
+        multistart(ocp, Collocation(N=10), starts="random")

@@ -61,9 +61,12 @@ def multistart(
     describe: Callable[[OCPSolution], dict[str, Any]] | None = None,
     ipopt_variants: Sequence[dict[str, Any]] = ({},),
     workers: int = 1,
+    starts: str = "seeded",
+    executor: Any = None,
+    build: Callable[[], OCP] | None = None,
     **solve_options: Any,
 ) -> tuple[OCPSolution, list[dict[str, Any]]]:
-    """Solve from seeded geodesic guesses (random great circles, control noise); keep the best.
+    """Solve from several starts and keep the best: seeded geodesics, or the structured ones.
 
     Parameters
     ----------
@@ -72,7 +75,7 @@ def multistart(
     method : Collocation, MultipleShooting or HermiteSimpson, optional
         The transcription of the starts (built once for all; a coarse one is cheap).
     seeds : sequence of int
-        One start per seed.
+        One start per seed (``starts="seeded"``).
     noise : float
         Control noise of the guesses (relative to the bounds' half-range).
     T_guesses : sequence of float, optional
@@ -101,6 +104,22 @@ def multistart(
         of its end point, and the best is re-solved here from that vector (a warm start
         of the same transcription: a few iterations) to give a complete solution. With
         ``refine_best`` the refinements run here, one after the other.
+    starts : str
+        ``"seeded"`` (default): seeded geodesic guesses (random great circles, control
+        noise), one per seed. ``"structured"``: the default strategy's deterministic starts
+        (:func:`~workbench.control.ocp.initial.structured_guesses`: the direct path, the
+        energy-pumping start, paths with reversals), one start each; ``seeds``, ``noise``
+        and ``T_guesses`` then do not apply.
+    executor : dask.distributed.Client or concurrent.futures.Executor, optional
+        Run the starts there instead of forked workers (as :func:`workbench.sweep` does).
+        An OCP holds casadi graphs and the user's cost functions, which do not pickle: a
+        worker receives ``build`` instead, calls it once, and builds its transcriptions
+        itself; it returns numbers only, and ``describe`` runs here on each converged end
+        point.
+    build : callable, optional
+        With ``executor``: a picklable function of no argument returning ``ocp`` (a
+        module-level function, or ``functools.partial`` of one); checked here to give the
+        same problem (model, start, target, bounds, horizon).
     **solve_options
         Passed to :func:`solve` (``raise_on_failure`` is forced off for the starts).
 
@@ -120,6 +139,16 @@ def multistart(
     """
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
+    if starts not in ("seeded", "structured"):
+        raise ParameterError(f"starts must be 'seeded' or 'structured'; got {starts!r}")
+    if executor is not None:
+        _check_build(ocp, build)
+        if workers != 1:
+            raise ParameterError("workers applies to forked workers; with an executor, size "
+                                 "the executor yourself")
+    elif build is not None:
+        raise ParameterError("build is what an executor's workers call; got build without "
+                             "executor")
     if refine_best is not None and (isinstance(refine_best, bool) or not isinstance(
             refine_best, (int, np.integer)) or refine_best < 1):
         raise ParameterError(f"refine_best must be None or an integer >= 1; got "
@@ -134,12 +163,16 @@ def multistart(
                              "coarse_to_fine())")
     solve_options = dict(solve_options)
     solve_options.pop("raise_on_failure", None)
-    job = {"ocp": ocp, "method": method or Collocation(), "noise": noise, "seeds": list(seeds),
-           "T_guesses": T_guesses, "describe": describe,
+    labels = (list(seeds) if starts == "seeded" else
+              [g.name for g in _structured(ocp)])
+    job = {"ocp": ocp, "method": method or Collocation(), "noise": noise, "seeds": labels,
+           "starts": starts, "T_guesses": T_guesses, "describe": describe,
            "refine_with": [] if later else list(refine_with),
            "variants": list(ipopt_variants), "options": solve_options,
            "refine_later": bool(later)}
-    if workers == 1 or len(job["seeds"]) < 2:
+    if executor is not None:
+        done = _remote_starts(job, executor, build)
+    elif workers == 1 or len(job["seeds"]) < 2:
         done = [_one_start(job, i) for i in range(len(job["seeds"]))]
     else:
         done = _parallel_starts(job, int(workers))
@@ -203,12 +236,24 @@ _JOB: dict[str, Any] = {}
 """The multistart job of the parent, inherited by forked workers (never pickled)."""
 
 
+def _structured(ocp: OCP) -> list[Any]:
+    """The structured starts of ``ocp`` (made once per problem, cached on it)."""
+    from workbench.control.ocp.initial import structured_guesses
+
+    if "structured_guesses" not in ocp._cache:
+        ocp._cache["structured_guesses"] = structured_guesses(ocp)
+    return ocp._cache["structured_guesses"]
+
+
 def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution | None]:
     """Start ``i`` of a multistart job: guess, solve, refine; its record and end point."""
     ocp, seed = job["ocp"], job["seeds"][i]
-    rng = np.random.default_rng(seed)
-    T = None if not job["T_guesses"] else job["T_guesses"][i % len(job["T_guesses"])]
-    g = Guess.geodesic(ocp, T=T, rng=rng, noise=job["noise"])
+    if job.get("starts") == "structured":
+        g = _structured(ocp)[i].guess
+    else:
+        rng = np.random.default_rng(seed)
+        T = None if not job["T_guesses"] else job["T_guesses"][i % len(job["T_guesses"])]
+        g = Guess.geodesic(ocp, T=T, rng=rng, noise=job["noise"])
     variant = dict(job["variants"][i % len(job["variants"])]) if job["variants"] else {}
     options = job["options"]
     first_options = dict(options)
@@ -224,7 +269,8 @@ def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution
                                  **options)
         path += rest
     record = {
-        "seed": int(seed), "status": s.status.name, "objective": s.objective, "T": s.T,
+        "seed": seed if isinstance(seed, str) else int(seed), "status": s.status.name,
+        "objective": s.objective, "T": s.T,
         "iterations": [p.cost["iterations"] for p in path],
         "solve_seconds": float(sum(p.cost["solve_seconds"] for p in path)),
         "coarse_objective": path[0].objective,
@@ -267,6 +313,65 @@ def _parallel_starts(job: dict[str, Any], workers: int) -> list[tuple]:
     finally:
         _JOB.clear()
     return [tuple(v) for v in out.values()]
+
+
+_BUILT: dict[bytes, OCP] = {}
+"""Problems a worker built from ``build`` functions (one per function, kept for its life)."""
+
+
+def _check_build(ocp: OCP, build: Any) -> None:
+    """``build`` must be picklable and give ``ocp``'s problem (checked on its data)."""
+    import pickle
+
+    if build is None or not callable(build):
+        raise ParameterError(f"build must be a function of no argument returning the OCP (an "
+                             f"executor's workers call it); got {build!r}")
+    try:
+        pickle.dumps(build)
+    except Exception as exc:  # noqa: BLE001 - any pickling failure is the caller's to fix
+        raise ParameterError(f"build must be picklable (a module-level function or a "
+                             f"functools.partial of one, not a lambda or closure); got "
+                             f"{build!r} ({exc})") from exc
+    other = build()
+    same = (isinstance(other, OCP) and other.model.name == ocp.model.name
+            and np.array_equal(other.x0, ocp.x0)
+            and np.array_equal(other.target.witness, ocp.target.witness)
+            and np.array_equal(other.u_lower, ocp.u_lower)
+            and np.array_equal(other.u_upper, ocp.u_upper) and other.T_range == ocp.T_range
+            and np.array_equal(other.model.p, ocp.model.p))
+    if not same:
+        raise ParameterError("build() must return the same problem as ocp (model, parameters, "
+                             "x0, target, bounds, horizon); it returned another")
+
+
+def _remote_start(build: Callable[[], OCP], i: int, spec: dict[str, Any]
+                  ) -> tuple[dict[str, Any], tuple]:
+    """Start ``i`` on an executor's worker: the problem built there once; numbers back."""
+    import pickle
+
+    key = pickle.dumps(build)
+    if key not in _BUILT:
+        _BUILT[key] = build()
+    record, s = _one_start({**spec, "ocp": _BUILT[key], "describe": None}, i)
+    return record, (s.method, s.w, s.lam_x, s.lam_g)
+
+
+def _remote_starts(job: dict[str, Any], executor: Any, build: Callable[[], OCP]
+                   ) -> list[tuple]:
+    """Every start on ``executor``; ``describe`` applied here to each converged end point."""
+    from workbench.simulation import OnError, sweep
+
+    spec = {k: v for k, v in job.items() if k not in ("ocp", "describe")}
+    out = sweep(_remote_start, [{"build": build, "i": i, "spec": spec}
+                                for i in range(len(job["seeds"]))],
+                executor=executor, on_error=OnError.RAISE, progress=False, desc="multistart")
+    done = [tuple(v) for v in out.values()]
+    if job["describe"] is not None and not job["refine_later"]:
+        for record, (m, w, lam_x, lam_g) in done:
+            if record["status"] in ("SUCCESS", "ACCEPTABLE"):
+                record.update(job["describe"](_warm(job["ocp"], m, w, lam_x, lam_g,
+                                                    job["options"])))
+    return done
 
 
 def _warm(ocp: OCP, method: TranscriptionMethod, w: np.ndarray, lam_x: np.ndarray,
