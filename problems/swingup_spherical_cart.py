@@ -6,10 +6,11 @@ origin (q1 = +e3; e3 points down) to inverted at rest with the cart back at the 
 (q1 = -e3), imposed through the chart of (R^2)^2 x TS^2 (8 independent equations).
 
 Reference case (solved by peers too): minimise integral u^T u dt + T, |u_i| <= 10 N,
-T free in [0.5, 3] s, N = 40 intervals. The problem has several local minima; a cold
-start from the default geodesic guess finds one, seeded coarse starts (N = 20) refined to
-N = 40 find the best known. Harder case |u_i| <= 2 N: cold starts fail or land in worse
-minima; continuation in the bound from the reference solution works. Measured: the
+T free in [0.5, 3] s, N = 40 intervals. The problem has several local minima; the OCP's
+defaults (no guess, no handling: the default strategy) find one, seeded coarse starts
+(N = 10) refined to N = 40 find the best known. Harder case |u_i| <= 2 N: geodesic
+guesses fail or land in worse minima; the defaults solve it directly (their energy-pumping
+start). Measured: the
 speed-accuracy table over N and both manifold handlings (solve time, iterations, cost,
 end-state error of an open-loop CVODES re-simulation), and the TVLQR closed loop from
 seeded perturbed starts.
@@ -27,15 +28,13 @@ from workbench.control import tvlqr_along
 from workbench.control.ocp import (
     OCP,
     Collocation,
-    Guess,
     ManifoldHandling,
     MultipleShooting,
     Scheme,
     TargetPoint,
-    coarse_to_fine,
-    homotopy,
     multistart,
 )
+from workbench.control.ocp import solve as solve_ocp
 from workbench.control.ocp.study import (
     monte_carlo,
     plot_swingup,
@@ -54,7 +53,6 @@ U_MAX = 10.0
 U_MAX_HARD = 2.0
 T_RANGE = (0.5, 3.0)
 T_GUESSES = (1.0, 1.5, 2.0, 2.5)
-HARD_PATH = (6.0, 4.0, 3.0, 2.0)
 Q_LQR = np.r_[10.0, 10.0, 1.0, 1.0, 100.0, 100.0, 1.0, 1.0]  # x, v, link (angle, rate)
 R_LQR = 0.1
 PERTURBATION = np.r_[0.01, 0.01, 0.02, 0.02, 0.05, 0.05, 0.1, 0.1]
@@ -86,8 +84,8 @@ def solve(*, quick: bool = False) -> Result:
     ----------
     quick : bool
         4 seeded coarse starts instead of 12; the table over N = 20, 40 (ambient) and
-        N = 40 (Lie group) only, without shooting; no cold starts of the harder case;
-        1.5 s of hold in the closed loop instead of 3 s.
+        N = 40 (Lie group) only, without shooting; 1.5 s of hold in the closed loop
+        instead of 3 s.
 
     Returns
     -------
@@ -99,8 +97,8 @@ def solve(*, quick: bool = False) -> Result:
     ladder = [Collocation(N=n, degree=3) for n in (10, 20, 40)]
     coll = ladder[-1]
 
-    with res.timed("cold start (geodesic guess, N = 10 -> 20 -> 40)"):
-        cold, cold_path = coarse_to_fine(ocp, ladder, max_iter=300)
+    with res.timed("the defaults (no guess, no handling), N = 40"):
+        cold = solve_ocp(ocp, coll, raise_on_failure=False)
     with res.timed("seeded coarse starts refined to N = 40"):
         best, starts = multistart(
             ocp, ladder[0], seeds=range(4 if quick else 12), T_guesses=T_GUESSES,
@@ -110,8 +108,8 @@ def solve(*, quick: bool = False) -> Result:
     res.values["reference"] = {
         "problem": "integral u^T u dt + T, |u_i| <= 10 N, T in [0.5, 3] s, N = 40, "
                    "Legendre d = 3, ambient coordinates",
-        "cold_start": solution_row(cold, height=height),
-        "cold_start_iterations_N10_20_40": [p.cost["iterations"] for p in cold_path],
+        "defaults": solution_row(cold, height=height),
+        "defaults_attempts": cold.attempts,
         "seeded_starts": starts,
         "starts_reaching_best": sum(r["reached_best"] for r in starts),
         "gauge": best.gauge,
@@ -125,7 +123,10 @@ def solve(*, quick: bool = False) -> Result:
     res.compare("re-simulated end-state error, best, N = 40", 0.0,
                 best.error["resim_end_error"], tolerance=5e-2,
                 source="CVODES rtol 1e-10 vs transcription (amplified by the instability)")
-    res.compare("best cost <= cold-start cost", 0.0,
+    res.compare("the defaults converged, on the manifold (node residual)", 0.0,
+                cold.error["manifold_residual"] if cold.status.ok else np.inf,
+                tolerance=1e-10, source="default strategy, projected nodes")
+    res.compare("best cost <= the defaults' cost", 0.0,
                 max(0.0, best.objective - cold.objective), tolerance=1e-6,
                 source="multistart strategy")
 
@@ -147,25 +148,23 @@ def solve(*, quick: bool = False) -> Result:
                         r["objective"], tolerance=5e-2, relative=True,
                         source="same local minimum")
 
-    with res.timed("harder case |u| <= 2"):
+    with res.timed("harder case |u| <= 2: the defaults"):
         hard_ocp = ocp.with_bounds(u_lower=-U_MAX_HARD, u_upper=U_MAX_HARD)
-        cold_hard = []
-        if not quick:
-            for seed in range(4):
-                g = Guess.geodesic(hard_ocp, rng=np.random.default_rng(seed), noise=0.3)
-                s, _ = coarse_to_fine(hard_ocp, ladder, guess=g, raise_on_failure=False,
-                                      max_iter=300)
-                cold_hard.append(solution_row(s, resimulate=s.status.ok, height=height))
-        hard, path = homotopy(
-            ocp, coll, steps=[{"u_lower": -b, "u_upper": b} for b in HARD_PATH], guess=best)
-        hard.resimulate()
+        hard = solve_ocp(hard_ocp, coll, raise_on_failure=False)
+        if hard.status.ok:
+            hard.resimulate()
     res.values["harder_case"] = {
-        "problem": "as the reference with |u_i| <= 2 N",
-        "cold_starts": cold_hard,
-        "continuation_bounds": list(HARD_PATH),
-        "continuation_iterations": [s.cost["iterations"] for s in path],
+        "problem": "as the reference with |u_i| <= 2 N, from the defaults",
+        "attempts": hard.attempts,
         "solution": solution_row(hard, resimulate=False, height=height),
     }
+    res.compare("harder case: solved from the defaults", 1.0, float(hard.status.ok),
+                tolerance=0.0, source="default strategy")
+    if hard.status.ok and hard.objective < best.objective:  # local minima, said so
+        res.notes.append(
+            f"The harder case's optimum (cost {hard.objective:.4f}) is feasible for the "
+            f"reference problem and cheaper than the reference's best found here "
+            f"({best.objective:.4f}): the starts reach local minima, not the global one.")
     res.compare("harder case: bound violation max(0, max |u_i| - 2)", 0.0,
                 max(0.0, float(np.max(np.abs(hard.u))) - U_MAX_HARD), tolerance=1e-6,
                 source="control bound")
@@ -189,7 +188,7 @@ def solve(*, quick: bool = False) -> Result:
         title=f"|u_i| <= 2 N: cost {hard.objective:.4f}, T = {hard.T:.3f} s")
     res.notes.append(
         "Local minima (cost = integral u^T u + T) differ in the number of swings: more "
-        "swings, less force, longer T. The cold start and the seeded starts are listed with "
+        "swings, less force, longer T. The defaults' solve and the seeded starts are listed with "
         "their swing count; the strategy keeps the cheapest after refinement to N = 40.")
     return res.finish()
 
