@@ -55,11 +55,17 @@ def problem() -> OCP:
                            description="link upright at rest, arm at rest at any angle")
 
 
-def angles(model: Any, X: np.ndarray) -> np.ndarray:
-    """Unwrapped ``theta`` and ``alpha`` [rad] along states ``X`` (rows), shape (n, 2)."""
+def angles(model: Any, X: np.ndarray, names: tuple[str, ...] = ("theta", "alpha")
+           ) -> np.ndarray:
+    """Unwrapped angles [rad] of the S^1 factors ``names`` along states ``X`` (rows).
+
+    Returns
+    -------
+    ndarray, shape=(len(X), len(names))
+    """
     sl = model.manifold.slices
     return np.column_stack([np.unwrap(np.arctan2(X[:, sl[n].start + 1], X[:, sl[n].start]))
-                            for n in ("theta", "alpha")])
+                            for n in names])
 
 
 def balances(sol: OCPSolution) -> dict[str, float]:
@@ -111,7 +117,7 @@ def solve(*, quick: bool = False) -> Result:
     model = ocp.model
     res.use(model)
     res.label(theta="arm angle", alpha="link angle from hanging (pi: upright)",
-              tau="motor torque on the arm")
+              u="motor torque on the arm")
     with res.timed("OCP from the defaults"):
         sol = solve_ocp(ocp, Collocation(N=N, degree=3), raise_on_failure=False)
     res.values["problem"] = {
@@ -175,7 +181,8 @@ def solve(*, quick: bool = False) -> Result:
     res.compare(f"TVLQR success rate from {mc['n']} perturbed starts (torque saturated)", 1.0,
                 mc["success_rate"], tolerance=0.1,
                 source="closed loop reaches the upright equilibrium")
-    res.figure("swingup", _figure(sol, mc["runs"][:8]), caption=(
+    res.figure("swingup", angle_figure(sol, mc["runs"][:8], ("theta", "alpha"), res.labels),
+               caption=(
         f"The optimal swing-up (cost {sol.objective:.4f}, T = {sol.T:.3f} s): the arm and "
         f"link angles (each interval integrated from its node) and the torque, at the bound "
         f"on {100 * at_bound:.0f}% of the intervals; thin lines: TVLQR closed-loop runs "
@@ -197,25 +204,31 @@ def solve(*, quick: bool = False) -> Result:
     return res.finish()
 
 
-def _figure(sol: OCPSolution, runs: list[Any]) -> Any:
-    """Angles over time (optimal, dense, and closed-loop runs) and the torque."""
+def angle_figure(sol: OCPSolution, runs: list[Any], names: tuple[str, ...],
+                 labels: dict[str, str]) -> Any:
+    """Figure: the angles ``names`` over time and the input, optimal and closed loop.
+
+    The optimal trajectory is drawn between the nodes too (each interval integrated from its
+    node, :func:`~workbench.control.ocp.study.dense`); the closed-loop runs thin, under it.
+    """
     model = sol.ocp.model
     X = dense(sol, substeps=4)
     t = np.linspace(0.0, sol.T, len(X))
-    a = angles(model, X)
-    tu = np.repeat(sol.t, 2)[1:-1]
-    curves: dict[str, Any] = {"theta": (t, a[:, 0]), "alpha": (t, a[:, 1])}
-    torque: dict[str, Any] = {"tau (optimal)": (tu, np.repeat(sol.u[:, 0], 2))}
-    if runs:
+    a = angles(model, X, names)
+    curves: dict[str, Any] = {}
+    inputs: dict[str, Any] = {}
+    if runs:  # drawn first, under the optimal trajectory
         n = min(len(r.x) for r in runs)
         tr = runs[0].t[:n]
-        curves["closed loop"] = (tr, np.column_stack([angles(model, r.x[:n]) for r in runs]))
+        curves["closed loop"] = (tr, np.column_stack([angles(model, r.x[:n], names)
+                                                      for r in runs]))
         m = min(len(r.u) for r in runs)
-        torque["closed loop"] = (tr[:m], np.column_stack([r.u[:m, 0] for r in runs]))
+        inputs["closed loop"] = (tr[:m], np.column_stack([r.u[:m, 0] for r in runs]))
+    curves |= {name: (t, a[:, i]) for i, name in enumerate(names)}
+    inputs["optimal"] = (np.repeat(sol.t, 2)[1:-1], np.repeat(sol.u[:, 0], 2))
     return line_figure([
         Panel("angles", curves, xlabel="t [s]", ylabel="angle [rad]"),
-        Panel("motor torque", torque, xlabel="t [s]", ylabel="tau [N m]")],
-        labels={"theta": "arm angle", "alpha": "link angle"})
+        Panel("input", inputs, xlabel="t [s]", ylabel="u [N m]")], labels=labels)
 
 
 if __name__ == "__main__":
