@@ -10,9 +10,9 @@ and well below what a direct lift needs, so the solution swings.
 
 Solved by ``solve(ocp, Collocation(N, degree=3))`` with no guess and no handling: the
 default strategy's attempts are listed. Checks: the target residual, the bound, the node
-manifold residual, the local defect, an open-loop re-simulation, the energy balance the
-optimiser does not impose (the elbow torque's work equals the energy gain
-``2 g (m1 lc1 + m2 (l1 + lc2))``) and a closed-loop Monte Carlo of the TVLQR.
+manifold residual, the local defect, the energy balance the optimiser does not impose (the
+elbow torque's work equals the energy gain ``2 g (m1 lc1 + m2 (l1 + lc2))``) and a
+closed-loop Monte Carlo of the TVLQR; the open-loop re-simulation is reported.
 """
 
 from __future__ import annotations

@@ -4,19 +4,20 @@ Model: :func:`models.furuta.furuta` (Quanser's QUBE-Servo 2 arm and pendulum, no
 dynamics or friction), the arm angle ``theta`` and the link angle ``alpha`` as S^1 factors.
 From hanging at rest (``alpha = 0``, arm at ``theta = 0``) to upright at rest
 (``alpha = pi``), minimising ``integral tau^2 dt + T`` under ``|tau| <= 0.01`` N m, T free
-in [0.5, 4] s. The motor is too weak to lift the link in one go (the direct path asks for
-several times the bound): it must pump. The arm's final angle is left free (a
-:class:`~workbench.control.ocp.problem.TargetSet`): the arm angle is cyclic (turning the
-whole pendulum about the motor axis is a symmetry), so every arm angle is as good an
-upright equilibrium as another; requiring the arm back at 0 would only add cost to the
-swing-up (the balancing LQR holds the arm where the swing-up leaves it).
+in [0.5, 4] s. The motor is too weak to lift the link in one go (the default strategy's
+direct path asks for several times the bound): it must pump. The arm's final angle is
+left free (a :class:`~workbench.control.ocp.problem.TargetSet`): the arm angle is cyclic
+(turning the whole pendulum about the motor axis is a symmetry), so every arm angle is as
+good an upright equilibrium as another; requiring the arm back at 0 would only add cost to
+the swing-up (the balancing LQR holds the arm where the swing-up leaves it).
 
 Solved by ``solve(ocp, Collocation(N=60, degree=3))`` with no guess and no handling: the
 default strategy's attempts are listed. Checks: the target residual, the bound, the node
-manifold residual, the local defect, an open-loop re-simulation, two balance laws of the
-model that the optimiser does not impose (the motor's work equals the link's energy gain
-``mp g Lp``; the motor's angular impulse equals the change of the angular momentum about
-the motor axis, zero from rest to rest) and a closed-loop Monte Carlo of the TVLQR.
+manifold residual, the local defect, the bang-bang structure of the torque, two balance
+laws of the model that the optimiser does not impose (the motor's work equals the link's
+energy gain ``mp g Lp``; the motor's angular impulse equals the change of the angular
+momentum about the motor axis, zero from rest to rest) and a closed-loop Monte Carlo of
+the TVLQR; the open-loop re-simulation is reported.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from workbench.control import tvlqr_along
 from workbench.control.ocp import OCP, Collocation, OCPSolution
 from workbench.control.ocp import solve as solve_ocp
 from workbench.control.ocp.study import dense, effort_time_ocp, monte_carlo, solution_row
+from workbench.linear import linearize
 from workbench.study import Panel, Result, line_figure
 
 TITLE = "Furuta pendulum swing-up, weak motor (|tau| <= 0.01 N m), from the OCP defaults + TVLQR"
@@ -132,6 +134,8 @@ def solve(*, quick: bool = False) -> Result:
         return res.finish()
     with res.timed("open-loop re-simulation"):
         row = solution_row(sol)
+    theta_T = float(angles(model, sol.x)[-1, 0])
+    x_up = upright(model, theta=theta_T)  # the upright equilibrium the swing-up ends at
     res.values["solution"] = row
     res.compare("target residual (link upright at rest, arm at rest)", 0.0,
                 sol.error["target_residual"], tolerance=1e-8, source="terminal set = 0")
@@ -144,9 +148,15 @@ def solve(*, quick: bool = False) -> Result:
     res.compare("local defect against CVODES, relative to the default limit", 0.0,
                 sol.error["local_defect"] / limit, tolerance=0.1,
                 source="default defect_tol, with a margin of 10")
-    res.compare("open-loop re-simulated end-state error", 0.0, sol.error["resim_end_error"],
-                tolerance=0.5, source="CVODES rtol 1e-10 vs transcription (the upright "
-                                      "equilibrium amplifies the defects)")
+    rates = np.linalg.eigvals(linearize(model, x_up).A).real
+    res.values["open_loop"] = {
+        "end_error": sol.error["resim_end_error"],
+        "unstable_rates_upright_per_s": sorted(float(r) for r in rates if r > 1e-9)}
+    start = sol.attempts[-1]["guess"].split(":")[0]
+    res.values["solved_from"] = start
+    res.compare(f"solved from the energy-pumping start (solved from: {start})", 1.0,
+                float(start == "energy pumping"), tolerance=0.0,
+                source="a 0.01 N m motor cannot lift the link directly: it must pump")
     b = balances(sol)
     res.values["balances"] = b
     e_gain = QUBE_SERVO_2["mp"] * QUBE_SERVO_2["g"] * QUBE_SERVO_2["Lp"]
@@ -165,10 +175,8 @@ def solve(*, quick: bool = False) -> Result:
                 bang["inside_without_switch"], tolerance=0.0,
                 source="Pontryagin: tau = clip(-lambda.b / 2), |lambda.b| >> 2 |tau|max "
                        "except where lambda.b changes sign")
-    theta_T = float(angles(model, sol.x)[-1, 0])
-    x_eq = upright(model, theta=theta_T)
     with res.timed("TVLQR design + closed loop"):
-        ctrl = tvlqr_along(sol, x_eq=x_eq, Q=Q_LQR, R=R_LQR)
+        ctrl = tvlqr_along(sol, x_eq=x_up, Q=Q_LQR, R=R_LQR)
         mc = monte_carlo(ctrl, ocp.x0, n=8 if quick else 24, scale=PERTURBATION, seed=0,
                          hold=HOLD, tol=CLOSED_LOOP_TOL,
                          u_bounds=(ocp.u_lower, ocp.u_upper))
@@ -195,6 +203,12 @@ def solve(*, quick: bool = False) -> Result:
         f"(tangent coordinates); unsaturated, from starts perturbed by "
         f"{PERTURBATION_UNSATURATED:g}, it reaches upright in "
         f"{free['successes']}/{free['n']} runs using up to {free['max_abs_u']:.4g} N m.")
+    res.notes.append(
+        f"The open-loop re-simulation (CVODES, rtol 1e-10, the optimal torque replayed) ends "
+        f"{sol.error['resim_end_error']:.3g} from the transcribed end state: the upright "
+        f"link diverges at {max(rates):.1f} /s and the local defects (at most "
+        f"{sol.error['local_defect']:.2g}) grow by that; it is reported, not compared. The "
+        f"TVLQR closed loop is what follows the trajectory.")
     res.notes.append(
         "No guess and no handling are given: the default strategy's attempts are listed in "
         "'attempts' (the energy-pumping feedback simulated under the bound is the start "
