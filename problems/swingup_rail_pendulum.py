@@ -220,12 +220,14 @@ def solve(*, quick: bool = False) -> Result:
         "R^1 x S^1 model, along the S^2 solution mapped into it) and the Monte Carlo "
         "perturbations stay in the plane; the mirror symmetry e2 -> -e2 keeps a planar "
         "start planar, so these runs are the S^2 model's runs under the same feedback.")
+    same = abs(planar.objective - sol.objective) <= 1e-4 * abs(sol.objective)
     res.notes.append(
         f"Local minima: the same problem posed on the rail's plane and solved from the "
         f"defaults reaches cost {planar.objective:.4f} ({planar.status.name}); the S^2 "
         f"solve reaches {sol.objective:.4f}. Both are planar swing-ups; a planar optimum is "
-        f"feasible for the S^2 problem, so the cheaper one is a local minimum the S^2 "
-        f"defaults do not find.")
+        f"feasible for the S^2 problem, "
+        + ("and both solves reach the same minimum." if same else
+           "so the cheaper one is a local minimum the other solve does not find."))
     return res.finish()
 
 

@@ -500,6 +500,25 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...
     return np.array(X), np.array(U)
 
 
+PUMP_NEAR = 3.0
+"""Pumping runs whose closest approach is within this factor of the closest one's compete
+on the OCP's cost of their trajectory (the cheapest is kept): coming slightly closer does
+not make a better start when it costs more input."""
+
+
+def _guess_cost(ocp: OCP, X: np.ndarray, U: np.ndarray, T: float) -> float:
+    """The OCP's objective along a sampled trajectory with held inputs (rectangle rule)."""
+    model = ocp.model
+    x, u = ca.SX.sym("x", model.manifold.ambient_dim), ca.SX.sym("u", model.n_inputs)
+    Tsym = ca.SX.sym("T")
+    L = 0 if ocp.running_cost is None else ocp.running_cost(x, u)
+    Phi = 0 if ocp.terminal_cost is None else ocp.terminal_cost(x, Tsym)
+    fn = ca.Function("cost", [x, u, Tsym], [L, Phi])
+    h = T / max(1, len(U))
+    run = sum(float(fn(xk, uk, T)[0]) for xk, uk in zip(X[:-1], U)) * h
+    return run + float(fn(X[-1], U[-1] if len(U) else np.zeros(model.n_inputs), T)[1])
+
+
 def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     """A guess simulated with an energy-pumping feedback; ``None`` where none applies.
 
@@ -516,10 +535,13 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     the upper bounds for :data:`KICK_SAMPLES` samples (at rest ``b = 0``). It is held
     constant over each of ``samples`` intervals of the longest allowed horizon and
     integrated by CVODES, each step's end projected onto the manifold (the projection
-    method), so the guess is a trajectory of the model under admissible controls. Of the
-    laws tried, the one whose trajectory comes closest to the target (:func:`target_gap`,
-    counting the factors to invert only) is kept; a free final time ends at that closest
-    approach. It applies to models with an ``energy`` invariant, the
+    method), so the guess is a trajectory of the model under admissible controls. For each
+    law a free final time ends where the factors to invert come closest to the target
+    (:func:`target_gap`); with a fixed final time and ``x0`` an equilibrium (``u = 0``), the
+    guess rests at ``x0`` first, so that the closest approach falls at ``T`` (resting there
+    is a trajectory too). Of the laws that come within :data:`PUMP_NEAR` of the closest
+    approach, the one whose trajectory costs least (the OCP's objective) is kept.
+    It applies to models with an ``energy`` invariant, the
     second-order structure, finite input bounds and a factor to invert.
     """
     from workbench.control.ocp.stepper import Stepper
@@ -543,7 +565,9 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     idx = np.concatenate([np.arange(man.slices[n].start, man.slices[n].stop) for n in pumped])
     stepper = Stepper(model, rtol=1e-8, atol=1e-8)
     h = ocp.T_range[1] / samples
-    best = None
+    f0 = np.asarray(model.function("f")(ocp.x0, np.zeros(model.n_inputs), p), float).ravel()
+    at_rest = bool(np.max(np.abs(f0)) <= 1e-9 * max(1.0, float(np.max(np.abs(ocp.x0)))))
+    runs = []
     for law in PUMP_LAWS:
         X, U = _pump(ocp, law, fns, stepper, samples)
         t = h * np.arange(len(X))
@@ -555,15 +579,22 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
             if not ok.size:
                 continue
             k = int(ok[np.argmin(gap[ok])])
+            runs.append((float(gap[k]), law, X[: k + 1], U[:k], float(t[k])))
         elif len(X) == samples + 1:
-            k = samples
-        else:  # the fixed horizon was not reached
-            continue
-        if best is None or gap[k] < best[0]:
-            best = (float(gap[k]), law, X[: k + 1], U[:k], float(t[k]))
-    if best is None:
+            k = int(np.argmin(gap)) if at_rest else samples
+            rest = samples - k  # rest at x0 first, so that the closest approach falls at T
+            runs.append((float(gap[k]), law,
+                         np.vstack([np.tile(ocp.x0, (rest, 1)), X[: k + 1]]),
+                         np.vstack([np.zeros((rest, model.n_inputs)), U[:k]]),
+                         float(t[samples])))
+        # else: the fixed horizon was not reached
+    if not runs:
         return None
-    gap, law, X, U, T = best
+    # of the runs that come about as close as the closest, the cheapest by the OCP's cost
+    closest = min(r[0] for r in runs)
+    near = [r for r in runs if r[0] <= PUMP_NEAR * closest + 1e-12]
+    costs = [_guess_cost(ocp, r[2], r[3], r[4]) for r in near]
+    gap, law, X, U, T = near[int(np.argmin(costs))]
     guess = Guess(np.linspace(0.0, 1.0, len(X)), X, U, T, ProductLocal(man))
     return StructuredGuess(
         "energy pumping", guess,
