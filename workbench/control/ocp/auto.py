@@ -63,7 +63,10 @@ def _record(n: int, what: str, guess: str, sol: OCPSolution) -> dict[str, Any]:
             "objective": sol.objective, "T": sol.T,
             "cpu_seconds": sol.cost["solve_cpu_seconds"],
             "build_seconds": sol.cost["build_seconds"],
-            "primal_infeasibility": sol.cost.get("last_inf_pr", float("nan"))}
+            "primal_infeasibility": sol.cost.get("last_inf_pr", float("nan")),
+            "manifold_residual": sol.error.get("manifold_residual", float("nan")),
+            "local_defect": sol.error.get("local_defect", float("nan")),
+            "defect_limit": sol.error.get("defect_limit", float("nan"))}
 
 
 def _describe_guess(guess: Guess | OCPSolution | None) -> str:

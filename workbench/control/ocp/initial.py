@@ -28,8 +28,9 @@ No guess here comes from an axis convention. Each is a path of the *configuratio
    the controls solve ``(df_v/du) u = dv/dt - f_v(x, 0)`` (least squares), clipped into the
    bounds (a guess, not the problem's data).
 5. **The horizon** of a free final time grows with the swings: ``T_k = (k + 1) pi / omega``
-   with ``omega`` the fastest oscillation of the linearisation at ``x0`` (clipped into the
-   allowed range); else the middle of the range.
+   with ``omega`` the frequency of the oscillation of the linearisation at ``x0`` that moves
+   the factors to invert most (clipped into the allowed range); else the middle of the
+   range.
 
 Models without this structure (no inputs, or a field whose input enters every row) get the
 geodesic guess of :meth:`~workbench.control.ocp.guess.Guess.geodesic` with the
@@ -321,16 +322,29 @@ def controllable_axes(ocp: OCP) -> tuple[dict[str, np.ndarray], str]:
     return {}, ""
 
 
-def natural_frequency(ocp: OCP) -> float | None:
-    """The fastest oscillation (rad/s) of the linearisation at ``x0``, if it is an equilibrium."""
+def natural_frequency(ocp: OCP, factors: list[str] | None = None) -> float | None:
+    """The frequency (rad/s) of the linearisation's oscillation at ``x0`` moving ``factors`` most.
+
+    ``x0`` must be an equilibrium (else None); ``factors`` None means all. Among the
+    oscillatory eigenvectors, the one with the largest share of its ambient
+    displacement in ``factors``; its ``|Im lambda|``.
+    """
     from workbench.linear import linearize
 
     try:
-        lam = np.linalg.eigvals(linearize(ocp.model, ocp.x0).A)
+        lin = linearize(ocp.model, ocp.x0)
     except (ModelError, ManifoldError, SolverError, ValueError):
         return None
-    w = np.abs(lam.imag)
-    return float(w.max()) if np.any(w > 1e-9) else None
+    lam, V = np.linalg.eig(lin.A)
+    osc = np.flatnonzero(np.abs(lam.imag) > 1e-9)
+    if not osc.size:
+        return None
+    man = ocp.model.manifold
+    names = factors or list(man.names)
+    idx = np.concatenate([np.arange(man.slices[n].start, man.slices[n].stop) for n in names])
+    dX = lin.basis @ V[:, osc]
+    share = np.linalg.norm(dX[idx], axis=0) / np.maximum(np.linalg.norm(dX, axis=0), 1e-300)
+    return float(np.abs(lam[osc[int(np.argmax(share))]].imag))
 
 
 # the guesses ---------------------------------------------------------------------------------
@@ -368,7 +382,7 @@ def pumping(ocp: OCP, *, half_swings: int, wrap: float = 1.0, T: float | None = 
     turns = _turns(ocp, axes, wrap)
     if T is None:
         lo, hi = ocp.T_range
-        omega = natural_frequency(ocp)
+        omega = natural_frequency(ocp, [t.name for t in turns if t.pumped] or None)
         T = float(np.mean(ocp.T_range)) if omega is None else \
             float(np.clip((half_swings + 1) * np.pi / omega, lo, hi))
     guess, demand = _dynamic(ocp, structure(ocp.model), _path(ocp, turns, half_swings), T,

@@ -115,7 +115,9 @@ class OCPSolution(StatusResult):
         Every solve the strategy made, in order: ``attempt``, ``what`` (the role: a
         relaxation, an on-manifold solve, a continuation step), ``guess`` (how it was
         made), ``transcription``, ``handling``, ``status``, ``iterations``,
-        ``objective``, ``cpu_seconds``, ``build_seconds``. One entry for ``Direct``.
+        ``objective``, ``T``, ``cpu_seconds``, ``build_seconds``,
+        ``primal_infeasibility``, ``manifold_residual``, ``local_defect`` and
+        ``defect_limit`` (NaN where not measured). One entry for ``Direct``.
     diagnosis : dict or None
         For a failure, what went wrong in numbers (see
         :func:`workbench.control.ocp.diagnose.diagnose`): primal and dual infeasibility,

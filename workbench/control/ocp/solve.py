@@ -62,6 +62,11 @@ MANIFOLD_TOL = 1e-10
 nodes of a converged solve; above it the status is OFF_MANIFOLD, not SUCCESS."""
 
 
+MUMPS_ORDERING = 5
+"""MUMPS's fill-reducing ordering in Ipopt's default options (``mumps_pivot_order``: 5 METIS,
+7 MUMPS's automatic choice); measured by ``benchmarks/bench_ocp_ordering.py``."""
+
+
 @lru_cache(maxsize=64)
 def _check_ipopt_options(items: str) -> None:
     """Let Ipopt itself read the options on a one-variable problem; ParameterError if not."""
@@ -116,7 +121,7 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
     if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
         raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
     opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
-            "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": 5,
+            "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": MUMPS_ORDERING,
             "mumps_permuting_scaling": 0, "mumps_scaling": 0}
     opts.update(extra or {})
     return opts
@@ -337,9 +342,10 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
         out.error["local_defect"] = _local_defect(out)
         limit = (None if conf.defect_tol is None else
                  validate.scaled_tolerance(conf.defect_tol, float(np.max(np.abs(out.x)))))
-        if limit is not None and not out.error["local_defect"] <= limit:
-            out.status = OCPStatus.INACCURATE
+        if limit is not None:
             out.error["defect_limit"] = limit
+            if not out.error["local_defect"] <= limit:
+                out.status = OCPStatus.INACCURATE
     if not out.status.ok:
         out.diagnosis = diagnose(out, tr, args)
     return out
