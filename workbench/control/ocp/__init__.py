@@ -13,9 +13,10 @@ from workbench.control.ocp.compiled import Compiled
 from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.hermite_simpson import HermiteSimpson
-from workbench.control.ocp.initial import StructuredGuess, energy_pumping, structured_guesses
+from workbench.control.ocp.initial import StructuredGuess, structured_guesses
 from workbench.control.ocp.local import ProductLocal, local_for
 from workbench.control.ocp.problem import OCP, PathConstraint, TargetPoint, TargetSet
+from workbench.control.ocp.pumping import energy_pumping
 from workbench.control.ocp.solve import OCPSolution, OCPStatus, solve, transcribe
 from workbench.control.ocp.stepper import Stepper
 from workbench.control.ocp.strategies import coarse_to_fine, homotopy, multistart, refine

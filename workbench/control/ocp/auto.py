@@ -63,10 +63,15 @@ def _record(n: int, what: str, guess: str, sol: OCPSolution) -> dict[str, Any]:
             "objective": sol.objective, "T": sol.T,
             "cpu_seconds": sol.cost["solve_cpu_seconds"],
             "build_seconds": sol.cost["build_seconds"],
-            "primal_infeasibility": sol.cost.get("last_inf_pr", float("nan")),
-            "manifold_residual": sol.error.get("manifold_residual", float("nan")),
-            "local_defect": sol.error.get("local_defect", float("nan")),
-            "defect_limit": sol.error.get("defect_limit", float("nan"))}
+            "primal_infeasibility": _number(sol.cost.get("last_inf_pr")),
+            "manifold_residual": _number(sol.error.get("manifold_residual")),
+            "local_defect": _number(sol.error.get("local_defect")),
+            "defect_limit": _number(sol.error.get("defect_limit"))}
+
+
+def _number(value: Any) -> float | None:
+    """A finite number as a float; None where it was not measured (never NaN)."""
+    return float(value) if value is not None and np.isfinite(value) else None
 
 
 def _describe_guess(guess: Guess | OCPSolution | None) -> str:
@@ -317,5 +322,5 @@ class _Run:
 
 
 def _infeasibility(sol: OCPSolution) -> float:
-    v = sol.cost.get("last_inf_pr", np.inf)
-    return float(v) if np.isfinite(v) else np.inf
+    v = sol.cost.get("last_inf_pr")
+    return float(v) if v is not None and np.isfinite(v) else np.inf

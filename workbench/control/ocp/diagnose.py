@@ -54,7 +54,8 @@ def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any
     Returns
     -------
     dict
-        ``primal_infeasibility``, ``dual_infeasibility`` (of the last iterate),
+        ``primal_infeasibility``, ``dual_infeasibility`` (of the last iterate; None where
+        Ipopt reported no iteration),
         ``manifold_residual``, ``worst_constraint`` (``{"where", "kind", "knot",
         "violation"}``) and ``advice`` (a list of sentences).
     """
@@ -66,15 +67,15 @@ def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any
         kind, knot = str(tr.g_kinds[i]), int(tr.g_knots[i])
         worst = {"where": _where(kind, knot, tr.N), "kind": kind, "knot": knot,
                  "violation": float(viol[i])}
-    inf_pr = float(sol.cost.get("last_inf_pr", np.nan))
-    inf_du = float(sol.cost.get("last_inf_du", np.nan))
-    res = float(sol.error.get("manifold_residual", np.nan))
+    inf_pr = sol.cost.get("last_inf_pr")
+    inf_du = sol.cost.get("last_inf_du")
+    res = float(sol.error["manifold_residual"])
     advice = _advice(sol, tr, worst, inf_du, res)
     return {"primal_infeasibility": inf_pr, "dual_infeasibility": inf_du,
             "manifold_residual": res, "worst_constraint": worst, "advice": advice}
 
 
-def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float,
+def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | None,
             res: float) -> list[str]:
     name = sol.status.name
     out = []
@@ -100,7 +101,7 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float,
     elif worst["kind"] not in (None, "continuity", "gauge"):
         out.append(f"the path constraint {worst['kind']!r} binds at knot {worst['knot']}: "
                    f"check that it admits a trajectory from x0 to the target")
-    if np.isfinite(inf_du) and inf_du > LARGE_DUAL:
+    if inf_du is not None and inf_du > LARGE_DUAL:
         out.append(f"the dual infeasibility is {inf_du:.1e}: the problem may be badly scaled "
                    f"(state or input units far from 1), have a singular direction (a "
                    f"symmetry: keep gauge=True), or the guess is far from a minimum (the "
@@ -119,7 +120,10 @@ def describe_diagnosis(d: dict[str, Any]) -> str:
     w = d["worst_constraint"]
     worst = ("none violated" if w["kind"] is None else
              f"{w['where']}, violated by {w['violation']:.2e}")
-    return (f"primal infeasibility {d['primal_infeasibility']:.2e}, dual infeasibility "
-            f"{d['dual_infeasibility']:.2e}, node manifold residual "
+    def num(v: Any) -> str:
+        return "not reported" if v is None else f"{v:.2e}"
+
+    return (f"primal infeasibility {num(d['primal_infeasibility'])}, dual infeasibility "
+            f"{num(d['dual_infeasibility'])}, node manifold residual "
             f"{d['manifold_residual']:.2e}; worst constraint: {worst}. Try next: "
             + "; ".join(d["advice"]) + ".")

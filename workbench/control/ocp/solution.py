@@ -117,7 +117,7 @@ class OCPSolution(StatusResult):
         made), ``transcription``, ``handling``, ``status``, ``iterations``,
         ``objective``, ``T``, ``cpu_seconds``, ``build_seconds``,
         ``primal_infeasibility``, ``manifold_residual``, ``local_defect`` and
-        ``defect_limit`` (NaN where not measured). One entry for ``Direct``.
+        ``defect_limit`` (None where not measured). One entry for ``Direct``.
     diagnosis : dict or None
         For a failure, what went wrong in numbers (see
         :func:`workbench.control.ocp.diagnose.diagnose`): primal and dual infeasibility,

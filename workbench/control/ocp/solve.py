@@ -458,7 +458,7 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
     }
     trace = stats.get("iterations") or {}
     for key in ("inf_pr", "inf_du"):  # the last iterate's infeasibilities (for diagnoses)
-        cost[f"last_{key}"] = float(trace[key][-1]) if trace.get(key) else float("nan")
+        cost[f"last_{key}"] = float(trace[key][-1]) if trace.get(key) else None
     error = {
         "constraint_violation": float(viol.max(initial=0.0)),
         "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in X)),

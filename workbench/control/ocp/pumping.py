@@ -1,0 +1,228 @@
+"""An energy-pumping feedback, simulated: the default strategy's start for weak inputs.
+
+Where the inputs cannot follow a direct path to the target (a 0.01 N m motor lifting a
+pendulum), the start that works is a trajectory of the model that gains the target's
+energy swing by swing. :func:`energy_pumping` simulates one, with a feedback built from the
+model's ``energy`` invariant and its field alone (Astrom and Furuta's law, generalised):
+the energy ``E_p`` of the factors to invert is raised to its value at the target, the
+energy the other factors carry (an arm set spinning, a cart set running) is taken out.
+Everything it needs is read off the model: the factors to invert and the kinematics from
+:mod:`workbench.control.ocp.initial`, the rates of both energies by automatic
+differentiation.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from workbench.control.ocp.expand import sx_function
+from workbench.control.ocp.guess import Guess
+from workbench.control.ocp.initial import (
+    Structure,
+    StructuredGuess,
+    _turns,
+    controllable_axes,
+    structure,
+)
+from workbench.control.ocp.local import ProductLocal
+from workbench.control.ocp.problem import OCP
+from workbench.core.errors import ManifoldError, SolverError
+
+__all__ = ["energy_pumping", "target_gap"]
+
+PUMP_LAWS = ((20.0, 0.0, 0.0), (20.0, 0.2, 0.0), (20.0, 0.0, 0.5), (20.0, 0.2, 0.5))
+"""``(kappa, overshoot, brake)`` of the pumping laws tried, in order (see
+:func:`energy_pumping`); the one that comes closest to the target is kept."""
+
+PUMP_SHARPNESS = 0.05
+"""``beta_i`` of the pumping law, as a fraction of the largest ``|b_i|`` seen so far."""
+
+KICK_SAMPLES = 1
+"""Samples at the upper input bounds that start the pumping (at rest ``b = 0``)."""
+
+
+def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[ca.Function, ...]:
+    """``E_p``, ``b = d(dE_p/dt)/du``, ``E_o = E - E_p`` and ``b_o = d(dE_o/dt)/du``.
+
+    ``E_p`` is the model's energy with the velocities of the other factors set to zero: for
+    a pendulum on a cart, the pendulum's energy with the cart at rest (Astrom and Furuta's
+    pumping law uses exactly this one); for the Furuta pendulum, the link's with the arm at
+    rest. ``E_o`` is what the other factors' velocities add. Both rates are affine in the
+    input, ``dE/dt = a(x) + b(x) . u``.
+    """
+    model = ocp.model
+    man = model.manifold
+    K0 = np.asarray(st.kinematics(ocp.x0, model.p), float)
+    rows = {int(r): i for i, r in enumerate(st.config)}
+    keep = set()
+    for name in pumped:
+        for r in range(man.slices[name].start, man.slices[name].stop):
+            if r in rows:
+                keep |= {int(st.velocity[j]) for j in np.flatnonzero(K0[rows[r]])}
+    nx = man.ambient_dim
+    x, u = ca.SX.sym("x", nx), ca.SX.sym("u", model.n_inputs)
+    p = ca.SX.sym("p", model.n_params)
+    mask = ca.DM([0.0 if (j in st.velocity and j not in keep) else 1.0 for j in range(nx)])
+    energy = sx_function(model.function("energy"), spd=model.spd_solves)
+    Ep = energy(x * mask, p)
+    Eo = energy(x, p) - Ep
+    f = sx_function(model.function("f"), spd=model.spd_solves)
+    zero = ca.DM.zeros(model.n_inputs)
+    b, bo = (ca.substitute(ca.jacobian(ca.dot(ca.gradient(E, x), f(x, u, p)), u), u, zero)
+             for E in (Ep, Eo))
+    return (ca.Function("Ep", [x, p], [Ep]), ca.Function("b", [x, p], [b]),
+            ca.Function("Eo", [x, p], [Eo]), ca.Function("bo", [x, p], [bo]))
+
+
+def target_gap(ocp: OCP, x: np.ndarray) -> float:
+    """``max |chart|`` of the target at ``x``, or ``1 + overshoot`` outside the chart's domain.
+
+    The chart of an antipodal point vanishes at the antipode too (``q* x q = 0`` at
+    ``q = -q*``): where the domain inequalities fail the point is counted as far.
+    """
+    xs = ca.DM(x)
+    dom = [float(ca.evalf(e)) for e in ocp.target.domain(xs)]
+    if dom and min(dom) < 0:
+        return 1.0 - min(dom)
+    return ocp.target.distance(x)
+
+
+def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...],
+          stepper: Any, samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Simulate one pumping law with held samples; the states and the controls."""
+    kappa, over, brake = law
+    Ep, b_of, Eo, bo_of = fns
+    model, p = ocp.model, ocp.model.p
+    E_star, E0 = float(Ep(ocp.target.witness, p)), float(Ep(ocp.x0, p))
+    dE = abs(E_star - E0)
+    mid, half = 0.5 * (ocp.u_upper + ocp.u_lower), 0.5 * (ocp.u_upper - ocp.u_lower)
+    h = ocp.T_range[1] / samples
+    X, U = [ocp.x0], []
+    bmax, bomax = np.zeros(model.n_inputs), np.zeros(model.n_inputs)
+    x = ocp.x0
+    for i in range(samples):
+        b = np.asarray(b_of(x, p), float).ravel()
+        bo = np.asarray(bo_of(x, p), float).ravel()
+        bmax, bomax = np.maximum(bmax, np.abs(b)), np.maximum(bomax, np.abs(bo))
+        if i < KICK_SAMPLES:
+            u = ocp.u_upper.copy()
+        else:
+            e = (E_star + over * dE - float(Ep(x, p))) / dE
+            pump = np.tanh(kappa * e) * np.tanh(b / np.maximum(PUMP_SHARPNESS * bmax, 1e-300))
+            take = np.tanh(kappa * float(Eo(x, p)) / dE) * np.tanh(
+                bo / np.maximum(PUMP_SHARPNESS * bomax, 1e-300))
+            u = mid + half * np.clip(pump - brake * take, -1.0, 1.0)
+        try:  # projected after each step (the projection method): the guess's states are
+            x = model.manifold.project(stepper.step(x, u, h))  # on the manifold exactly
+        except (SolverError, ManifoldError):
+            break
+        U.append(u)
+        X.append(x)
+    return np.array(X), np.array(U)
+
+
+PUMP_NEAR = 3.0
+"""Pumping runs whose closest approach is within this factor of the closest one's compete
+on the OCP's cost of their trajectory (the cheapest is kept): coming slightly closer does
+not make a better start when it costs more input."""
+
+
+def _guess_cost(ocp: OCP, X: np.ndarray, U: np.ndarray, T: float) -> float:
+    """The OCP's objective along a sampled trajectory with held inputs (rectangle rule)."""
+    model = ocp.model
+    x, u = ca.SX.sym("x", model.manifold.ambient_dim), ca.SX.sym("u", model.n_inputs)
+    Tsym = ca.SX.sym("T")
+    L = 0 if ocp.running_cost is None else ocp.running_cost(x, u)
+    Phi = 0 if ocp.terminal_cost is None else ocp.terminal_cost(x, Tsym)
+    fn = ca.Function("cost", [x, u, Tsym], [L, Phi])
+    h = T / max(1, len(U))
+    run = sum(float(fn(xk, uk, T)[0]) for xk, uk in zip(X[:-1], U)) * h
+    return run + float(fn(X[-1], U[-1] if len(U) else np.zeros(model.n_inputs), T)[1])
+
+
+def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
+    """A guess simulated with an energy-pumping feedback; ``None`` where none applies.
+
+    The law raises the energy ``E_p`` of the factors to invert (see :func:`_pumped_energy`)
+    to its value ``E*`` at the target's witness (plus an overshoot), and takes out the
+    energy ``E_o`` the other factors' velocities carry (an arm or a cart set spinning or
+    running by the pumping),
+
+        u_i = mid_i + half_i clip(tanh(kappa e) tanh(b_i / beta_i)
+                                  - brake tanh(kappa E_o / dE) tanh(b_oi / beta_oi), -1, 1),
+
+    ``e = (E* + overshoot dE - E_p) / dE``, ``dE = |E* - E_p(x0)|``, with ``half_i`` the
+    half-range of the bounds (:data:`PUMP_LAWS`, :data:`PUMP_SHARPNESS`), after a kick at
+    the upper bounds for :data:`KICK_SAMPLES` samples (at rest ``b = 0``). It is held
+    constant over each of ``samples`` intervals of the longest allowed horizon and
+    integrated by CVODES, each step's end projected onto the manifold (the projection
+    method), so the guess is a trajectory of the model under admissible controls. For each
+    law a free final time ends where the factors to invert come closest to the target
+    (:func:`target_gap`); with a fixed final time and ``x0`` an equilibrium (``u = 0``), the
+    guess rests at ``x0`` first, so that the closest approach falls at ``T`` (resting there
+    is a trajectory too). Of the laws that come within :data:`PUMP_NEAR` of the closest
+    approach, the one whose trajectory costs least (the OCP's objective) is kept.
+    It applies to models with an ``energy`` invariant, the
+    second-order structure, finite input bounds and a factor to invert.
+    """
+    from workbench.control.ocp.stepper import Stepper
+
+    model = ocp.model
+    st = structure(model)
+    finite = np.all(np.isfinite(ocp.u_lower) & np.isfinite(ocp.u_upper))
+    if st is None or "energy" not in model.invariant_names or not finite:
+        return None
+    axes, _ = controllable_axes(ocp)
+    turns = _turns(ocp, {k: np.asarray(v, float) for k, v in axes.items()}, 1.0)
+    pumped = [t.name for t in turns if t.pumped]
+    if not pumped:
+        return None
+    fns = _pumped_energy(ocp, st, pumped)
+    p = model.p
+    E_star, E0 = float(fns[0](ocp.target.witness, p)), float(fns[0](ocp.x0, p))
+    if not abs(E_star - E0) > 1e-12 * max(1.0, abs(E_star)):
+        return None
+    man = model.manifold
+    idx = np.concatenate([np.arange(man.slices[n].start, man.slices[n].stop) for n in pumped])
+    stepper = Stepper(model, rtol=1e-8, atol=1e-8)
+    h = ocp.T_range[1] / samples
+    f0 = np.asarray(model.function("f")(ocp.x0, np.zeros(model.n_inputs), p), float).ravel()
+    at_rest = bool(np.max(np.abs(f0)) <= 1e-9 * max(1.0, float(np.max(np.abs(ocp.x0)))))
+    runs = []
+    for law in PUMP_LAWS:
+        X, U = _pump(ocp, law, fns, stepper, samples)
+        t = h * np.arange(len(X))
+        probe = np.tile(ocp.target.witness, (len(X), 1))
+        probe[:, idx] = X[:, idx]
+        gap = np.array([target_gap(ocp, xi) for xi in probe])
+        if ocp.free_time:
+            ok = np.flatnonzero(t >= ocp.T_range[0] - 1e-12)
+            if not ok.size:
+                continue
+            k = int(ok[np.argmin(gap[ok])])
+            runs.append((float(gap[k]), law, X[: k + 1], U[:k], float(t[k])))
+        elif len(X) == samples + 1:
+            k = int(np.argmin(gap)) if at_rest else samples
+            rest = samples - k  # rest at x0 first, so that the closest approach falls at T
+            runs.append((float(gap[k]), law,
+                         np.vstack([np.tile(ocp.x0, (rest, 1)), X[: k + 1]]),
+                         np.vstack([np.zeros((rest, model.n_inputs)), U[:k]]),
+                         float(t[samples])))
+        # else: the fixed horizon was not reached
+    if not runs:
+        return None
+    # of the runs that come about as close as the closest, the cheapest by the OCP's cost
+    closest = min(r[0] for r in runs)
+    near = [r for r in runs if r[0] <= PUMP_NEAR * closest + 1e-12]
+    costs = [_guess_cost(ocp, r[2], r[3], r[4]) for r in near]
+    gap, law, X, U, T = near[int(np.argmin(costs))]
+    guess = Guess(np.linspace(0.0, 1.0, len(X)), X, U, T, ProductLocal(man))
+    return StructuredGuess(
+        "energy pumping", guess,
+        f"feedback pumping the energy of {', '.join(pumped)} from {E0:.4g} to {E_star:.4g} "
+        f"(kappa, overshoot, brake = {law}; {samples} held samples over "
+        f"{ocp.T_range[1]:.3g} s); T = {T:.3g} s, where they come closest to the target "
+        f"(chart gap {gap:.2e})")
