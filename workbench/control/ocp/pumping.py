@@ -124,25 +124,6 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...
     return np.array(X), np.array(U)
 
 
-PUMP_NEAR = 3.0
-"""Pumping runs whose closest approach is within this factor of the closest one's compete
-on the OCP's cost of their trajectory (the cheapest is kept): coming slightly closer does
-not make a better start when it costs more input."""
-
-
-def _guess_cost(ocp: OCP, X: np.ndarray, U: np.ndarray, T: float) -> float:
-    """The OCP's objective along a sampled trajectory with held inputs (rectangle rule)."""
-    model = ocp.model
-    x, u = ca.SX.sym("x", model.manifold.ambient_dim), ca.SX.sym("u", model.n_inputs)
-    Tsym = ca.SX.sym("T")
-    L = 0 if ocp.running_cost is None else ocp.running_cost(x, u)
-    Phi = 0 if ocp.terminal_cost is None else ocp.terminal_cost(x, Tsym)
-    fn = ca.Function("cost", [x, u, Tsym], [L, Phi])
-    h = T / max(1, len(U))
-    run = sum(float(fn(xk, uk, T)[0]) for xk, uk in zip(X[:-1], U)) * h
-    return run + float(fn(X[-1], U[-1] if len(U) else np.zeros(model.n_inputs), T)[1])
-
-
 def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     """A guess simulated with an energy-pumping feedback; ``None`` where none applies.
 
@@ -163,8 +144,7 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     law a free final time ends where the factors to invert come closest to the target
     (:func:`target_gap`); with a fixed final time and ``x0`` an equilibrium (``u = 0``), the
     guess rests at ``x0`` first, so that the closest approach falls at ``T`` (resting there
-    is a trajectory too). Of the laws that come within :data:`PUMP_NEAR` of the closest
-    approach, the one whose trajectory costs least (the OCP's objective) is kept.
+    is a trajectory too). Of the laws tried, the one that comes closest is kept.
     It applies to models with an ``energy`` invariant, the
     second-order structure, finite input bounds and a factor to invert.
     """
@@ -214,11 +194,7 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
         # else: the fixed horizon was not reached
     if not runs:
         return None
-    # of the runs that come about as close as the closest, the cheapest by the OCP's cost
-    closest = min(r[0] for r in runs)
-    near = [r for r in runs if r[0] <= PUMP_NEAR * closest + 1e-12]
-    costs = [_guess_cost(ocp, r[2], r[3], r[4]) for r in near]
-    gap, law, X, U, T = near[int(np.argmin(costs))]
+    gap, law, X, U, T = min(runs, key=lambda r: r[0])  # the run that comes closest
     guess = Guess(np.linspace(0.0, 1.0, len(X)), X, U, T, ProductLocal(man))
     return StructuredGuess(
         "energy pumping", guess,
