@@ -6,7 +6,7 @@ The acrobot, Furuta, rail-pendulum and double-cartpole swing-ups are each solved
 - :func:`solve_and_check`: the solve, the default strategy's attempts, the solution's row
   and the standard comparisons (converged, target residual, node manifold residual against
   the engine's ``MANIFOLD_TOL``, local defect against the solve's own limit, the input
-  bound up to Ipopt's bound relaxation);
+  bound up to Ipopt's bound relaxation and, with ``T`` free, ``T`` inside its range);
 - :func:`open_loop`: the open-loop re-simulation, reported (not compared) with the
   unstable rates of the equilibrium it ends near;
 - :func:`work_energy`: the work of the input along the intervals against the energy gain
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from workbench.control import solve_ocp
+from workbench.control import solve_ocp, tvlqr_along
 from workbench.control.ocp import OCP, OCPSolution, Stepper
 from workbench.control.ocp.solve import DEFECT_TOL, MANIFOLD_TOL
 from workbench.control.ocp.study import dense, monte_carlo, solution_row
@@ -130,6 +130,9 @@ def solve_and_check(res: Result, ocp: OCP, method: Any, *, cost: str, unit: str,
     defect_margin : float
         ``1``: the local defect is compared with the solve's limit; ``> 1``: the defect over
         the limit is compared with ``1 / defect_margin``.
+
+    With ``T`` free (``ocp.T`` a range) a row checks that the optimal ``T`` is strictly
+    inside it (by 1e-3 s): the effort-time trade-off sets it, not a bound of the range.
     note : str
         Appended to the standard note (solved from the defaults).
 
@@ -175,6 +178,11 @@ def solve_and_check(res: Result, ocp: OCP, method: Any, *, cost: str, unit: str,
                 max(0.0, float(np.max(np.abs(sol.u))) - u_max),
                 tolerance=BOUND_RELAXATION * max(1.0, u_max),
                 source="input bound, up to Ipopt's bound relaxation 1e-8 max(1, |bound|)")
+    if np.ndim(ocp.T):  # T free: the effort-time trade-off sets it, not a bound of the range
+        lo, hi = ocp.T
+        res.compare(f"T = {sol.T:.3f} s strictly inside [{lo:g}, {hi:g}] s (1 = at a bound)",
+                    0.0, float(not lo + 1e-3 < sol.T < hi - 1e-3), tolerance=0.0,
+                    source="the range leaves the effort-time trade-off free")
     res.notes.append(f"Solved by solve_ocp(ocp, method) ({sol.describe()}) with no guess and "
                      f"no handling: the default strategy's attempts are listed under "
                      f"'attempts'. {note}".strip())
@@ -255,10 +263,11 @@ def work_energy(res: Result, sol: OCPSolution, *, coordinate: str, gain: float, 
     return {"work": w, "energy_gain": float(e), "closed_form": gain}
 
 
-def closed_loop(res: Result, design: Callable[[], Any], x0: np.ndarray, *, n: int, scale: Any,
-                hold: float, u_bounds: Any, Q: np.ndarray, R: float, where: str = "",
-                seed: int = 0, **info: Any) -> tuple[Any, dict[str, Any]]:
-    """Design a TVLQR and run its saturated closed loop from ``n`` perturbed starts.
+def closed_loop(res: Result, sol: OCPSolution, x_eq: np.ndarray | None, *, Q: np.ndarray,
+                R: float, n: int, scale: Any, hold: float, design: Callable[[], Any] | None = None,
+                x0: np.ndarray | None = None, where: str = "", seed: int = 0,
+                **info: Any) -> tuple[Any, dict[str, Any]]:
+    """Design a TVLQR and run its closed loop, saturated at the OCP's bounds, from ``n`` starts.
 
     Adds the value ``tvlqr`` (the Monte Carlo's summary, the design's information and
     cost, ``Q``, ``R`` and ``info``) and the row of the success rate (tolerance 0.1).
@@ -266,17 +275,20 @@ def closed_loop(res: Result, design: Callable[[], Any], x0: np.ndarray, *, n: in
     Parameters
     ----------
     res : Result
-    design : callable
-        ``design() -> TVLQR`` (timed with the closed loop).
-    x0 : ndarray
-        The start the perturbations are about.
-    n, scale, hold, seed
-        As :func:`~workbench.control.ocp.study.monte_carlo`.
-    u_bounds : (array-like, array-like)
-        The saturation of the closed loop's input.
+    sol : OCPSolution
+        The trajectory to follow; its OCP's input bounds saturate the closed loop.
+    x_eq : ndarray, shape=(ambient_dim,), or None
+        The equilibrium the TVLQR hands over to after ``T`` (``tvlqr_along(sol, x_eq, Q,
+        R)``); None with ``design``.
     Q : ndarray
     R : float
-        The design's weights, recorded.
+        The design's weights.
+    n, scale, hold, seed
+        As :func:`~workbench.control.ocp.study.monte_carlo`.
+    design : callable, optional
+        ``design() -> TVLQR`` instead of ``tvlqr_along`` (e.g. on another model).
+    x0 : ndarray, optional
+        The start the perturbations are about; ``sol.ocp.x0`` if not given.
     where : str
         Appended to the row's name (``" (torque saturated)"``).
     **info
@@ -287,10 +299,11 @@ def closed_loop(res: Result, design: Callable[[], Any], x0: np.ndarray, *, n: in
     (TVLQR, dict)
         The controller and the Monte Carlo (with its ``runs``).
     """
+    ocp = sol.ocp
     with res.timed("TVLQR design + closed loop"):
-        ctrl = design()
-        mc = monte_carlo(ctrl, x0, n=n, scale=scale, seed=seed, hold=hold,
-                         tol=CLOSED_LOOP_TOL, u_bounds=u_bounds)
+        ctrl = design() if design is not None else tvlqr_along(sol, x_eq=x_eq, Q=Q, R=R)
+        mc = monte_carlo(ctrl, ocp.x0 if x0 is None else x0, n=n, scale=scale, seed=seed,
+                         hold=hold, tol=CLOSED_LOOP_TOL, u_bounds=(ocp.u_lower, ocp.u_upper))
     res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"} | dict(ctrl.info) | {
         "design": dict(ctrl.cost), "sample_period": ctrl.dt, "Q": np.asarray(Q).tolist(),
         "R": R} | info
@@ -302,9 +315,8 @@ def closed_loop(res: Result, design: Callable[[], Any], x0: np.ndarray, *, n: in
 
 
 def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
-                 labels: Mapping[str, str] | None, *, input_title: str, unit: str,
-                 sketch: Callable[[Any, np.ndarray, Any], None] | None = None,
-                 title: str = "") -> Any:
+                 labels: Mapping[str, str] | None, *, title: str, input_title: str, unit: str,
+                 sketch: Callable[[np.ndarray], np.ndarray] | None = None) -> Any:
     """Figure: the coordinates ``names`` over time and the input, optimal and closed loop.
 
     The optimal trajectory is drawn between the nodes too (each interval integrated from
@@ -319,13 +331,14 @@ def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
         Factors of the state (:func:`coordinates`).
     labels : mapping of str to str, optional
         Words for the codes (:meth:`Result.label`).
+    title : str
+        What the figure shows, for its title (with the cost, ``T`` and the attempts).
     input_title, unit : str
         The input panel's title and the input's unit.
     sketch : callable, optional
-        ``sketch(ax, x, colour)`` draws the mechanism at state ``x``: a first panel shows
-        it at 11 times, light to dark.
-    title : str
-        The figure's title.
+        ``sketch(x) -> (k, 2)``: the mechanism at state ``x`` as a chain of points in the
+        plane (horizontal, height), its base first; a first panel draws it at 11 times,
+        light to dark, the base as a square.
     """
     model = sol.ocp.model
     X = dense(sol, substeps=4)
@@ -345,7 +358,8 @@ def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
     panels = [Panel("angles", curves, xlabel="t [s]", ylabel="angle [rad]"),
               Panel(input_title, inputs, xlabel="t [s]", ylabel=f"u [{unit}]")]
     if sketch is not None:
-        panels.insert(0, Panel("the mechanism", xlabel="e1 [m]", ylabel="height (-e3) [m]"))
+        panels.insert(0, Panel("the mechanism, light to dark in time", xlabel="e1 [m]",
+                               ylabel="height (-e3) [m]"))
     fig = line_figure(panels, ncols=len(panels), labels=labels)
     if sketch is not None:
         import matplotlib.pyplot as plt
@@ -353,8 +367,10 @@ def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
         ax = fig.axes[0]
         picks = np.linspace(0, len(sol.x) - 1, 11).round().astype(int)
         for j, k in enumerate(picks):
-            sketch(ax, sol.x[k], plt.cm.viridis(0.15 + 0.8 * j / (len(picks) - 1)))
+            c, pts = plt.cm.viridis(0.15 + 0.8 * j / (len(picks) - 1)), sketch(sol.x[k])
+            ax.plot(pts[:, 0], pts[:, 1], "-o", color=c, ms=2.5, lw=1.2)
+            ax.plot(pts[0, 0], pts[0, 1], "s", color=c, ms=7)
         ax.set_aspect("equal")
-    if title:
-        fig.suptitle(title, fontsize=9)
+    fig.suptitle(f"{title} from the defaults: cost {sol.objective:.4f}, T = {sol.T:.3f} s, "
+                 f"{len(sol.attempts)} attempts", fontsize=9)
     return fig

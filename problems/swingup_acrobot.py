@@ -21,7 +21,6 @@ import numpy as np
 
 from models.acrobot import SPONG_1995, acrobot, hanging, upright
 from problems import _swingup as sw
-from workbench.control import tvlqr_along
 from workbench.control.ocp import OCP, Collocation
 from workbench.control.ocp.study import effort_time_ocp
 from workbench.study import Result
@@ -85,12 +84,11 @@ def solve(*, quick: bool = False) -> Result:
     shoulder = sw.coordinates(model, sol.x, ["theta1"])[:, 0]
     res.values["swings"] = {"shoulder_reversals": int(np.sum(np.diff(np.sign(
         np.diff(shoulder))) != 0)), "shoulder_turn_rad": float(shoulder[-1] - shoulder[0])}
-    _, mc = sw.closed_loop(
-        res, lambda: tvlqr_along(sol, x_eq=upright(model), Q=Q_LQR, R=R_LQR), ocp.x0,
-        n=8 if quick else 24, scale=PERTURBATION, hold=HOLD, u_bounds=(ocp.u_lower, ocp.u_upper),
-        Q=Q_LQR, R=R_LQR, where=" (torque saturated)")
-    res.figure("swingup", sw.angle_figure(sol, mc["runs"][:8], ("theta1", "theta2"), res.labels,
-                                          input_title="elbow torque", unit="N m"), caption=(
+    _, mc = sw.closed_loop(res, sol, upright(model), Q=Q_LQR, R=R_LQR, n=8 if quick else 24,
+                           scale=PERTURBATION, hold=HOLD, where=" (torque saturated)")
+    res.figure("swingup", sw.angle_figure(
+        sol, mc["runs"][:8], ("theta1", "theta2"), res.labels, title="acrobot",
+        input_title="elbow torque", unit="N m"), caption=(
         f"The optimal swing-up (cost {sol.objective:.3f}, T = {sol.T:.3f} s): shoulder and "
         f"elbow angles (each interval integrated from its node) and the elbow torque, at "
         f"the bound on {at_bound} of {len(sol.u)} intervals; thin lines: TVLQR "

@@ -26,7 +26,6 @@ import numpy as np
 
 from models.furuta import QUBE_SERVO_2, furuta, hanging, upright
 from problems import _swingup as sw
-from workbench.control import tvlqr_along
 from workbench.control.ocp import OCP, Collocation
 from workbench.control.ocp.study import effort_time_ocp, monte_carlo
 from workbench.study import Result
@@ -116,16 +115,16 @@ def solve(*, quick: bool = False) -> Result:
                 bang["inside_without_switch"], tolerance=0.0,
                 source="Pontryagin: tau = clip(-lambda.b / 2), |lambda.b| >> 2 |tau|max "
                        "except where lambda.b changes sign")
-    ctrl, mc = sw.closed_loop(
-        res, lambda: tvlqr_along(sol, x_eq=x_up, Q=Q_LQR, R=R_LQR), ocp.x0,
-        n=8 if quick else 24, scale=PERTURBATION, hold=HOLD, u_bounds=(ocp.u_lower, ocp.u_upper),
-        Q=Q_LQR, R=R_LQR, where=" (torque saturated)", arm_angle_held_rad=theta_T)
+    ctrl, mc = sw.closed_loop(res, sol, x_up, Q=Q_LQR, R=R_LQR, n=8 if quick else 24,
+                              scale=PERTURBATION, hold=HOLD, where=" (torque saturated)",
+                              arm_angle_held_rad=theta_T)
     with res.timed("TVLQR closed loop, unsaturated"):
         free = monte_carlo(ctrl, ocp.x0, n=8, scale=PERTURBATION_UNSATURATED, seed=1,
                            hold=HOLD, tol=sw.CLOSED_LOOP_TOL)
     res.values["tvlqr_unsaturated"] = {k: v for k, v in free.items() if k != "runs"}
-    res.figure("swingup", sw.angle_figure(sol, mc["runs"][:8], ("theta", "alpha"), res.labels,
-                                          input_title="input", unit="N m"), caption=(
+    res.figure("swingup", sw.angle_figure(
+        sol, mc["runs"][:8], ("theta", "alpha"), res.labels, title="Furuta pendulum",
+        input_title="input", unit="N m"), caption=(
         f"The optimal swing-up (cost {sol.objective:.4f}, T = {sol.T:.3f} s): the arm and "
         f"link angles (each interval integrated from its node) and the torque, at the bound "
         f"on {100 * bang['at_bound'] / len(sol.u):.0f}% of the intervals; thin lines: TVLQR "

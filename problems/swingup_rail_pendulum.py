@@ -157,11 +157,10 @@ def solve(*, quick: bool = False) -> Result:
     except SolverError as exc:
         s2_design = f"SolverError: {exc}"
     _, mc = sw.closed_loop(
-        res, lambda: tvlqr(plane, sol.t, to_plane(sol.x), sol.u, Q=Q_LQR, R=R_LQR,
-                           x_eq=to_plane(ocp.target.point)[0]),
-        to_plane(ocp.x0)[0], n=10 if quick else 20, scale=PERTURBATION,
-        hold=1.5 if quick else 3.0, u_bounds=(ocp.u_lower, ocp.u_upper), Q=Q_LQR, R=R_LQR,
-        where=" in the rail's plane", tvlqr_along_on_s2=s2_design)
+        res, sol, None, Q=Q_LQR, R=R_LQR, n=10 if quick else 20, scale=PERTURBATION,
+        hold=1.5 if quick else 3.0, x0=to_plane(ocp.x0)[0], where=" in the rail's plane",
+        design=lambda: tvlqr(plane, sol.t, to_plane(sol.x), sol.u, Q=Q_LQR, R=R_LQR,
+                             x_eq=to_plane(ocp.target.point)[0]), tvlqr_along_on_s2=s2_design)
     res.figure("swingup", plot_swingup(
         sol, [("rod direction q", _rod)], runs=mc["runs"][:10],
         title=f"rail pendulum swing-up from the defaults: cost {sol.objective:.4f}, "
