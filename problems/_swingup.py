@@ -320,8 +320,8 @@ def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
     """Figure: the coordinates ``names`` over time and the input, optimal and closed loop.
 
     The optimal trajectory is drawn between the nodes too (each interval integrated from
-    its node, :func:`~workbench.control.ocp.study.dense`); the closed-loop runs thin,
-    under it.
+    its node, :func:`~workbench.control.ocp.study.dense`); the closed-loop runs thin and
+    grey, under it.
 
     Parameters
     ----------
@@ -361,6 +361,11 @@ def angle_figure(sol: OCPSolution, runs: Sequence[Any], names: Sequence[str],
         panels.insert(0, Panel("the mechanism, light to dark in time", xlabel="e1 [m]",
                                ylabel="height (-e3) [m]"))
     fig = line_figure(panels, ncols=len(panels), labels=labels)
+    for ax, k in zip(fig.axes[-2:], (len(runs) * len(names), len(runs))):
+        for i, line in enumerate(ax.get_lines()):  # the closed loop thin and grey, under
+            line.set(**({"color": "0.6", "lw": 0.5, "alpha": 0.6} if i < k else
+                        {"color": f"C{i - k}"}))
+        ax.legend(fontsize=8)
     if sketch is not None:
         import matplotlib.pyplot as plt
 
