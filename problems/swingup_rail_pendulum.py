@@ -24,11 +24,11 @@ import casadi as ca
 import numpy as np
 
 from models.rail_pendulum import DEFAULTS, hanging, inverted, rail_pendulum
+from problems import _swingup as sw
 from workbench import Model, linearize, mechanics, pbh
 from workbench.control import solve_ocp, tvlqr, tvlqr_along
-from workbench.control.ocp import OCP, Collocation, Stepper, TargetPoint
-from workbench.control.ocp.solve import DEFECT_TOL, MANIFOLD_TOL
-from workbench.control.ocp.study import monte_carlo, plot_swingup, solution_row
+from workbench.control.ocp import OCP, Collocation, TargetPoint
+from workbench.control.ocp.study import plot_swingup, solution_row
 from workbench.core.errors import SolverError
 from workbench.study import Result, compare_spectrum
 
@@ -49,19 +49,23 @@ METHOD = Collocation(N=60, degree=3)
 Q_LQR = np.r_[10.0, 1.0, 100.0, 1.0]  # planar tangent coordinates: x, v, phi, phi-dot
 R_LQR = 0.1
 PERTURBATION = np.r_[0.01, 0.01, 0.05, 0.1]  # planar: slider [m], [m/s], angle, rate
-CLOSED_LOOP_TOL = 1e-2
 ACROSS = [3, 5, 7]
 """State entries that leave the rail's plane: ``q . e2``, ``omega . e1``, ``omega . e3``."""
 
 
-def problem() -> OCP:
-    """The swing-up OCP of the issue's scene (cost integral u^2 dt, T = 3 s)."""
-    model = rail_pendulum()
-    return OCP(model, x0=hanging(model),
-               target=TargetPoint(model.manifold, inverted(model),
+def problem(model: Model | None = None) -> OCP:
+    """The swing-up OCP of the issue's scene (cost integral u^2 dt, T = 3 s).
+
+    On the S^2 model by default; on :func:`planar_model` if given it (its states mapped by
+    :func:`to_plane`).
+    """
+    s2 = rail_pendulum()
+    model, at = (s2, lambda x: x) if model is None else (model, lambda x: to_plane(x)[0])
+    return OCP(model, x0=at(hanging(s2)),
+               target=TargetPoint(model.manifold, at(inverted(s2)),
                                   "slider at 0, bob inverted, rest"),
                u_lower=-U_MAX, u_upper=U_MAX, T=T_FIXED,
-               running_cost=lambda x, u: ca.dot(u, u), name="rail_pendulum")
+               running_cost=lambda x, u: ca.dot(u, u), name=model.name)
 
 
 def planar_model() -> Model:
@@ -100,13 +104,6 @@ def _rod(X: np.ndarray) -> np.ndarray:
     return np.column_stack([X[:, 3], np.zeros(len(X)), X[:, 2]])
 
 
-def interval_flows(model: Model, X: np.ndarray, U: np.ndarray, T: float) -> np.ndarray:
-    """Each interval integrated from its own node with its control (CVODES, rtol 1e-11)."""
-    stepper = Stepper(model, rtol=1e-11, atol=1e-11)
-    h = T / len(U)
-    return np.array([stepper.step(x, u, h) for x, u in zip(X[:-1], U)])
-
-
 def solve(*, quick: bool = False) -> Result:
     """Run the problem.
 
@@ -120,86 +117,50 @@ def solve(*, quick: bool = False) -> Result:
     Result
     """
     res = Result("swingup_rail_pendulum", TITLE, quick=quick)
-    ocp = problem()
+    ocp, plane, P = problem(), planar_model(), DEFAULTS
     model = ocp.model
-    res.use(model)
-    P = DEFAULTS
-
-    with res.timed("solve from the defaults"):
-        sol = solve_ocp(ocp, METHOD, raise_on_failure=False)
-    row = solution_row(sol) if sol.status.ok else solution_row(sol, resimulate=False)
-    res.values["problem"] = (f"integral u^2 dt, |u| <= {U_MAX:g} N, T = {T_FIXED:g} s, "
-                             f"{METHOD.describe()}; solve(ocp, method): no guess, no handling")
-    res.values["solution"] = row
-    res.values["attempts"] = [dict(a) for a in sol.attempts]
-    res.values["strategy"] = {"attempts": len(sol.attempts),
-                              "cpu_seconds": sol.cost.get("strategy_cpu_seconds")}
-    if sol.diagnosis is not None:
-        res.values["diagnosis"] = str(sol.message)
-    res.compare(f"converged from the defaults ({sol.status.name} after {len(sol.attempts)} "
-                "attempts)", 1.0, float(sol.status.ok), tolerance=0.0,
-                source="Ipopt status, on the manifold, within defect_tol")
-    res.compare("target residual (chart at the end)", 0.0, sol.error["target_residual"],
-                tolerance=1e-8, source="terminal chart = 0")
-    res.compare("node manifold residual", 0.0, sol.error["manifold_residual"],
-                tolerance=MANIFOLD_TOL, source="|q| = 1, q . omega = 0 (default manifold_tol)")
-    limit = DEFECT_TOL * max(1.0, float(np.max(np.abs(sol.x))))
-    res.compare("local defect against CVODES (limit: default defect_tol x max(1, max|x|))",
-                0.0, sol.error.get("local_defect", np.inf), tolerance=limit,
-                source=f"Legendre d = 3, h = T/{METHOD.N}")
-    res.compare("bound respected: max(0, max |u| - 10 N)", 0.0,
-                max(0.0, float(np.max(np.abs(sol.u))) - U_MAX), tolerance=1e-6,
-                source="input bound (Ipopt relaxes bounds by 1e-8)")
+    res.use(plane)
+    sol = sw.solve_and_check(
+        res, ocp, METHOD, cost="integral u^2 dt", unit="N", target="chart at the end",
+        manifold="|q| = 1, q . omega = 0", parameters=P, note=(
+            "Its attempts: structured starts, an ambient relaxation polished on the manifold, "
+            "continuation."))
+    if not sol.status.ok:
+        return res.finish()
     res.compare("the swing stays in the rail's plane: max |q.e2|, |omega.e1|, |omega.e3|",
                 0.0, float(np.max(np.abs(sol.x[:, ACROSS]))), tolerance=1e-9,
                 source="mirror symmetry e2 -> -e2 of the system with its input")
     res.compare("open-loop re-simulation (CVODES): end-state error", 0.0,
-                row["resim_end_error"], tolerance=1e-2,
+                sol.error["resim_end_error"], tolerance=1e-2,
                 source="CVODES rtol 1e-10 vs the transcription (amplified near inverted)")
 
     with res.timed("checks: PBH, work-energy, planar model"):
         _pbh_rows(res, model, P)
-        flows = interval_flows(model, sol.x, sol.u, sol.T)
-        work = float(np.sum(sol.u[:, 0] * (flows[:, 0] - sol.x[:-1, 0])))
-        res.compare("work of the force along the intervals = 2 m g l (hanging -> inverted, "
-                    "rest)", 2 * P["m"] * P["g"] * P["l"], work, tolerance=1e-4,
-                    relative=True, source="closed form: energy theorem")
-        plane = planar_model()
-        res.use(plane)
-        pflows = interval_flows(plane, to_plane(sol.x), sol.u, sol.T)
+        flows = sw.interval_flows(model, sol.x, sol.u, sol.T)
+        sw.work_energy(res, sol, coordinate="x", gain=2 * P["m"] * P["g"] * P["l"],
+                       formula="2 m g l", ends=flows, tolerance=1e-4, work=(
+                           "work of the force along the intervals = 2 m g l (hanging -> "
+                           "inverted, rest)"))
+        pflows = sw.interval_flows(plane, to_plane(sol.x), sol.u, sol.T)
         res.compare("interval flows: S^2 model vs the planar R^1 x S^1 model", 0.0,
                     float(np.max(np.abs(to_plane(flows) - pflows))), tolerance=1e-8,
                     source="the Lagrangian restricted to the rail's plane, derived on S^1")
-
     with res.timed("the same swing-up on the rail's plane, from the defaults"):
-        planar_ocp = OCP(plane, x0=to_plane(ocp.x0)[0],
-                         target=TargetPoint(plane.manifold, to_plane(ocp.target.point)[0],
-                                            "slider at 0, bob inverted, rest"),
-                         u_lower=-U_MAX, u_upper=U_MAX, T=T_FIXED,
-                         running_cost=lambda x, u: ca.dot(u, u), name="rail_pendulum_planar")
-        planar = solve_ocp(planar_ocp, METHOD, raise_on_failure=False)
+        planar = solve_ocp(problem(plane), METHOD, raise_on_failure=False)
     res.values["planar_problem_from_the_defaults"] = (
         solution_row(planar, resimulate=False)
         | {"attempts": [dict(a) for a in planar.attempts]})
 
-    with res.timed("TVLQR + closed loop on the rail's plane"):
-        try:  # on S^2 the target's DARE has the uncontrollable unstable pair: no solution
-            tvlqr_along(sol, x_eq=ocp.target.point, Q=1.0, R=R_LQR)
-            s2_design = "designed (unexpected: the pair across the rail is uncontrollable)"
-        except SolverError as exc:
-            s2_design = f"SolverError: {exc}"
-        ctrl = tvlqr(plane, sol.t, to_plane(sol.x), sol.u,
-                     x_eq=to_plane(ocp.target.point)[0], Q=Q_LQR, R=R_LQR)
-        mc = monte_carlo(ctrl, to_plane(ocp.x0)[0], n=10 if quick else 20, scale=PERTURBATION,
-                         seed=0, hold=1.5 if quick else 3.0, tol=CLOSED_LOOP_TOL,
-                         u_bounds=(ocp.u_lower, ocp.u_upper))
-    res.values["tvlqr"] = {k: v for k, v in mc.items() if k != "runs"}
-    res.values["tvlqr"].update(dict(ctrl.info), design=ctrl.cost, sample_period=ctrl.dt,
-                               Q=Q_LQR.tolist(), R=R_LQR, tvlqr_along_on_s2=s2_design)
-    res.compare(f"TVLQR success rate from {mc['n']} perturbed starts in the rail's plane",
-                1.0, mc["success_rate"], tolerance=0.1,
-                source="closed loop reaches inverted within 1e-2 (chart max-norm)")
-
+    try:  # on S^2 the target's DARE has the uncontrollable unstable pair: no solution
+        tvlqr_along(sol, x_eq=ocp.target.point, Q=1.0, R=R_LQR)
+        s2_design = "designed (unexpected: the pair across the rail is uncontrollable)"
+    except SolverError as exc:
+        s2_design = f"SolverError: {exc}"
+    _, mc = sw.closed_loop(
+        res, sol, None, Q=Q_LQR, R=R_LQR, n=10 if quick else 20, scale=PERTURBATION,
+        hold=1.5 if quick else 3.0, x0=to_plane(ocp.x0)[0], where=" in the rail's plane",
+        design=lambda: tvlqr(plane, sol.t, to_plane(sol.x), sol.u, Q=Q_LQR, R=R_LQR,
+                             x_eq=to_plane(ocp.target.point)[0]), tvlqr_along_on_s2=s2_design)
     res.figure("swingup", plot_swingup(
         sol, [("rod direction q", _rod)], runs=mc["runs"][:10],
         title=f"rail pendulum swing-up from the defaults: cost {sol.objective:.4f}, "
@@ -207,10 +168,6 @@ def solve(*, quick: bool = False) -> Result:
         caption="The rod's direction on the unit sphere (up = -e3): the optimal swing-up "
                 "(blue), a great circle in the rail's plane, and closed-loop TVLQR runs from "
                 "perturbed starts (green); right, the force on the slider (|u| <= 10 N).")
-    res.notes.append(
-        "Solved by solve_ocp(ocp, Collocation(N=60, degree=3)) with no guess and no handling: "
-        "the default strategy's attempts (structured starts, an ambient relaxation polished "
-        "on the manifold, continuation) are listed under 'attempts'.")
     res.notes.append(
         "The swing across the rail is uncontrollable to first order (PBH: the pair +-i "
         "sqrt(g/l) hanging, +-sqrt(g/l) inverted, where it is unstable), so no feedback of "
@@ -233,8 +190,7 @@ def solve(*, quick: bool = False) -> Result:
 
 def _pbh_rows(res: Result, model: Model, P: dict[str, float]) -> None:
     """The pair PBH names uncontrollable, hanging and inverted, against ``sqrt(g/l)``."""
-    w = float(np.sqrt(P["g"] / P["l"]))
-    rows = {}
+    w, rows = float(np.sqrt(P["g"] / P["l"])), {}
     for where, x, pair in (("hanging", hanging(model), [-1j * w, 1j * w]),
                            ("inverted", inverted(model), [-w, w])):
         test = pbh(linearize(model, x, [0.0]))

@@ -19,7 +19,7 @@ from models.acrobot import upright as acro_upright
 from models.furuta import furuta
 from models.furuta import hanging as furuta_hanging
 from models.furuta import upright as furuta_upright
-from problems import swingup_acrobot, swingup_furuta
+from problems import _swingup, swingup_acrobot, swingup_furuta
 from workbench.app.registry import names
 
 PROBLEMS = {"swingup_furuta": swingup_furuta, "swingup_acrobot": swingup_acrobot}
@@ -82,5 +82,18 @@ def test_furuta_angles_unwrap_across_pi():
     m = furuta()
     th = np.linspace(0.0, 3 * np.pi, 50)
     X = np.array([furuta_upright(m, theta=t) for t in th])
-    a = swingup_furuta.angles(m, X)
+    a = _swingup.coordinates(m, X, ("theta", "alpha"))
     assert np.allclose(a[:, 0], th, atol=1e-12) and np.allclose(a[:, 1], np.pi)
+
+
+def test_steps_cross_the_cut_and_sum_to_the_turn():
+    """Wrapped increments of an S^1 factor add up to the unwrapped turn; R^1 ones subtract."""
+    m = furuta()
+    rng = np.random.default_rng(5)
+    th = np.cumsum(rng.uniform(-2.5, 2.5, 40))  # crosses +-pi many times, |step| < pi
+    X = np.array([furuta_upright(m, theta=t) for t in th])
+    d = _swingup.steps(m, X[:-1], X[1:], "theta")
+    np.testing.assert_allclose(d, np.diff(th), atol=1e-12)
+    np.testing.assert_allclose(_swingup.coordinates(m, X, ["theta"])[:, 0], th, atol=1e-9)
+    X[:, m.manifold.slices["theta_dot"]] = th[:, None]  # an R^1 factor: plain differences
+    np.testing.assert_allclose(_swingup.steps(m, X[:-1], X[1:], "theta_dot"), np.diff(th))

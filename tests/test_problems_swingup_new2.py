@@ -15,11 +15,13 @@ import inspect
 import numpy as np
 import pytest
 
+from problems import _swingup
 from problems import swingup_double_cartpole as dcp
 from problems import swingup_rail_pendulum as rail
 
 
-@pytest.mark.parametrize("module", [rail, dcp], ids=["rail_pendulum", "double_cartpole"])
+@pytest.mark.parametrize("module", [rail, dcp, _swingup],
+                         ids=["rail_pendulum", "double_cartpole", "shared_swingup"])
 def test_problem_passes_no_guess_and_no_handling(module):
     tree = ast.parse(inspect.getsource(module))
     passed = {kw.arg for node in ast.walk(tree) if isinstance(node, ast.Call)
