@@ -331,7 +331,7 @@ def _compare_args() -> dict[str, Any]:
 def _auto_args() -> dict[str, Any]:
     return {"swings": 1, "relax": True, "relax_max_iter": 2, "attempt_max_iter": 2,
             "bound_factors": (2.0,), "terminal_slacks": (0.1,), "coarse_factor": 0,
-            "max_attempts": 2}
+            "max_attempts": 1}
 
 
 def _solve_with(strategy: Any) -> Any:

@@ -344,6 +344,12 @@ def _flag(name: str, value: Any) -> bool:
     return bool(value)
 
 
+def _norm(v: Vector) -> float:
+    """``|v|`` without overflow of the squares (NaN or inf when an entry is)."""
+    big = float(np.max(np.abs(v), initial=0.0))
+    return big * float(np.linalg.norm(v / big)) if 0 < big < np.inf else big
+
+
 def _relative(name: str, value: Any) -> float:
     """A relative tolerance: positive, finite and below 1 (1 or more accepts anything)."""
     v = check_tolerance(name, value)
@@ -510,7 +516,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
     rng = np.random.default_rng(seed)
     n_samples = 2 * len(candidates(man)) + 6
     samples = [man.random_point(rng) for _ in range(n_samples)]
-    scale = max(float(np.linalg.norm(fn.gradient(c))) for c in samples)
+    scale = max(_norm(fn.gradient(c)) for c in samples)
     if not np.isfinite(scale):
         raise ParameterError(f"{fn.name} or its gradient is not finite at random "
                              f"configurations (largest |dV| = {scale}); check its parameter "
