@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 from conftest import assert_close
@@ -62,3 +63,70 @@ def test_dense_evaluator_is_an_evaluator_with_dense_outputs(planar):
     (J,) = ev(planar_state(planar), np.zeros(0), planar.p)
     assert_close(J, np.asarray(fx(planar_state(planar), np.zeros(0), planar.p)), atol=0.0,
                  what="dense Jacobian")
+
+
+@pytest.mark.parametrize("cls", [Evaluator, DenseEvaluator])
+@pytest.mark.parametrize("imag", [1e-3, 0.0])
+def test_evaluators_refuse_complex_input_instead_of_dropping_its_imaginary_part(
+        f_and_state, planar, cls, imag):
+    """numpy's cast to the float buffer would keep the real part with only a warning."""
+    f, x = f_and_state
+    ev = cls(f)
+    with pytest.raises(ModelError, match=r"f: input 'x' is complex \(dtype complex128\)"):
+        ev(x + 1j * imag, np.zeros(0), planar.p)
+    with pytest.raises(ModelError, match=r"input 'p' is complex"):
+        ev(x, np.zeros(0), [complex(v, imag) for v in planar.p])
+
+
+@pytest.mark.parametrize("bad, dtype", [(["0.0", "1.0", "1.0"], "<U3"),
+                                        ([False, True, True], "bool")])
+def test_evaluators_refuse_numeric_strings_and_booleans(f_and_state, planar, bad, dtype):
+    f, _ = f_and_state
+    with pytest.raises(ModelError, match=rf"input 'x' must be numeric \(real numbers\); got "
+                                         rf"dtype {dtype}"):
+        Evaluator(f)(bad, np.zeros(0), planar.p)  # numpy would parse the strings, cast bools
+
+
+def test_evaluators_accept_integer_input_exactly(f_and_state, planar):
+    f, x = f_and_state
+    ev = Evaluator(f)
+    whole = np.array([0, 1, 2])
+    assert_close(ev(whole, np.zeros(0, dtype=int), planar.p),
+                 ev(whole.astype(float), np.zeros(0), planar.p), atol=0.0, what="int input")
+
+
+def _layout_function() -> ca.Function:
+    """Outputs of every layout: all-zero sparse, sparse row, 1 x 1, column, dense matrix."""
+    x = ca.SX.sym("x", 3)
+    return ca.Function("layouts", [x], [
+        ca.SX(3, 3),                                  # no structural nonzero at all
+        ca.jacobian(ca.sin(x[0]) * x[2], x),         # a sparse 1 x 3 row
+        ca.hessian(x[0] ** 3, x[0])[0],              # a 1 x 1 matrix: d2/dx0^2 = 6 x0
+        ca.vertcat(x[1], ca.SX(1, 1), x[0] * x[2]),  # a column with a structural zero
+        ca.jacobian(ca.vertcat(x[0] * x[1], x[2]), x)])  # a sparse 2 x 3 matrix
+
+
+def test_dense_evaluator_scatters_every_output_layout_as_casadi_does():
+    """An all-zero sparsity (empty triplets) used to fail with float indices."""
+    fn = _layout_function()
+    x = np.array([0.3, -1.2, 2.5])
+    out = DenseEvaluator(fn)(x)
+    exact = [np.asarray(v) for v in fn(x)]
+    shapes = [(3, 3), (1, 3), (1,), (3,), (2, 3)]
+    for k, (got, want, shape) in enumerate(zip(out, exact, shapes, strict=True)):
+        assert got.shape == shape, f"output {k}"
+        assert_close(got.reshape(want.shape), want, atol=0.0, what=f"output {k}")
+    # the closed forms: 6 x0 for the 1 x 1 Hessian, (cos(x0) x2, 0, sin(x0)) for the row
+    assert_close(out[2], [6 * x[0]], atol=1e-15, what="1 x 1 Hessian")
+    assert_close(out[1], [[np.cos(x[0]) * x[2], 0.0, np.sin(x[0])]], atol=1e-15,
+                 what="row Jacobian")
+    assert not out[0].any()
+
+
+def test_dense_evaluator_returns_columns_1d_including_a_1x1_matrix():
+    """The documented layout: casadi has no vectors, so a 1 x 1 output is a column."""
+    fn = _layout_function()
+    _, _, hess, col, _ = DenseEvaluator(fn)(np.array([1.0, 2.0, 3.0]))
+    assert hess.ndim == 1 and col.ndim == 1
+    assert_close(hess.reshape(1, 1), [[6.0]], atol=0.0, what="1 x 1 read as a matrix")
+    assert_close(col, [2.0, 0.0, 3.0], atol=0.0, what="column")

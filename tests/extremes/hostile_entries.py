@@ -26,6 +26,7 @@ from models import chain_cart as cc
 from models import controllers as C
 from models import pendulum3d as p3
 from models import spherical as sp
+from workbench import mechanics
 from workbench.equilibria._roots import ZeroProblem
 from workbench.simulation._sweep import InlineExecutor
 
@@ -248,6 +249,96 @@ def _model_args() -> dict[str, Any]:
     return {"name": "decay", "n_inputs": 0, "k": 2.0, "invariant": "y2"}
 
 
+def _cart_s1(name: str = "th", velocity: str | None = None) -> mechanics.System:
+    """A pendulum on a rail: R^1 x S^1 (the S^1 factor's names attacked), momentum px."""
+    s = mechanics.System("cart_s1")
+    cart = s.rn("x", 1, velocity="v")
+    th = s.s1(name, velocity=velocity)
+    m, M, length = s.parameter("m", 0.2), s.parameter("M", 1.0), s.parameter("l", 0.5)
+    s.point_mass(M, ca.vertcat(cart.x, 0, 0))
+    s.point_mass(m, ca.vertcat(cart.x + length * th.sin, 0, -length * th.cos))
+    s.gravity(s.parameter("g", 9.81))
+    s.force(cart, s.input(1, "force on the cart [N]"))
+    s.momentum("px", translate={cart: [1]})
+    return s
+
+
+@cache
+def cart_s1() -> wb.Model:
+    return _cart_s1().model()
+
+
+def _s1_entry(a: dict[str, Any]) -> Any:
+    model = _cart_s1(a["name"], a["velocity"]).model()
+    return model.rhs(model.manifold.join({"x": [0.1], "v": [0.0], a["name"]: [0.6, 0.8],
+                                          model.manifold.names[-1]: [0.2]}), [0.0])
+
+
+def _reduce_args() -> dict[str, Any]:
+    return {"source": cart_s1(), "symmetry": "px", "kind": "routh", "momentum": 0.3,
+            "breaking_inputs": "hold_zero", "name": "cart_routh", "n_states": 3, "seed": 0,
+            "rtol": 1e-8}
+
+
+def _reduce(a: dict[str, Any]) -> Any:
+    red = mechanics.reduce(a.pop("source"), a.pop("symmetry"), **a)
+    return red.model.rhs(red.model.manifold.join({"th": [0.6, 0.8], "th_dot": [0.1]}))
+
+
+@cache
+def _pendulum_potential() -> ca.Function:
+    """``V(c, p) = -p c_0`` on S^1: the pendulum's height, two critical points."""
+    c, p = ca.SX.sym("c", 2), ca.SX.sym("p", 1)
+    return ca.Function("V", [c, p], [-p * c[0]])
+
+
+S1_MAN = wb.ProductManifold([("th", wb.S1())])
+
+
+def _critical_args() -> dict[str, Any]:
+    return {"target": _pendulum_potential(), "manifold": S1_MAN, "p": [9.81], "tol": 1e-11,
+            "hessian_rtol": 1e-6, "symmetry_rtol": 1e-9, "max_starts": 4096,
+            "deflation_starts": 8, "deflation_rounds": 8, "max_deflation_starts": 64,
+            "max_iterations": 50, "seed": 0, "raise_on_failure": True}
+
+
+def _energy_at_rest() -> ca.Function:
+    """``(x, p) -> V`` of the cart_s1 model's state: its potential, for ``from_state``."""
+    model = cart_s1()
+    x, p = ca.SX.sym("x", model.manifold.ambient_dim), ca.SX.sym("p", model.n_params)
+    return ca.Function("V_state", [x, p], [-p[0] * p[3] * p[2] * x[2]])
+
+
+def _scene_args() -> dict[str, Any]:
+    return {"model": cart_s1(), "states": cart_s1().state(x=[0.0], v=[0.0], th=0.3,
+                                                          th_dot=[0.0]),
+            "horizon": 0.5, "outputs": _scene_outputs, "tolerance": 1e-4, "n_times": 6,
+            "name": "swing"}
+
+
+def _scene_outputs(X: np.ndarray) -> np.ndarray:
+    return X[:, 2:4]
+
+
+def _compare_args() -> dict[str, Any]:
+    return {"scene": wb.Scene(**_scene_args()), "levels": None, "special_cases": (),
+            "symmetries": None, "equilibria": (), "radius": None, "method": "cvodes",
+            "rtol": 1e-8, "atol": 1e-8, "multistep": "adams", "step": None,
+            "max_steps": 10_000, "repeats": 1, "reference_rtol": 1e-12, "check_rtol": 1e-10,
+            "reference_margin": 0.01, "seed": 0, "raise_on_failure": True}
+
+
+def _auto_args() -> dict[str, Any]:
+    return {"swings": 1, "relax": True, "relax_max_iter": 2, "attempt_max_iter": 2,
+            "bound_factors": (2.0,), "terminal_slacks": (0.1,), "coarse_factor": 0,
+            "max_attempts": 1}
+
+
+def _solve_with(strategy: Any) -> Any:
+    return wb.solve_ocp(_ocp(), wb.Collocation(N=4), strategy=strategy, max_iter=1,
+                        raise_on_failure=False, defect_tol=1e3)
+
+
 def _call(fn: Callable[..., Any], *positional: str) -> Callable[[dict[str, Any]], Any]:
     """``fn(*[a[p] for p in positional], **rest)``."""
     def call(a: dict[str, Any]) -> Any:
@@ -419,6 +510,58 @@ ENTRIES: list[Entry] = [
     Entry("tvlqr_along", lambda a: wb.tvlqr_along(a.pop("solution"), **a),
           lambda: {"solution": _ocp_solution(), "x_eq": CART_UP, "substeps": 1, "rtol": 1e-8},
           {"solution": E.OBJECT, "x_eq": E.ARRAY, "substeps": E.COUNT, "rtol": E.TOL}),
+    Entry("Auto", lambda a: _solve_with(wb.Auto(**a)), _auto_args,
+          {"swings": E.COUNT, "relax": E.OBJECT, "relax_max_iter": E.COUNT,
+           "attempt_max_iter": E.COUNT, "bound_factors": E.SEQUENCE,
+           "terminal_slacks": E.SEQUENCE, "coarse_factor": E.COUNT, "max_attempts": E.COUNT}),
+    Entry("Direct", lambda a: _solve_with(a["strategy"]), lambda: {"strategy": wb.Direct()},
+          {"strategy": E.OBJECT}, optional=frozenset({"strategy"})),  # None: Auto()
+    # --- the critical sets of a potential, without guesses
+    Entry("ConfigurationFunction", lambda a: wb.ConfigurationFunction(
+        a.pop("manifold"), a.pop("function"), **a).value([0.6, 0.8]),
+          lambda: {"manifold": S1_MAN, "function": _pendulum_potential(), "p": [9.81],
+                   "name": "height"},
+          {"manifold": E.OBJECT, "function": E.OBJECT, "p": E.ARRAY, "name": E.TEXT}),
+    Entry("ConfigurationFunction.from_state", lambda a: wb.ConfigurationFunction.from_state(
+        a.pop("model"), a.pop("function"), **a).value([0.6, 0.8]),
+          lambda: {"model": cart_s1(), "function": _energy_at_rest(), "configuration": ["th"],
+                   "p": cart_s1().p, "name": "height"},
+          {"model": E.OBJECT, "function": E.OBJECT, "configuration": E.SEQUENCE,
+           "p": E.ARRAY, "name": E.TEXT},
+          optional=frozenset({"configuration", "p", "name"}),
+          valid={"configuration": frozenset({"None"})}),
+    Entry("critical_points", _call(wb.critical_points, "target"), _critical_args,
+          {"target": E.OBJECT, "manifold": E.OBJECT, "p": E.ARRAY, "tol": E.TOL,
+           "hessian_rtol": E.TOL, "symmetry_rtol": E.TOL, "max_starts": E.COUNT,
+           "deflation_starts": E.COUNT, "deflation_rounds": E.COUNT,
+           "max_deflation_starts": E.COUNT, "max_iterations": E.COUNT, "seed": E.COUNT,
+           "raise_on_failure": E.OBJECT}, optional=frozenset({"p"})),
+    Entry("find_all_equilibria", _call(wb.find_all_equilibria, "model"),
+          lambda: {"model": cart_s1(), "params": {"g": 9.81}, "field_tol": 1e-9,
+                   "raise_on_failure": True, "tol": 1e-11, "max_iterations": 50},
+          {"model": E.OBJECT, "params": E.OBJECT, "field_tol": E.TOL,
+           "raise_on_failure": E.OBJECT, "tol": E.TOL, "max_iterations": E.COUNT},
+          optional=frozenset({"params"}), valid={"params": frozenset({"dict"})}),
+    # --- choosing a model's level for a scene
+    Entry("Scene", lambda a: wb.Scene(**a).times, _scene_args,
+          {"model": E.OBJECT, "states": E.ARRAY, "horizon": E.SCALE, "outputs": E.OBJECT,
+           "tolerance": E.TOL, "n_times": E.COUNT, "name": E.TEXT}),
+    Entry("compare_models", _call(wb.compare_models, "scene"), _compare_args,
+          {"scene": E.OBJECT, "levels": E.SEQUENCE, "special_cases": E.SEQUENCE,
+           "symmetries": E.SEQUENCE, "equilibria": E.SEQUENCE, "radius": E.SCALE,
+           "method": E.ENUM, "rtol": E.TOL, "atol": E.TOL, "multistep": E.ENUM,
+           "step": E.SCALE, "max_steps": E.COUNT, "repeats": E.COUNT,
+           "reference_rtol": E.TOL, "check_rtol": E.TOL, "reference_margin": E.TOL,
+           "seed": E.COUNT, "raise_on_failure": E.OBJECT},
+          optional=frozenset({"levels", "symmetries", "radius", "step"}),
+          valid={"levels": frozenset({"None"}), "symmetries": frozenset({"None"})}),
+    # --- mechanics: the S^1 factor, symmetry reduction
+    Entry("mechanics.System.s1", _s1_entry, lambda: {"name": "th", "velocity": "th_dot"},
+          {"name": E.NAME, "velocity": E.NAME}, optional=frozenset({"velocity"})),
+    Entry("mechanics.reduce", _reduce, _reduce_args,
+          {"source": E.OBJECT, "symmetry": E.NAME, "kind": E.ENUM, "momentum": E.NUMBER,
+           "breaking_inputs": E.ENUM, "name": E.TEXT, "n_states": E.COUNT, "seed": E.COUNT,
+           "rtol": E.TOL}, optional=frozenset({"name"})),
     # --- the models' builders
     Entry("models.pendulum3d.full", lambda a: p3.full(**a).rhs(x_full()),
           lambda: {"J": J0, "rho": RHO0, "m": 1.0, "g": 9.81},
@@ -463,14 +606,14 @@ ENTRIES: list[Entry] = [
 EXCLUDED: dict[str, str] = {
     **{m: "a namespace module (its functions are entries under their root names)"
        for m in ("codegen", "control", "core", "equilibria", "global_dynamics", "linear",
-                 "simulation")},
+                 "simulation", "study")},
     **{e: "an exception class (raised, not called with user input)"
        for e in ("WorkbenchError", "ManifoldError", "ModelError", "ParameterError",
                  "SolverError")},
     **{r: "a result record the workbench builds (its inputs are the entries that return it)"
-       for r in ("BuildLog", "Eigenstructure", "InvariantManifold", "LQRResult",
-                 "LinearModel", "OCPSolution", "PoincareOrbit", "SweepResult", "TVLQR",
-                 "Trajectory")},
+       for r in ("BuildLog", "CriticalPoints", "Eigenstructure", "InvariantManifold",
+                 "LQRResult", "LinearModel", "ModelChoice", "OCPSolution", "PoincareOrbit",
+                 "SweepResult", "TVLQR", "Trajectory")},
     "OCPStatus": "a result status enum (read from OCPSolution.status, never passed in)",
     "Stability": "a result enum (read from Eigenstructure.stability, never passed in)",
 }

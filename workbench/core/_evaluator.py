@@ -5,7 +5,15 @@ costs about a microsecond on top of the function's own work (a plain casadi call
 every argument, tens of microseconds); :class:`DenseEvaluator` also scatters sparse outputs
 (Jacobians) into dense matrices. Both check every call: the number of arguments and each
 argument's size against the function's inputs, so no input is broadcast or silently keeps
-a value from an earlier call.
+a value from an earlier call, and only real numbers are accepted: complex input is refused,
+never truncated to its real part (numpy's cast would drop the imaginary part with only a
+warning), as are booleans, strings and objects.
+
+Output layout of :class:`DenseEvaluator`: an output whose casadi shape is a column
+``(n, 1)`` comes back 1-D, shape ``(n,)``, whatever ``n`` (casadi has no vectors: a 1 x 1
+matrix output such as the Hessian of a function of one variable is a column too, so it
+comes back with shape ``(1,)``; reshape it where a matrix is meant); every other output
+comes back 2-D with its casadi shape, empty ones included.
 """
 
 from __future__ import annotations
@@ -62,7 +70,13 @@ class Evaluator:
                 f"{len(args)} arguments"
             )
         for i, (dst, src) in enumerate(zip(self._args, args)):
-            v = np.ravel(src)
+            try:
+                v = np.ravel(src)
+            except (TypeError, ValueError) as exc:  # ragged nested sequences
+                raise ModelError(f"{self.fn.name()}: input {self.fn.name_in(i)!r} must be an "
+                                 f"array of real numbers; got {src!r:.80}") from exc
+            if v.dtype.kind not in "iuf":
+                raise ModelError(self._not_real(i, src, v))
             if v.size != dst.size:
                 raise ModelError(
                     f"{self.fn.name()}: input {self.fn.name_in(i)!r} must have {dst.size} "
@@ -76,6 +90,14 @@ class Evaluator:
                     f"{src!r}"
                 ) from exc
 
+    def _not_real(self, i: int, src: ArrayLike, v: np.ndarray) -> str:
+        name = f"{self.fn.name()}: input {self.fn.name_in(i)!r}"
+        if v.dtype.kind == "c":
+            return (f"{name} is complex (dtype {v.dtype}); the evaluator computes with real "
+                    "numbers and would drop the imaginary part: pass real data (np.real(a), "
+                    "if the imaginary part is meant to be zero)")
+        return f"{name} must be numeric (real numbers); got dtype {v.dtype}: {src!r:.80}"
+
     def _outputs(self) -> np.ndarray | tuple[np.ndarray, ...]:
         if len(self._res) == 1:
             return self._res[0].copy()
@@ -87,8 +109,8 @@ class Evaluator:
         Raises
         ------
         ModelError
-            A wrong number of arguments, or an argument of the wrong size (naming the
-            input) or not numeric.
+            A wrong number of arguments, or an argument of the wrong size, complex or not
+            numeric (naming the input).
         """
         self._fill(args)
         self._eval()
@@ -99,8 +121,10 @@ class DenseEvaluator(Evaluator):
     """Fast numeric calls of a casadi.Function with dense numpy outputs.
 
     A :class:`workbench.core._model.Evaluator` (buffer interface, about a microsecond of
-    overhead, inputs checked for count and size) whose sparse outputs (Jacobians) are
-    scattered into dense matrices, and which always returns a tuple.
+    overhead, inputs checked for count, size and real dtype) whose sparse outputs
+    (Jacobians) are scattered into dense matrices, and which always returns a tuple.
+    Column outputs (casadi shape ``(n, 1)``, a 1 x 1 matrix included) come back 1-D,
+    shape ``(n,)``; every other output 2-D with its casadi shape (module docstring).
 
     Parameters
     ----------
@@ -117,11 +141,12 @@ class DenseEvaluator(Evaluator):
             if sp.is_dense():
                 self._scatter.append((shape, None))
             else:
-                rows, cols = sp.get_triplet()
-                self._scatter.append((shape, (np.asarray(rows), np.asarray(cols))))
+                rows, cols = sp.get_triplet()  # empty lists for an all-zero sparsity
+                self._scatter.append((shape, (np.asarray(rows, dtype=np.intp),
+                                              np.asarray(cols, dtype=np.intp))))
 
     def _outputs(self) -> tuple[np.ndarray, ...]:
-        """One dense array per output (vectors 1-D, matrices 2-D)."""
+        """One dense array per output (columns 1-D, a 1 x 1 one too; others 2-D)."""
         out = []
         for r, (shape, idx) in zip(self._res, self._scatter):
             if idx is None:
@@ -134,5 +159,5 @@ class DenseEvaluator(Evaluator):
         return tuple(out)
 
     def __call__(self, *args: ArrayLike) -> tuple[np.ndarray, ...]:
-        """Evaluate; returns one dense array per output (vectors 1-D, matrices 2-D)."""
+        """Evaluate; one dense array per output (columns 1-D, a 1 x 1 one too; others 2-D)."""
         return super().__call__(*args)  # type: ignore[return-value]

@@ -29,6 +29,7 @@ Betti numbers of both the sets and ``Q`` are those of the quotient.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -54,7 +55,17 @@ from workbench.equilibria._critical_topology import (
 )
 
 __all__ = ["CriticalStatus", "CriticalSet", "CriticalPoints", "critical_points",
-           "find_all_equilibria"]
+           "find_all_equilibria", "LIMITS"]
+
+LIMITS = {"max_starts": 1 << 16, "deflation_starts": 10_000, "max_deflation_starts": 10_000,
+          "deflation_rounds": 1000, "max_iterations": 1000}
+"""Largest accepted value of each count option, checked before anything is allocated or
+run: ``max_starts`` homotopy paths (each a continuation of Newton solves), seeded
+deflation starts, solves per start and Newton iterations per solve."""
+
+SCALE_RANGE = (1e-150, 1e150)
+"""The function's scale (largest ``|dV|`` at the samples) must lie in this range: beyond
+it the squares formed by Newton's least squares over- or underflow in double precision."""
 
 
 class CriticalStatus(StatusEnum):
@@ -118,8 +129,9 @@ class CriticalSet:
         Of the Riemannian Hessian in the manifold's tangent coordinates.
     residual : float
         ``max |K^T dV|`` at the point.
-    field_residual : float
-        ``max |f(state, 0)|`` of the model (nan without a model).
+    field_residual : float or None
+        ``max |f(state, 0)|`` of the model (None without a model: a function alone has no
+        field to evaluate).
     points : list of ndarray
         Every gauge point found on the set.
     found_by : list of str
@@ -141,7 +153,7 @@ class CriticalSet:
     betti: tuple[int, ...] | None
     hessian_eigenvalues: Vector
     residual: float
-    field_residual: float = float("nan")
+    field_residual: float | None = None
     points: list[Vector] = field(default_factory=list)
     found_by: list[str] = field(default_factory=list)
 
@@ -305,12 +317,12 @@ def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[P
         return CriticalStatus.MISSED, (f"{how}: none found (on an R^k factor the function may "
                                        "have no critical point: not bounded below, not proper)")
     odd = [] if field_tol is None else [i for i, s in enumerate(sets)
-                                        if not s.field_residual <= field_tol]
+                                        if not float(s.field_residual) <= field_tol]
     if odd:
         return CriticalStatus.NOT_EQUILIBRIA, (
             f"{how}; sets {odd} are critical points of the potential but max |f(x, 0)| = "
-            f"{max(sets[i].field_residual for i in odd):.3g}: the model has loads at rest "
-            "that the potential does not contain (a spring written as a force?)")
+            f"{max(float(sets[i].field_residual) for i in odd):.3g}: the model has loads at "
+            "rest that the potential does not contain (a spring written as a force?)")
     if check is None:
         degenerate = [i for i, s in enumerate(sets) if not s.morse_bott]
         unknown = [i for i, s in enumerate(sets) if s.morse_bott and s.betti is None]
@@ -323,6 +335,28 @@ def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[P
     if not check.holds:
         return CriticalStatus.MISSED, f"{how}; {check.message}"
     return CriticalStatus.CONSISTENT, f"{how}; {check.message}"
+
+
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{name} must be True or False; got {type(value).__name__} "
+                             f"{value!r:.80}")
+    return bool(value)
+
+
+def _norm(v: Vector) -> float:
+    """``|v|`` without overflow of the squares (NaN or inf when an entry is)."""
+    big = float(np.max(np.abs(v), initial=0.0))
+    return big * float(np.linalg.norm(v / big)) if 0 < big < np.inf else big
+
+
+def _relative(name: str, value: Any) -> float:
+    """A relative tolerance: positive, finite and below 1 (1 or more accepts anything)."""
+    v = check_tolerance(name, value)
+    if not v < 1:
+        raise ParameterError(f"{name} must be a relative tolerance in (0, 1); got {value!r} "
+                             "(a relative tolerance of 1 or more accepts any point)")
+    return v
 
 
 def critical_points(
@@ -357,14 +391,16 @@ def critical_points(
         Parameter values of a casadi.Function target.
     tol : float
         Newton's residual tolerance, relative to the scale of ``V`` (the largest ``|dV|``
-        at the sampled configurations).
+        at the sampled configurations), in (0, 1).
     hessian_rtol : float
-        A Hessian eigenvalue is zero when below ``hessian_rtol`` times the largest one.
+        A Hessian eigenvalue is zero when below ``hessian_rtol`` times the largest one; in
+        (0, 1).
     symmetry_rtol : float
-        Tolerance of the symmetry detection (:func:`detect_symmetry`).
+        Tolerance of the symmetry detection (:func:`detect_symmetry`), in (0, 1).
     max_starts : int
         Refuse a start function with more critical points than this (``2^n`` for ``n``
-        links).
+        links); at most ``LIMITS["max_starts"]`` (65536), as the other counts are bounded
+        by :data:`LIMITS`.
     deflation_starts, deflation_rounds : int
         Seeded random starts of the deflated Newton, and solutions sought from each (the
         solves from one start stop at its first failure); 0 starts turns deflation off.
@@ -389,7 +425,9 @@ def critical_points(
     ModelError
         A target that is not one of the three kinds.
     ParameterError
-        Bad options; a constant function (every point critical); too many starts.
+        Bad options (a count above its bound in :data:`LIMITS`); a constant function
+        (every point critical) or one whose gradient is not finite or is too large or small
+        for double precision (:data:`SCALE_RANGE`); too many starts.
     SolverError
         When not CONSISTENT and ``raise_on_failure``.
     """
@@ -435,6 +473,10 @@ def find_all_equilibria(
     """
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
+    _flag("raise_on_failure", raise_on_failure)
+    if params is not None and not isinstance(params, Mapping):
+        raise ParameterError(f"params must be a dict of parameter names to values (or None); "
+                             f"got {type(params).__name__} {params!r:.80}")
     if params:
         model = model.with_parameters(**params)
     field_tol = check_tolerance("field_tol", field_tol)
@@ -453,26 +495,41 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
             deflation_rounds: int = 8, max_deflation_starts: int = 64,
             max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
     t0 = time.perf_counter()
-    tol = check_tolerance("tol", tol)
-    hessian_rtol = check_tolerance("hessian_rtol", hessian_rtol)
-    symmetry_rtol = check_tolerance("symmetry_rtol", symmetry_rtol)
-    max_starts = check_count("max_starts", max_starts)
-    deflation_starts = check_count("deflation_starts", deflation_starts, minimum=0)
-    deflation_rounds = check_count("deflation_rounds", deflation_rounds)
-    max_deflation_starts = check_count("max_deflation_starts", max_deflation_starts, minimum=0)
+    _flag("raise_on_failure", raise_on_failure)
+    tol = _relative("tol", tol)
+    hessian_rtol = _relative("hessian_rtol", hessian_rtol)
+    symmetry_rtol = _relative("symmetry_rtol", symmetry_rtol)
+    max_starts = check_count("max_starts", max_starts, maximum=LIMITS["max_starts"])
+    deflation_starts = check_count("deflation_starts", deflation_starts, minimum=0,
+                                   maximum=LIMITS["deflation_starts"])
+    deflation_rounds = check_count("deflation_rounds", deflation_rounds,
+                                   maximum=LIMITS["deflation_rounds"])
+    max_deflation_starts = check_count("max_deflation_starts", max_deflation_starts, minimum=0,
+                                       maximum=LIMITS["max_deflation_starts"])
     if max_deflation_starts < deflation_starts:
         raise ParameterError(f"max_deflation_starts ({max_deflation_starts}) must be at least "
                              f"deflation_starts ({deflation_starts})")
-    max_iterations = check_count("max_iterations", max_iterations)
+    max_iterations = check_count("max_iterations", max_iterations,
+                                 maximum=LIMITS["max_iterations"])
     seed = check_count("seed", seed, minimum=0)
     man = fn.manifold
     rng = np.random.default_rng(seed)
     n_samples = 2 * len(candidates(man)) + 6
     samples = [man.random_point(rng) for _ in range(n_samples)]
-    scale = max(float(np.linalg.norm(fn.gradient(c))) for c in samples)
+    scale = max(_norm(fn.gradient(c)) for c in samples)
+    if not np.isfinite(scale):
+        raise ParameterError(f"{fn.name} or its gradient is not finite at random "
+                             f"configurations (largest |dV| = {scale}); check its parameter "
+                             f"values p = {fn.p.tolist()!r:.120}")
     if not scale > 0:
         raise ParameterError(f"{fn.name} has zero gradient at {n_samples} random "
                              "configurations: it is constant, every configuration is critical")
+    if not SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]:
+        raise ParameterError(
+            f"{fn.name} has gradients up to |dV| = {scale:.3g} at random configurations, "
+            f"outside [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] where Newton's least squares "
+            f"over- or underflow; rescale it (V / {scale:.3g} has the same critical points; "
+            f"p = {fn.p.tolist()!r:.120})")
     sym = detect_symmetry(man, fn.gradient, samples, rtol=symmetry_rtol)
     start = start_function(fn, scale, max_starts=max_starts)
     hom = Homotopy(fn, start, sym)

@@ -28,6 +28,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core import validate
 from workbench.core._evaluator import DenseEvaluator
 from workbench.core._model import Model
 from workbench.core.errors import ModelError
@@ -78,6 +79,12 @@ def home_point(manifold: ProductManifold) -> Vector:
     return manifold.join(parts)
 
 
+def _text(name: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise ModelError(f"{name} must be a str; got {type(value).__name__} {value!r:.80}")
+    return value
+
+
 def _check_manifold(manifold: Any) -> ProductManifold:
     if not isinstance(manifold, ProductManifold):
         raise ModelError(f"manifold must be a ProductManifold of S1, S2, SO3 and Rn factors; "
@@ -120,7 +127,7 @@ class ConfigurationFunction:
                 function.n_out() != 1:
             raise ModelError(f"function must be a casadi.Function (c, p) -> V with one "
                              f"output; got {function!r}")
-        self.p = np.asarray(p, dtype=float).ravel()
+        self.p = validate.array("p", p, error=ModelError).ravel()
         n_c = manifold.ambient_dim
         if function.numel_in(0) != n_c:
             raise ModelError(f"function's first input must have {n_c} entries "
@@ -134,9 +141,7 @@ class ConfigurationFunction:
         if function.numel_out(0) != 1:
             raise ModelError(f"function must return a scalar; got shape "
                              f"{function.size_out(0)}")
-        if not np.all(np.isfinite(self.p)):
-            raise ModelError(f"p must be finite; got {self.p.tolist()}")
-        self.name = str(name)
+        self.name = _text("name", name)
         self.function = function
         self._state = state
         c = ca.SX.sym("c", n_c)
@@ -181,6 +186,18 @@ class ConfigurationFunction:
         if not isinstance(model, Model):
             raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
         man = model.manifold
+        if not isinstance(function, ca.Function) or function.n_in() != 2 or \
+                function.numel_in(0) != man.ambient_dim:
+            raise ModelError(f"function must be a casadi.Function (x, p) -> V with x of "
+                             f"{man.ambient_dim} entries (the state of {model.name!r}); got "
+                             f"{function!r:.120}")
+        if name is not None:
+            _text("name", name)
+        if configuration is not None and (isinstance(configuration, (str, bytes)) or not
+                                          isinstance(configuration, Sequence) or not all(
+                                              isinstance(n, str) for n in configuration)):
+            raise ModelError(f"configuration must be a sequence of factor names (str) of "
+                             f"{model.name!r} ({man.names}) or None; got {configuration!r:.120}")
         reduction = getattr(model, "reduction", None)
         if configuration is None and reduction is not None:
             configuration = list(reduction.configuration)
@@ -211,10 +228,7 @@ class ConfigurationFunction:
                 parts.append(ca.SX.zeros(k, 1))
         xs = ca.vertcat(*parts)
         to_state = ca.Function("state_at_rest", [c], [xs])
-        pv = model.p if p is None else np.asarray(p, dtype=float).ravel()
-        if function.n_in() != 2 or function.numel_in(0) != man.ambient_dim:
-            raise ModelError(f"function must be (x, p) -> V with x of {man.ambient_dim} "
-                             f"entries (the state of {model.name!r}); got {function!r}")
+        pv = model.p if p is None else validate.array("p", p, error=ModelError).ravel()
         pp = ca.SX.sym("p", function.numel_in(1))
         fn = ca.Function("V_config", [c, pp], [function(xs, pp)])
         ev = DenseEvaluator(to_state)

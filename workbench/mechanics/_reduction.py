@@ -47,7 +47,11 @@ from workbench.mechanics._reduction_geometry import (
 from workbench.mechanics._reduction_reconstruct import Reconstructed, ReconstructionMixin
 
 __all__ = ["reduce", "Reduction", "ReductionKind", "BreakingInputs", "Reconstructed",
-           "INVARIANCE_RTOL"]
+           "INVARIANCE_RTOL", "MAX_CHECK_STATES"]
+
+MAX_CHECK_STATES = 1000
+"""Largest accepted ``n_states`` of :func:`reduce` (random states checked, each a few
+evaluations of the derived graphs): bounded before any state is drawn."""
 
 INVARIANCE_RTOL = 1e-8
 """The reduced field from two lifts (one turned by a random group element) must agree to
@@ -476,11 +480,12 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     name : str, optional
         The reduced model's name (default ``<full>_routh`` or ``<full>_reduced``).
     n_states : int
-        Seeded random reduced states at which the checks run (module docstring), >= 1.
+        Seeded random reduced states at which the checks run (module docstring), in
+        ``[1, MAX_CHECK_STATES]``.
     seed : int
         Their seed.
     rtol : float
-        Relative tolerance of the checks.
+        Relative tolerance of the checks, in (0, 1).
 
     Returns
     -------
@@ -509,9 +514,12 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
         raise ModelError(f"symmetry must name a momentum of {full.name!r}; got {symmetry!r}, "
                          f"known: {sorted(der.ing.momenta)} (declare one with "
                          "System.momentum or find them with System.detect_momenta)")
-    n_states = validate.count("n_states", n_states, error=ModelError)
+    n_states = validate.count("n_states", n_states, maximum=MAX_CHECK_STATES, error=ModelError)
     seed = validate.count("seed", seed, minimum=0, error=ModelError)
     rtol = validate.tolerance("rtol", rtol, error=ModelError)
+    if not rtol < 1:
+        raise ModelError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r} (1 or more "
+                         "would accept a field that is not invariant)")
     mu_name = None
     if kind is Kind.ROUTH:
         if momentum is None:

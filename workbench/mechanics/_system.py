@@ -59,6 +59,13 @@ E3 = np.array([0.0, 0.0, 1.0])
 _Check = Callable[[np.ndarray], "str | None"]
 
 
+def _velocity_name(name: Any, velocity: Any, suffix: str) -> str:
+    """The storage name of a factor's velocity: ``velocity``, checked, or ``name + suffix``."""
+    if velocity is None:
+        return f"{_name(name, 'factor name')}{suffix}"
+    return _name(velocity, f"velocity (the storage name of factor {name!r}'s velocity)")
+
+
 class System(Momenta):
     """A mechanical system on a product of R^k, S^1, S^2 and SO(3), built declaratively.
 
@@ -126,7 +133,7 @@ class System(Momenta):
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= MAX_DIM:
             raise ModelError(f"k (dimension of R^k factor {name!r}) must be an integer in "
                              f"[1, {MAX_DIM}]; got {k!r}")
-        vname = velocity if velocity is not None else f"{name}_dot"
+        vname = _velocity_name(name, velocity, "_dot")
         self._claim(name, vname)
         f = RnFactor(name, self.symbols.new(f"{name}#c", int(k), CONFIG, name),
                      self.symbols.new(f"{name}#v", int(k), VELOCITY, vname), vname)
@@ -153,7 +160,7 @@ class System(Momenta):
             With symbols ``.p``, ``.perp`` (2x1), ``.cos``, ``.sin``, ``.rate`` (1x1) and
             ``.p_dot = rate * perp``; ``p-dot = theta-dot (-sin theta, cos theta)``.
         """
-        vname = velocity if velocity is not None else f"{name}_dot"
+        vname = _velocity_name(name, velocity, "_dot")
         self._claim(name, vname)
         f = S1Factor(name, self.symbols.new(f"{name}#p", 2, CONFIG, name),
                      self.symbols.new(f"{name}#v", 1, VELOCITY, vname), vname)
@@ -194,7 +201,7 @@ class System(Momenta):
         SO3Factor
             With symbols ``.R`` (3x3) and ``.Omega`` (3x1), ``R-dot = R hat(Omega)``.
         """
-        vname = velocity if velocity is not None else f"{name}_omega"
+        vname = _velocity_name(name, velocity, "_omega")
         self._claim(name, vname)
         f = SO3Factor(name, self.symbols.new(f"{name}#R", 9, CONFIG, name),
                       self.symbols.new(f"{name}#W", 3, VELOCITY, vname), vname)

@@ -24,10 +24,22 @@ from workbench.core.status import StatusEnum, StatusResult
 from workbench.simulation import Method
 from workbench.simulation.accuracy._legend import legend_below
 from workbench.study._figures import _grid
-from workbench.study._model_levels import FullLevel, Level, LevelKind, Prepared, default_levels
+from workbench.study._model_levels import (
+    FullLevel,
+    Level,
+    LevelKind,
+    Prepared,
+    default_levels,
+    sequence_of,
+)
 from workbench.study._model_scene import Integration, Scene, _Flow
 
-__all__ = ["ChoiceStatus", "LevelRun", "ModelChoice", "compare_models", "choice_figure"]
+__all__ = ["ChoiceStatus", "LevelRun", "ModelChoice", "compare_models", "choice_figure",
+           "MAX_REPEATS"]
+
+MAX_REPEATS = 1000
+"""Largest accepted ``repeats`` of :func:`compare_models` (each repeat runs every level over
+every state of the scene)."""
 
 
 class ChoiceStatus(str, StatusEnum):
@@ -256,8 +268,9 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
     method, rtol, atol, multistep, step, max_steps
         The integration of every level (:class:`Integration`).
     repeats : int
-        Timed runs of each level, >= 1; the levels run in turn within each repeat (so a
-        change of load on the machine affects them alike) and the median is reported.
+        Timed runs of each level, in ``[1, MAX_REPEATS]``; the levels run in turn within
+        each repeat (so a change of load on the machine affects them alike) and the median
+        is reported.
     reference_rtol : float
         CVODES (Adams) tolerance of the full model's reference run (``atol`` the same).
     check_rtol : float
@@ -285,7 +298,8 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene must be a workbench.study.Scene; got {type(scene).__name__}")
     knobs = _knobs(method, rtol, atol, multistep, step, max_steps)
-    repeats = validate.count("repeats", repeats)
+    repeats = validate.count("repeats", repeats, maximum=MAX_REPEATS)
+    seed = validate.count("seed", seed, minimum=0)
     reference_rtol = validate.tolerance("reference_rtol", reference_rtol)
     check_rtol = validate.tolerance("check_rtol", check_rtol)
     if check_rtol <= reference_rtol:
@@ -296,6 +310,10 @@ def compare_models(scene: Scene, levels: Sequence[Level] | None = None, *,
         raise ParameterError(f"reference_margin must be in (0, 1]; got {reference_margin!r}")
     if not isinstance(raise_on_failure, bool):
         raise ParameterError(f"raise_on_failure must be True or False; got {raise_on_failure!r}")
+    if levels is not None:
+        levels = sequence_of("levels", levels, Level, "Level")
+    special_cases = sequence_of("special_cases", special_cases, Level, "Level")
+    equilibria = sequence_of("equilibria", equilibria, object, "equilibrium state")
     if levels is not None and (symmetries is not None or len(equilibria) or radius is not None):
         raise ParameterError("symmetries, equilibria and radius make the default levels; with "
                              "levels given, make those levels yourself (they would be ignored)")

@@ -44,7 +44,8 @@ from workbench.mechanics import Reduction, ReductionKind, reduce
 from workbench.study._model_scene import Integration, Scene, _Flow
 
 __all__ = ["LevelKind", "Level", "Prepared", "FullLevel", "ReductionLevel", "SpecialCase",
-           "CaseMaps", "LinearLevel", "Unavailable", "default_levels", "output_invariance"]
+           "CaseMaps", "LinearLevel", "Unavailable", "default_levels", "output_invariance",
+           "sequence_of"]
 
 
 class LevelKind(str, Enum):
@@ -439,6 +440,23 @@ class Unavailable(Level):
         raise ModelError(f"level {self.name!r} does not apply: {self.reason}")
 
 
+def sequence_of(name: str, value: Any, kind: type | tuple[type, ...], what: str) -> list[Any]:
+    """``value`` as a list, checked to be a sequence (not a str) of ``kind`` items.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``name``, what was expected and what was got.
+    """
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ParameterError(f"{name} must be a sequence (list or tuple) of {what}; got "
+                             f"{type(value).__name__} {value!r:.80}")
+    bad = [v for v in value if not isinstance(v, kind)]
+    if bad:
+        raise ParameterError(f"{name} must be a sequence of {what}; got {bad!r:.120}")
+    return list(value)
+
+
 def _span(values: np.ndarray) -> str:
     lo, hi = float(np.min(values)), float(np.max(values))
     return f"{lo:.6g}" if lo == hi else f"from {lo:.6g} to {hi:.6g}"
@@ -470,8 +488,8 @@ def default_levels(scene: Scene, *, symmetries: Sequence[str] | None = None,
     scene : Scene
         The scene.
     symmetries : sequence of str, optional
-        Momenta to reduce by (default: every momentum of a mechanics model; none for
-        another model).
+        Momenta to reduce by, each a declared or detected momentum of the model (default:
+        every momentum of a mechanics model; none for another model).
     equilibria : sequence of array-like
         Equilibria of the full model to linearise at.
     radius : float
@@ -484,14 +502,30 @@ def default_levels(scene: Scene, *, symmetries: Sequence[str] | None = None,
     Returns
     -------
     list of Level
+
+    Raises
+    ------
+    ParameterError
+        A symmetry that is not a momentum of the model (a misspelt name is refused, not
+        reported as a level that does not apply), or bad ``radius``, ``equilibria``.
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene must be a workbench.study.Scene; got {type(scene).__name__}")
     momentum_tol = validate.tolerance("momentum_tol", momentum_tol)
+    radius = validate.positive("radius", radius)
+    seed = validate.count("seed", seed, minimum=0)
+    equilibria = sequence_of("equilibria", equilibria, object, "equilibrium states")
     full = scene.model
     der = getattr(full, "mechanics", None)
+    known = sorted(der.ing.momenta) if der is not None else []
     if symmetries is None:
-        symmetries = sorted(der.ing.momenta) if der is not None else []
+        symmetries = known
+    symmetries = sequence_of("symmetries", symmetries, str, "momentum names (str)")
+    unknown = [s for s in symmetries if s not in known]
+    if unknown:
+        raise ParameterError(f"symmetries must name momenta of {full.name!r}; {unknown} are "
+                             f"not among {known}" + ("" if der is not None else
+                                                     " (not a workbench.mechanics model)"))
     levels: list[Level] = [FullLevel(full)]
     for sym in symmetries:
         lp, why, sec = _timed_reduce(full, sym, kind="lagrange_poincare", seed=seed)

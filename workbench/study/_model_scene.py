@@ -23,7 +23,12 @@ from workbench.core._model import Model
 from workbench.core.errors import ParameterError, SolverError
 from workbench.simulation import Method, Multistep, closed_loop_function, cvodes_options
 
-__all__ = ["Scene", "Integration", "Outputs"]
+__all__ = ["Scene", "Integration", "Outputs", "MAX_TIMES"]
+
+MAX_TIMES = 100_000
+"""Largest accepted ``Scene.n_times``: every level of a comparison stores its states at
+each output time (and a linearisation a matrix per time), so the count is bounded before
+anything is allocated."""
 
 Outputs = Callable[[np.ndarray], np.ndarray]
 """``(n, ambient_dim) -> (n, n_outputs)``: the outputs of full states."""
@@ -48,14 +53,14 @@ class Scene:
         Largest accepted max-norm error of the outputs, over every state and time
         (absolute, in the outputs' units).
     n_times : int
-        Output times, >= 2.
+        Output times, in ``[2, MAX_TIMES]``.
     name : str
         The scene's name (tables, figures).
 
     Raises
     ------
     ParameterError
-        A bad horizon, tolerance or ``n_times``, or outputs that are not a finite 2-D
+        A bad horizon, tolerance, ``n_times`` or name, or outputs that are not a finite 2-D
         array with one row per state.
     ManifoldError
         A state off the model's manifold.
@@ -83,7 +88,11 @@ class Scene:
         horizon = validate.positive("horizon", self.horizon, error=ParameterError)
         object.__setattr__(self, "horizon", horizon)
         object.__setattr__(self, "tolerance", validate.tolerance("tolerance", self.tolerance))
-        object.__setattr__(self, "n_times", validate.count("n_times", self.n_times, minimum=2))
+        object.__setattr__(self, "n_times", validate.count("n_times", self.n_times, minimum=2,
+                                                           maximum=MAX_TIMES))
+        if not isinstance(self.name, str):
+            raise ParameterError(f"name must be a str; got {type(self.name).__name__} "
+                                 f"{self.name!r:.80}")
         if not callable(self.outputs):
             raise ParameterError(f"outputs must be a function of full states (n, "
                                  f"{X.shape[1]}) -> (n, n_outputs); got {self.outputs!r}")
