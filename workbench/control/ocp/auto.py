@@ -147,6 +147,12 @@ class Auto:
         intervals cannot hold its pumping) it cost 15 s instead of 1.4 s.
     max_attempts : int
         At most this many solves in all.
+    patience : int
+        After this many structured starts in a row fail to converge (INFEASIBLE, the
+        iteration limit, a failure), the other starts are not tried and the strategy goes on
+        to continuation; after this many in a row converge to INACCURATE trajectories (the
+        transcription too coarse for what it finds), it stops there (the diagnosis says:
+        more intervals). The solution's ``cost["strategy_stopped"]`` says so.
     """
 
     swings: int = 3
@@ -158,6 +164,7 @@ class Auto:
     coarse_factor: int = 4
     coarse_first: bool = False
     max_attempts: int = 30
+    patience: int = 3
 
     def __post_init__(self) -> None:
         validate.count("swings", self.swings, minimum=0, maximum=20)
@@ -165,6 +172,7 @@ class Auto:
         validate.count("attempt_max_iter", self.attempt_max_iter, maximum=100_000)
         validate.count("coarse_factor", self.coarse_factor, minimum=0, maximum=64)
         validate.count("max_attempts", self.max_attempts, maximum=1000)
+        validate.count("patience", self.patience, maximum=1000)
         for name in ("relax", "coarse_first"):
             if not isinstance(getattr(self, name), bool):
                 raise ParameterError(f"{name} must be True or False; got "
@@ -195,11 +203,21 @@ class Auto:
                                       else guess, _describe_guess(guess))]
         else:
             starts = structured_guesses(ocp, swings=self.swings)
-        for start in starts:  # the structured starts go through a coarse relaxation first
+        outcomes: list[str] = []
+        for start in starts:
             done = run.start(start, coarse=guess is None and self.coarse_first)
             if done is not None:
                 return run.finish(done)
-        if guess is None or not run.exhausted():
+            outcomes.append(_outcome(run.last))
+            tail = outcomes[-self.patience:]
+            if len(tail) == self.patience and len(set(tail)) == 1 and tail[0]:
+                run.stopped = (f"{self.patience} starts in a row {tail[0]}: the other starts "
+                               f"were not tried")
+                break
+        if run.stopped and outcomes[-1] == INACCURATE_STARTS:
+            run.stopped += (", nor continuation (the transcription is too coarse for the "
+                            "trajectories it finds: more intervals N)")
+        elif guess is None or not run.exhausted():
             done = run.continuation(starts)
             if done is not None:
                 return run.finish(done)
@@ -217,6 +235,7 @@ class _Run:
         self.closest: OCPSolution | None = None
         self.closest_start: StructuredGuess | None = None
         self.last: OCPSolution | None = None
+        self.stopped = ""
         self.t0 = time.process_time()
 
     def exhausted(self) -> bool:
@@ -273,11 +292,14 @@ class _Run:
             relaxed = self.solve("ambient relaxation", start, self.ocp, self.method,
                                  ManifoldHandling.AMBIENT, guess, self.relax_settings())
             if relaxed is not None and relaxed.status.ok:
-                done = self.final(self.solve(f"{self.handling.value} from the relaxation",
-                                             start, self.ocp, self.method, self.handling,
-                                             relaxed, self.settings), start)
-                if done is not None:
-                    return done
+                polished = self.solve(f"{self.handling.value} from the relaxation", start,
+                                      self.ocp, self.method, self.handling, relaxed,
+                                      self.settings)
+                done = self.final(polished, start)
+                if done is not None or polished is None or \
+                        polished.status.name == "INACCURATE":  # converged, too coarse: a
+                    return done  # solve from the start itself would not be finer
+
         return self.final(self.solve(f"{self.handling.value} solve", start, self.ocp,
                                      self.method, self.handling, guess, self.settings),
                           start)
@@ -359,7 +381,24 @@ class _Run:
         sol.attempts = list(self.attempts)
         sol.cost["strategy_cpu_seconds"] = float(sum(a["cpu_seconds"] for a in self.attempts))
         sol.cost["strategy_attempts"] = len(self.attempts)
+        if self.stopped and not sol.status.ok:
+            sol.cost["strategy_stopped"] = self.stopped
         return sol
+
+
+INACCURATE_STARTS = "converged to trajectories the transcription does not follow"
+FAILED_STARTS = "did not converge"
+
+
+def _outcome(sol: OCPSolution | None) -> str:
+    """A start's outcome for :attr:`Auto.patience` ("" when it says nothing)."""
+    if sol is None:
+        return ""
+    if sol.status.name == "INACCURATE":
+        return INACCURATE_STARTS
+    if sol.status.name in ("INFEASIBLE", "MAX_ITERATIONS", "FAILED"):
+        return FAILED_STARTS
+    return ""
 
 
 def _infeasibility(sol: OCPSolution) -> float:

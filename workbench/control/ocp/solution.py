@@ -172,6 +172,8 @@ class OCPSolution(StatusResult):
             text += (f"; attempt {self.attempts[-1]['attempt']} of the strategy "
                      f"({len(self.attempts)} solves, "
                      f"{sum(a['cpu_seconds'] for a in self.attempts):.2f} s CPU in all)")
+        if c.get("strategy_stopped"):
+            text += f"; the strategy stopped: {c['strategy_stopped']}"
         if self.diagnosis is not None:
             from workbench.control.ocp.diagnose import describe_diagnosis
 
