@@ -199,8 +199,7 @@ class Auto:
                                                  settings.ipopt["max_iter"]))
         run = _Run(self, ocp, method, handling or DEFAULT_HANDLING, graph, settings)
         if guess is not None:
-            starts = [StructuredGuess("given", guess if isinstance(guess, Guess)
-                                      else guess, _describe_guess(guess))]
+            starts = [StructuredGuess("given", guess, _describe_guess(guess))]
         else:
             starts = structured_guesses(ocp, swings=self.swings)
         outcomes: list[str] = []
@@ -311,16 +310,22 @@ class _Run:
     def chain(self, start: StructuredGuess, steps: list[tuple[str, OCP, TranscriptionMethod,
                                                                dict[str, Any]]]
               ) -> OCPSolution | None:
-        """Solve ``steps`` in turn, each from the previous one; the last is the problem."""
+        """Solve ``steps`` in turn, each from the previous one; only the last is the problem.
+
+        The intermediate steps (wider bounds, a relaxed terminal condition, a coarser
+        transcription) are means: no defect limit, and a failure there just ends the chain.
+        """
         current: Guess | OCPSolution = start.guess
         sol = None
-        for what, ocp, method, kwargs in steps:
-            sol = self.solve(what, start, ocp, method, self.handling, current, self.settings
-                             if ocp is self.ocp and method == self.method else
-                             self.settings.replace(defect_tol=None), **kwargs)
-            if sol is None or not sol.status.ok:
-                return self.final(sol, start) if sol is not None and sol.ocp is self.ocp \
-                    else None
+        for i, (what, ocp, method, kwargs) in enumerate(steps):
+            last = i == len(steps) - 1
+            sol = self.solve(what, start, ocp, method, self.handling, current,
+                             self.settings if last else self.settings.replace(
+                                 defect_tol=None), **kwargs)
+            if sol is None:
+                return None
+            if not sol.status.ok:
+                return self.final(sol, start) if last else None
             current = sol
         return self.final(sol, start)
 
@@ -345,7 +350,7 @@ class _Run:
             steps = [(f"terminal continuation |chart| <= {sl:g}", ocp, self.method,
                       {"terminal_slack": float(sl)}) for sl in auto.terminal_slacks]
             steps.append(("terminal continuation, exact", ocp, self.method, {}))
-            done = self._chain_relaxed(start, steps)
+            done = self.chain(start, steps)
             if done is not None:
                 return done
         coarse = _coarse(self.method, auto.coarse_factor) if auto.coarse_factor else None
@@ -356,22 +361,6 @@ class _Run:
             if done is not None:
                 return done
         return None
-
-    def _chain_relaxed(self, start: StructuredGuess, steps: list) -> OCPSolution | None:
-        """A chain whose intermediate steps solve ``self.ocp`` with a relaxed terminal."""
-        current: Guess | OCPSolution = start.guess
-        sol = None
-        for i, (what, ocp, method, kwargs) in enumerate(steps):
-            last = i == len(steps) - 1
-            sol = self.solve(what, start, ocp, method, self.handling, current,
-                             self.settings if last else self.settings.replace(
-                                 defect_tol=None), **kwargs)
-            if sol is None:
-                return None
-            if not sol.status.ok:
-                return self.final(sol, start) if last else None
-            current = sol
-        return self.final(sol, start)
 
     def finish(self, sol: OCPSolution | None) -> OCPSolution:
         """The solution with every attempt recorded (the last attempt if none was closer)."""

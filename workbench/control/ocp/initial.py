@@ -76,8 +76,8 @@ class StructuredGuess:
     ----------
     name : str
         Short name, e.g. ``"pumping k=2"``.
-    guess : Guess
-        The guess.
+    guess : Guess or OCPSolution
+        The guess (a solution only where the caller gave one).
     description : str
         How it was made (axes, wrap directions, horizon).
     demand : float
@@ -87,7 +87,7 @@ class StructuredGuess:
     """
 
     name: str
-    guess: Guess
+    guess: Any  # a Guess; a solution given by the caller for the "given" start
     description: str
     demand: float = float("nan")
 
