@@ -204,3 +204,79 @@ def test_a_solution_warm_starts_with_its_own_drift(pendulum):
     assert np.array_equal(g.x, sol.x) and np.array_equal(g.u, sol.u)
     again = solve(ocp, Collocation(N=30), guess=sol)
     assert again.status.ok
+
+
+# --- found by an independent hostile pass ---------------------------------------------------
+
+
+def _rail_ocp(**kw):
+    import casadi as ca
+
+    from models import rail_pendulum
+    from workbench.control.ocp import OCP, TargetPoint
+
+    model = rail_pendulum.rail_pendulum()
+    args = dict(u_lower=-10.0, u_upper=10.0, T=3.0, running_cost=lambda x, u: ca.dot(u, u))
+    args.update(kw)
+    return OCP(model, x0=rail_pendulum.hanging(model),
+               target=TargetPoint(model.manifold, rail_pendulum.inverted(model)), **args)
+
+
+def test_unrolled_and_allocated_sizes_are_bounded_before_anything_is_built():
+    from workbench.control.ocp import Collocation, Direct, MultipleShooting, solve
+    from workbench.control.ocp.transcription import MAX_NLP_VARIABLES, MAX_STEPS
+
+    with pytest.raises(ParameterError, match=rf"steps must be an integer in \[1, {MAX_STEPS}\]"):
+        MultipleShooting(N=5, steps=10**7)
+    with pytest.raises(ParameterError, match=rf"at most {MAX_NLP_VARIABLES}"):
+        solve(_rail_ocp(), Collocation(N=100_000, degree=9), strategy=Direct())
+
+
+def test_guess_builders_check_their_counts():
+    from workbench.control.ocp import energy_pumping, structured_guesses
+    from workbench.control.ocp.initial import pumping
+
+    ocp = _rail_ocp()
+    for bad in (0, -1, True, 2.5, 10**7):
+        with pytest.raises(ParameterError, match="samples"):
+            energy_pumping(ocp, samples=bad)
+    for bad in (-1, 10**6, 1.5):
+        with pytest.raises(ParameterError, match="swings"):
+            structured_guesses(ocp, swings=bad)
+    with pytest.raises(ParameterError, match="wrap"):
+        pumping(ocp, half_swings=1, wrap=0.5)
+
+
+def test_multistart_seeds_are_checked():
+    from workbench.control.ocp import Collocation, multistart
+
+    for bad in ([], [-1], ["a"], [1.5], [True]):
+        with pytest.raises(ParameterError, match="seeds must be"):
+            multistart(_rail_ocp(), Collocation(N=10), seeds=bad)
+
+
+def test_a_cost_that_is_not_finite_is_refused_when_the_ocp_is_made():
+    import casadi as ca
+
+    with pytest.raises(ModelError, match="running_cost must be finite"):
+        _rail_ocp(running_cost=lambda x, u: ca.sqrt(-1.0 - ca.dot(u, u)))
+    with pytest.raises(ModelError, match="terminal_cost must be finite"):
+        _rail_ocp(terminal_cost=lambda x, T: ca.log(T - 5.0))
+
+
+def test_a_manifold_tolerance_below_rounding_is_refused():
+    from workbench.control.ocp import Collocation, solve
+
+    with pytest.raises(ParameterError, match="manifold_tol must be at least"):
+        solve(_rail_ocp(), Collocation(N=10), manifold_tol=1e-17)
+
+
+def test_a_tiny_pumping_axis_is_an_axis_not_a_parallel_one():
+    from workbench.control.ocp.study import pumping_guess
+
+    ocp = _rail_ocp()
+    g = pumping_guess(ocp, half_swings=1, axes={"q": [0.0, 1e-300, 0.0]})
+    big = pumping_guess(ocp, half_swings=1, axes={"q": [0.0, 1.0, 0.0]})
+    assert np.allclose(g.x, big.x)  # only the direction of the axis counts
+    with pytest.raises(ParameterError, match="parallel"):
+        pumping_guess(ocp, half_swings=1, axes={"q": [0.0, 0.0, 1e-300]})

@@ -79,10 +79,15 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | 
             res: float) -> list[str]:
     name = sol.status.name
     out = []
-    if name == "OFF_MANIFOLD" or (tr.handling is ManifoldHandling.AMBIENT
-                                  and res > FAR_OFF_MANIFOLD):
-        out.append("the nodes are off the manifold: solve with handling=PROJECTED (the "
-                   "default) or LIE_GROUP, whose nodes stay on it")
+    ambient = tr.handling is ManifoldHandling.AMBIENT
+    if ambient and (name == "OFF_MANIFOLD" or res > FAR_OFF_MANIFOLD):
+        out.append("the ambient nodes drift off the manifold by the scheme's local error: "
+                   "solve with handling=PROJECTED (the default) or LIE_GROUP, whose nodes "
+                   "stay on it")
+    elif name == "OFF_MANIFOLD":
+        out.append(f"the {tr.handling.value} nodes are on the manifold only up to the "
+                   f"constraints' final violation ({res:.1e}): a manifold_tol above it, or a "
+                   f"tighter tol")
     if name == "INACCURATE":
         out.append("the transcription does not follow the dynamics: more intervals N or a "
                    "higher collocation degree")

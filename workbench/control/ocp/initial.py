@@ -50,7 +50,8 @@ from workbench.control.ocp.expand import sx_function
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
-from workbench.core.errors import ManifoldError, ModelError, SolverError
+from workbench.core import validate
+from workbench.core.errors import ManifoldError, ModelError, ParameterError, SolverError
 from workbench.core.manifolds import S1, S2, SO3, TS2, Rn, so3_exp, so3_log
 from workbench.core.types import Vector
 
@@ -62,6 +63,12 @@ INVERT_ANGLE = np.pi / 2
 
 SAMPLES = 201
 """Samples of a structured guess along ``[0, 1]``."""
+
+MAX_SAMPLES = 100_000
+"""At most this many samples of a structured guess (each is a linear solve of the model)."""
+
+MAX_SWINGS = 20
+"""At most this many reversals in a pumping path (the strategy's ``swings`` has the same)."""
 
 PUMP_FIRST = 0.0
 """Where the direct path's input demand exceeds this (in units of the bounds' half-range),
@@ -376,6 +383,13 @@ def pumping(ocp: OCP, *, half_swings: int, wrap: float = 1.0, T: float | None = 
     -------
     StructuredGuess
     """
+    half_swings = validate.count("half_swings", half_swings, minimum=0, maximum=MAX_SWINGS)
+    samples = validate.count("samples", samples, minimum=2, maximum=MAX_SAMPLES)
+    if wrap not in (1.0, -1.0):
+        raise ParameterError(f"wrap must be +1 or -1 (the sense of an antipodal angle's "
+                             f"turn); got {wrap!r}")
+    if T is not None:
+        T = validate.positive("T", T)
     if axes is None:
         axes, where = controllable_axes(ocp)
     axes = {k: np.asarray(v, float) for k, v in axes.items()}
@@ -405,6 +419,7 @@ def structured_guesses(ocp: OCP, *, swings: int = 3) -> list[StructuredGuess]:
     then paths with 1..``swings`` reversals; an antipodal angle gives each path in both
     senses of its turn.
     """
+    swings = validate.count("swings", swings, minimum=0, maximum=MAX_SWINGS)
     axes, where = controllable_axes(ocp)
     turns = _turns(ocp, {k: np.asarray(v, float) for k, v in axes.items()}, 1.0)
     pumped = any(t.pumped for t in turns)

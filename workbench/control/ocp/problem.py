@@ -448,6 +448,23 @@ class OCP:
             if value.numel() != 1:
                 raise ModelError(f"{name} must be a scalar expression; got shape "
                                  f"{value.shape}")
+            self._check_cost_values(name, ca.Function(name, list(args), [value]))
+
+    def _check_cost_values(self, name: str, fn: ca.Function) -> None:
+        """A cost that is not finite at the start or the target is refused, naming where."""
+        finite_u = np.isfinite(self.u_lower) & np.isfinite(self.u_upper)
+        u = np.where(finite_u, 0.5 * (self.u_lower + self.u_upper),
+                     np.clip(0.0, self.u_lower, self.u_upper))
+        for where, x in (("x0", self.x0), ("the target's witness", self.target.witness)):
+            for second in ((u,) if name == "running_cost" else self.T_range):
+                try:
+                    value = float(np.asarray(fn(x, second)).ravel()[0])
+                except RuntimeError as exc:
+                    raise ModelError(f"{name} cannot be evaluated at {where}: "
+                                     f"{str(exc).strip().splitlines()[-1]}") from exc
+                if not np.isfinite(value):
+                    raise ModelError(f"{name} must be finite; it is {value} at {where} (x = "
+                                     f"{np.round(x, 6).tolist()})")
 
     def _bound(self, value: ArrayLike, name: str) -> Vector:
         arr = np.asarray(validate.bound(name, value), dtype=float)

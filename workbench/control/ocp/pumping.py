@@ -29,6 +29,7 @@ from workbench.control.ocp.initial import (
 )
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
+from workbench.core import validate
 from workbench.core.errors import ManifoldError, SolverError
 
 __all__ = ["energy_pumping", "target_gap"]
@@ -39,6 +40,9 @@ PUMP_LAWS = ((20.0, 0.0, 0.0), (20.0, 0.2, 0.0), (20.0, 0.0, 0.5), (20.0, 0.2, 0
 
 PUMP_SHARPNESS = 0.05
 """``beta_i`` of the pumping law, as a fraction of the largest ``|b_i|`` seen so far."""
+
+MAX_PUMP_SAMPLES = 5_000
+"""At most this many held samples per pumping law (each is a CVODES step; four laws)."""
 
 KICK_SAMPLES = 1
 """Samples at the upper input bounds that start the pumping (at rest ``b = 0``)."""
@@ -150,6 +154,7 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     """
     from workbench.control.ocp.stepper import Stepper
 
+    samples = validate.count("samples", samples, minimum=2, maximum=MAX_PUMP_SAMPLES)
     model = ocp.model
     st = structure(model)
     finite = np.all(np.isfinite(ocp.u_lower) & np.isfinite(ocp.u_upper))

@@ -41,7 +41,7 @@ class OCPStatus(StatusEnum):
     INACCURATE = ("Ipopt converged, but the transcribed trajectory does not follow the "
                   "dynamics to defect_tol (local defect against CVODES on each interval)")
     OFF_MANIFOLD = ("Ipopt converged, but the nodes are off the manifold by more than "
-                    "manifold_tol (ambient nodes drift by the scheme's local error)")
+                    "manifold_tol")
 
     @classmethod
     def from_ipopt(cls, status: str) -> OCPStatus:

@@ -61,6 +61,9 @@ MANIFOLD_TOL = 1e-10
 """Default ``manifold_tol`` of :func:`solve`: the largest accepted constraint residual of the
 nodes of a converged solve; above it the status is OFF_MANIFOLD, not SUCCESS."""
 
+MANIFOLD_TOL_MIN = 1e-14
+"""The smallest ``manifold_tol`` accepted: residuals below it are rounding errors."""
+
 
 MUMPS_ORDERING = 5
 """MUMPS's fill-reducing ordering in Ipopt's default options (``mumps_pivot_order``: 5 METIS,
@@ -205,6 +208,11 @@ def settings(*, tol: float = 1e-8, max_iter: int = 1000, print_level: int = 0,
         defect_tol = validate.tolerance("defect_tol", defect_tol)
     if manifold_tol is not None:
         manifold_tol = validate.tolerance("manifold_tol", manifold_tol)
+        if manifold_tol < MANIFOLD_TOL_MIN:
+            raise ParameterError(
+                f"manifold_tol must be at least {MANIFOLD_TOL_MIN:g}: the nodes' residuals "
+                f"are computed in double precision (|q|^2 - 1, R^T R - I: rounding errors of "
+                f"a few 1e-16); got {manifold_tol!r}")
     if compiled is not None and not isinstance(compiled, Compiled):
         raise ParameterError(f"compiled must be a Compiled(...) or None; got {compiled!r}")
     return Settings(opts, ipopt_options is not None, defect_tol, manifold_tol, compiled)

@@ -33,6 +33,7 @@ from workbench.control.ocp.transcription import (
     Collocation,
     TranscriptionMethod,
 )
+from workbench.core import validate
 from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError, SolverError
 
@@ -141,6 +142,13 @@ def multistart(
         raise ParameterError(f"workers must be an integer >= 1; got {workers!r}")
     if starts not in ("seeded", "structured"):
         raise ParameterError(f"starts must be 'seeded' or 'structured'; got {starts!r}")
+    if starts == "seeded":
+        seeds = list(seeds) if isinstance(seeds, (list, tuple, range)) else seeds
+        if not isinstance(seeds, list) or not seeds or not all(
+                isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+                and v >= 0 for v in seeds) or len(seeds) > validate.MAX_DIM:
+            raise ParameterError(f"seeds must be a non-empty sequence of integers >= 0 (at "
+                                 f"most {validate.MAX_DIM}); got {seeds!r}")
     if executor is not None:
         _check_build(ocp, build)
         if workers != 1:

@@ -366,8 +366,9 @@ def pumping_guess(ocp: OCP, *, half_swings: int, T: float | None = None,
         q0, q1 = x0[man.slices[name]][:3], xf[man.slices[name]][:3]
         if isinstance(f, (S2, TS2)) and q0 @ q1 < -1 + 1e-9:
             a = np.asarray((axes or {}).get(name, sphere_basis(q0)[:, 0]), float).reshape(3)
+            a = a / max(float(np.max(np.abs(a))), np.finfo(float).tiny)  # no underflow
             a = a - (a @ q0) * q0
-            if not np.linalg.norm(a) > 1e-9:
+            if not np.linalg.norm(a) > 1e-9:  # parallel to q0, or zero
                 raise ParameterError(f"axes[{name!r}] must not be parallel to the start "
                                      f"direction {q0.tolist()}; got {axes[name]!r}")
             ax[name] = a / np.linalg.norm(a)

@@ -97,6 +97,14 @@ MAX_DEGREE = 9
 MAX_INTERVALS = 100_000
 """More intervals than this would build a graph of millions of nodes (memory runs out)."""
 
+MAX_STEPS = 1_000
+"""RK4 steps per shooting interval: each is unrolled into the interval's graph."""
+
+MAX_NLP_VARIABLES = 400_000
+"""Decision variables of one NLP (intervals x (state + collocation states + input)):
+checked with the model's sizes before anything is built (a 10^5-interval, degree-9
+collocation of a 6-state model would need ~6 10^6 and several GB)."""
+
 
 @dataclass(frozen=True)
 class Collocation:
@@ -139,7 +147,7 @@ class MultipleShooting:
         ``Integrator.RK4`` (fixed step, expanded into the NLP's graph) or
         ``Integrator.CVODES`` (adaptive; a black-box node with sensitivities).
     steps : int
-        RK4 steps per interval.
+        RK4 steps per interval (at most :data:`MAX_STEPS`: each is unrolled).
     rtol : float
         CVODES' tolerances (relative and absolute).
     """
@@ -151,7 +159,7 @@ class MultipleShooting:
 
     def __post_init__(self) -> None:
         _check_int(self.N, "N", 1, MAX_INTERVALS)
-        _check_int(self.steps, "steps", 1)
+        _check_int(self.steps, "steps", 1, MAX_STEPS)
         object.__setattr__(self, "rtol", validate.tolerance("rtol", self.rtol))
         if not isinstance(self.integrator, Integrator):
             raise ParameterError(f"integrator must be an Integrator; got {self.integrator!r}")
@@ -232,13 +240,18 @@ class Transcription:
         self.foh = isinstance(method, HermiteSimpson)
         self.symmetry = ocp.symmetry if ocp.gauge else None
         self.local = ProductLocal(model.manifold)
+        self._layout()
+        if self.nw > MAX_NLP_VARIABLES:
+            raise ParameterError(
+                f"{method.describe()} of {model.name} ({self.nx} state entries, {self.nu} "
+                f"inputs, {self.handling.value}) would have {self.nw} NLP variables; at most "
+                f"{MAX_NLP_VARIABLES}: fewer intervals N or a lower degree")
         t0 = time.perf_counter()
         f = model.function("f")
         if graph is Symbolic.SX:
             f = sx_function(f, spd=model.spd_solves)
         self.S = ca.SX if graph is Symbolic.SX else ca.MX
         self.f = f
-        self._layout()
         self.nlp = self._build_nlp()
         self._solvers: dict[tuple, ca.Function] = {}
         self.compile_info: dict[Compiled, dict[str, Any]] = {}
