@@ -4,17 +4,19 @@
 handling. :class:`Auto`, the default, is what a user's own underactuated swing-up needs
 without a hand-made guess:
 
-1. **Structured starts** (:mod:`workbench.control.ocp.initial`): the energy-pumping
-   feedback's trajectory, the direct path along the great circle the inputs can drive,
-   then paths with 1, 2, ... reversals, both senses of an antipodal angle; or the user's
-   guess alone. With ``coarse_first``, each structured start is first relaxed on a coarse
-   transcription (``N // coarse_factor`` intervals): one that fails there is left for the
-   next start at a fraction of a fine failure's cost.
+1. **Structured starts** (:mod:`workbench.control.ocp.initial`, made one at a time, as
+   they are tried): the energy-pumping feedback's trajectory, the direct path along the
+   great circle the inputs can drive, then paths with 1, 2, ... reversals, both senses of
+   an antipodal angle; or the user's guess alone. With ``coarse_first``, each structured
+   start is first relaxed on a coarse transcription (``N // coarse_factor`` intervals):
+   one that fails there is left for the next start at a fraction of a fine failure's cost.
 2. **An ambient relaxation, polished on the manifold.** Each start is solved first with
    ``ManifoldHandling.AMBIENT`` (nodes free in the ambient space: the constraints of the
    manifold are relaxed to those the dynamics carry), at most ``relax_max_iter``
    iterations; its optimum warm-starts, primal and dual, the solve in the final handling
-   (``PROJECTED`` unless given), which has the same variables and constraints. On Drake's
+   (``PROJECTED`` unless given), which has the same variables and constraints (a
+   ``LIE_GROUP`` solve has other variables: it is started from the relaxation's states
+   and controls, primal only). On Drake's
    swing-up the relaxation reaches a minimum below Drake's that the projected NLP keeps
    (4.647 against 5.229), in 28 + 4 iterations, where the projected NLP from the same
    guess stops at Drake's in 50 and, cart free, at 6.69 in 104 (Drake: 5.178). If the
@@ -27,14 +29,22 @@ without a hand-made guess:
    requested one.
 
 It stops at the first success (``SUCCESS`` or ``ACCEPTABLE``, on the manifold, within
-``defect_tol``). Every solve is recorded in :attr:`OCPSolution.attempts`; a failure
-returns the attempt that came closest, with its diagnosis. The attempts are
-deterministic: the same problem gives the same sequence.
+``defect_tol``) of the problem itself: its own bounds, terminal condition, transcription
+and handling (a relaxation or a continuation step is a means, never returned as a
+success). Every solve is recorded in :attr:`OCPSolution.attempts`; a failure returns the
+solve of the problem itself that came closest (least primal infeasibility), with its
+diagnosis, and its message names that attempt; if the attempts ran out before the problem
+itself was solved at all, the last solve is returned with the status ``NOT_SOLVED``. The
+attempts are deterministic: the same problem gives the same sequence (in the same numerical
+environment: the number of BLAS threads changes the order of the linear algebra's sums, and
+a long solve can end elsewhere).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,9 +52,9 @@ import numpy as np
 
 from workbench.control.ocp.guess import Guess
 from workbench.control.ocp.hermite_simpson import HermiteSimpson
-from workbench.control.ocp.initial import StructuredGuess, structured_guesses
+from workbench.control.ocp.initial import StructuredGuess, iter_structured_guesses
 from workbench.control.ocp.problem import OCP
-from workbench.control.ocp.solution import OCPSolution
+from workbench.control.ocp.solution import OCPSolution, OCPStatus
 from workbench.control.ocp.solve import DEFAULT_HANDLING, Settings, solve_direct
 from workbench.control.ocp.transcription import (
     Collocation,
@@ -59,8 +69,9 @@ from workbench.core.errors import ParameterError
 __all__ = ["Auto", "Direct"]
 
 
-def _record(n: int, what: str, guess: str, sol: OCPSolution) -> dict[str, Any]:
-    return {"attempt": n, "what": what, "guess": guess,
+def _record(n: int, what: str, guess: str, sol: OCPSolution, *,
+            problem: bool = True) -> dict[str, Any]:
+    return {"attempt": n, "what": what, "guess": guess, "problem_itself": problem,
             "transcription": sol.method.describe(), "handling": sol.handling.value,
             "status": sol.status.name, "iterations": sol.cost["iterations"],
             "objective": sol.objective, "T": sol.T,
@@ -99,17 +110,13 @@ class Direct:
 
 
 def _coarse(method: TranscriptionMethod, factor: int) -> TranscriptionMethod | None:
+    """``method`` with ``N // factor`` intervals (None below 5 or where it is no coarser)."""
     n = method.N // factor
     if n < 5 or n == method.N:
         return None
-    if isinstance(method, Collocation):
-        return Collocation(N=n, degree=method.degree, scheme=method.scheme)
-    if isinstance(method, HermiteSimpson):
-        return HermiteSimpson(N=n)
-    if isinstance(method, MultipleShooting):
-        return MultipleShooting(N=n, integrator=method.integrator, steps=method.steps,
-                                rtol=method.rtol)
-    return None
+    if not isinstance(method, (Collocation, HermiteSimpson, MultipleShooting)):
+        return None
+    return dataclasses.replace(method, N=n)
 
 
 @dataclass(frozen=True)
@@ -124,16 +131,19 @@ class Auto:
         Solve each start first in the ambient relaxation, then polish on the manifold.
     relax_max_iter : int
         Iteration limit of a relaxation (it is a means: a start that does not converge in
-        it is solved in the final handling directly).
+        it is solved in the final handling directly); ``max_iter`` of :func:`solve` caps
+        it too.
     attempt_max_iter : int
         Iteration limit of every other solve (and ``max_iter`` of :func:`solve`, the
-        smaller applies): a start that needs more is left for the next one.
+        smaller applies): a start that needs more is left for the next one. A problem
+        whose solves need more than 300 iterations from every start needs a larger one.
     bound_factors : tuple of float
         Continuation in the input bound: the factors the finite bounds are widened by
-        (each > 1, decreasing), before the problem's own bounds.
+        (each > 1, decreasing), before the problem's own bounds (a list is stored as a
+        tuple).
     terminal_slacks : tuple of float
         Continuation in the terminal condition: ``|chart| <= slack`` for each (decreasing),
-        before the exact condition.
+        before the exact condition (a list is stored as a tuple).
     coarse_factor : int
         The coarse transcription has ``N // coarse_factor`` intervals (at least 5): the
         structured starts' first relaxation and the last continuation (``0``: none).
@@ -190,23 +200,27 @@ class Auto:
             raise ParameterError(f"bound_factors must be > 1; got {self.bound_factors!r}")
         if np.any(np.asarray(self.terminal_slacks, float) <= 0):
             raise ParameterError(f"terminal_slacks must be > 0; got {self.terminal_slacks!r}")
+        for name in ("bound_factors", "terminal_slacks"):  # hashable, immutable
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
 
     def run(self, ocp: OCP, method: TranscriptionMethod, *,
             handling: ManifoldHandling | None, graph: Symbolic,
             guess: Guess | OCPSolution | None, settings: Settings) -> OCPSolution:
         """Run the strategy; the first success, or the closest failure, with every attempt."""
-        settings = settings.replace(max_iter=min(self.attempt_max_iter,
-                                                 settings.ipopt["max_iter"]))
         run = _Run(self, ocp, method, handling or DEFAULT_HANDLING, graph, settings)
         if guess is not None:
-            starts = [StructuredGuess("given", guess, _describe_guess(guess))]
-        else:
-            starts = structured_guesses(ocp, swings=self.swings)
+            starts: Iterator[StructuredGuess] = iter(
+                [StructuredGuess("given", guess, _describe_guess(guess))])
+        else:  # made one at a time: a start not tried is never built
+            starts = iter_structured_guesses(ocp, swings=self.swings)
         outcomes: list[str] = []
         for start in starts:
+            run.tried.append(start)
             done = run.start(start, coarse=guess is None and self.coarse_first)
             if done is not None:
                 return run.finish(done)
+            if run.exhausted():
+                break
             outcomes.append(_outcome(run.last))
             tail = outcomes[-self.patience:]
             if len(tail) == self.patience and len(set(tail)) == 1 and tail[0]:
@@ -216,21 +230,27 @@ class Auto:
         if run.stopped and outcomes[-1] == INACCURATE_STARTS:
             run.stopped += (", nor continuation (the transcription is too coarse for the "
                             "trajectories it finds: more intervals N)")
-        elif guess is None or not run.exhausted():
-            done = run.continuation(starts)
+        elif run.tried and not run.exhausted():
+            done = run.continuation()
             if done is not None:
                 return run.finish(done)
-        return run.finish(run.closest)
+        return run.finish(None)
 
 
 class _Run:
     """The state of one :meth:`Auto.run`: attempts so far, the closest failure."""
 
     def __init__(self, auto: Auto, ocp: OCP, method: TranscriptionMethod,
-                 handling: ManifoldHandling, graph: Symbolic, settings: Settings) -> None:
+                 handling: ManifoldHandling, graph: Symbolic, user: Settings) -> None:
         self.auto, self.ocp, self.method = auto, ocp, method
-        self.handling, self.graph, self.settings = handling, graph, settings
+        self.handling, self.graph = handling, graph
+        self.settings = user.replace(max_iter=min(auto.attempt_max_iter,
+                                                  user.ipopt["max_iter"]))
+        # a relaxation's own limit, capped by the caller's max_iter, not by attempt_max_iter
+        self.relax = user.replace(max_iter=min(auto.relax_max_iter, user.ipopt["max_iter"]),
+                                  defect_tol=None, manifold_tol=None)
         self.attempts: list[dict[str, Any]] = []
+        self.tried: list[StructuredGuess] = []
         self.closest: OCPSolution | None = None
         self.closest_start: StructuredGuess | None = None
         self.last: OCPSolution | None = None
@@ -248,27 +268,25 @@ class _Run:
         if self.exhausted():
             return None
         sol = solve_direct(ocp, method, handling, self.graph, guess, settings, **kwargs)
-        self.attempts.append(_record(len(self.attempts) + 1, what,
-                                     f"{start.name}: {start.description}", sol))
+        n = len(self.attempts) + 1
+        problem = (ocp is self.ocp and method == self.method and handling is self.handling
+                   and not kwargs.get("terminal_slack"))
+        self.attempts.append(_record(n, what, f"{start.name}: {start.description}", sol,
+                                     problem=problem))
+        sol.cost["strategy_attempt"] = n
         self.last = sol
         return sol
 
     def final(self, sol: OCPSolution | None, start: StructuredGuess) -> OCPSolution | None:
         """``sol`` if it is a success of the problem itself; else keep the closest failure."""
-        if sol is None:
+        if sol is None or not self.attempts[sol.cost["strategy_attempt"] - 1][
+                "problem_itself"]:
             return None
-        if sol.status.ok and sol.ocp is self.ocp and sol.method == self.method:
+        if sol.status.ok:
             return sol
-        if sol.ocp is self.ocp and sol.method == self.method and (
-                self.closest is None or _infeasibility(sol) < _infeasibility(self.closest)):
+        if self.closest is None or _infeasibility(sol) < _infeasibility(self.closest):
             self.closest, self.closest_start = sol, start
         return None
-
-    def relax_settings(self) -> Settings:
-        """A relaxation's settings: its own iteration limit, no defect or manifold limit."""
-        return self.settings.replace(
-            max_iter=min(self.auto.relax_max_iter, self.settings.ipopt["max_iter"]),
-            defect_tol=None, manifold_tol=None)
 
     def start(self, start: StructuredGuess, *, coarse: bool = False) -> OCPSolution | None:
         """(A coarse relaxation first,) relaxation then polish; or the final handling directly.
@@ -282,14 +300,13 @@ class _Run:
             self.auto.coarse_factor else None
         if cm is not None:
             first = self.solve(f"coarse relaxation ({cm.describe()})", start, self.ocp, cm,
-                               self.relax_handling(), guess, self.relax_settings())
+                               self.relax_handling(), guess, self.relax)
             if first is None or not first.status.ok:
                 return None
             guess = first
-        relaxed = None
         if self.auto.relax and self.handling is not ManifoldHandling.AMBIENT:
             relaxed = self.solve("ambient relaxation", start, self.ocp, self.method,
-                                 ManifoldHandling.AMBIENT, guess, self.relax_settings())
+                                 ManifoldHandling.AMBIENT, guess, self.relax)
             if relaxed is not None and relaxed.status.ok:
                 polished = self.solve(f"{self.handling.value} from the relaxation", start,
                                       self.ocp, self.method, self.handling, relaxed,
@@ -329,9 +346,9 @@ class _Run:
             current = sol
         return self.final(sol, start)
 
-    def continuation(self, starts: list[StructuredGuess]) -> OCPSolution | None:
+    def continuation(self) -> OCPSolution | None:
         """Bound, terminal and coarse-to-fine continuations from the closest start."""
-        start = self.closest_start or starts[0]
+        start = self.closest_start or self.tried[0]
         ocp, auto = self.ocp, self.auto
         finite = np.isfinite(ocp.u_lower) & np.isfinite(ocp.u_upper)
         if auto.bound_factors and np.any(finite):
@@ -363,12 +380,31 @@ class _Run:
         return None
 
     def finish(self, sol: OCPSolution | None) -> OCPSolution:
-        """The solution with every attempt recorded (the last attempt if none was closer)."""
-        sol = sol if sol is not None else self.last
-        if sol is None:  # no attempt at all (max_attempts reached before any)
-            raise ParameterError("max_attempts allowed no solve")
+        """The success ``sol``; else the closest failure of the problem itself; else NOT_SOLVED.
+
+        A relaxation or a continuation step solved a problem other than the one posed:
+        where no solve of the problem itself was made, the last solve is returned with the
+        status ``NOT_SOLVED`` (never as a success).
+        """
+        sol = sol if sol is not None else self.closest
+        if sol is None:
+            sol = self.last
+            if sol is None:  # no attempt at all (max_attempts reached before any)
+                raise ParameterError("max_attempts allowed no solve")
+            sol.status = OCPStatus.NOT_SOLVED
+            sol.diagnosis = {"primal_infeasibility": _number(sol.cost.get("last_inf_pr")),
+                             "dual_infeasibility": _number(sol.cost.get("last_inf_du")),
+                             "manifold_residual": float(sol.error["manifold_residual"]),
+                             "worst_constraint": {"where": "not judged", "kind": None,
+                                                  "knot": None, "violation": 0.0},
+                             "advice": [f"the strategy's {len(self.attempts)} solves "
+                                        f"(max_attempts) ran out before the problem itself "
+                                        f"was solved: a larger Auto(max_attempts=), or a "
+                                        f"guess="]}
         sol.attempts = list(self.attempts)
-        sol.cost["strategy_cpu_seconds"] = float(sum(a["cpu_seconds"] for a in self.attempts))
+        sol.cost["strategy_cpu_seconds"] = time.process_time() - self.t0  # guesses included
+        sol.cost["strategy_solve_cpu_seconds"] = float(sum(a["cpu_seconds"]
+                                                           for a in self.attempts))
         sol.cost["strategy_attempts"] = len(self.attempts)
         if self.stopped and not sol.status.ok:
             sol.cost["strategy_stopped"] = self.stopped
@@ -391,5 +427,5 @@ def _outcome(sol: OCPSolution | None) -> str:
 
 
 def _infeasibility(sol: OCPSolution) -> float:
-    v = sol.cost.get("last_inf_pr")
-    return float(v) if v is not None and np.isfinite(v) else np.inf
+    v = _number(sol.cost.get("last_inf_pr"))
+    return np.inf if v is None else v

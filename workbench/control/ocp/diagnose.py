@@ -23,6 +23,11 @@ __all__ = ["diagnose", "describe_diagnosis"]
 FAR_OFF_MANIFOLD = 1e-3
 """A node residual above this reads as "the iterates left the manifold"."""
 
+POLISH_RESIDUAL = 1e-6
+"""Largest node residual a converged on-manifold solve is polished from (see
+:func:`workbench.control.ocp.solve._polish`): beyond it the nodes are off the manifold for a
+reason a tighter tolerance does not fix."""
+
 LARGE_DUAL = 1e3
 """A dual infeasibility above this reads as "badly scaled, singular, or far from a minimum"."""
 
@@ -39,7 +44,8 @@ def _where(kind: str, knot: int, N: int) -> str:
     return f"path constraint {kind!r} at knot {knot} of {N}"
 
 
-def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any]:
+def diagnose(sol: Any, tr: Transcription, args: dict[str, Any], *,
+             tol: float = 0.0) -> dict[str, Any]:
     """The numbers of a failed solve and the advice they suggest.
 
     Parameters
@@ -50,6 +56,9 @@ def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any
         Its transcription (row kinds and knots).
     args : dict
         The solver's arguments (``lbg``, ``ubg``).
+    tol : float
+        Violations at or below it are met (Ipopt's ``tol`` of the solve): the worst
+        constraint is one violated by more.
 
     Returns
     -------
@@ -62,7 +71,7 @@ def diagnose(sol: Any, tr: Transcription, args: dict[str, Any]) -> dict[str, Any
     viol = (np.zeros(0) if sol.g is None else
             np.maximum(np.maximum(args["lbg"] - sol.g, sol.g - args["ubg"]), 0.0))
     worst: dict[str, Any] = {"where": "none", "kind": None, "knot": None, "violation": 0.0}
-    if viol.size and np.any(viol > 0):
+    if viol.size and np.any(viol > tol):
         i = int(np.argmax(viol))
         kind, knot = str(tr.g_kinds[i]), int(tr.g_knots[i])
         worst = {"where": _where(kind, knot, tr.N), "kind": kind, "knot": knot,
@@ -84,10 +93,17 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | 
         out.append("the ambient nodes drift off the manifold by the scheme's local error: "
                    "solve with handling=PROJECTED (the default) or LIE_GROUP, whose nodes "
                    "stay on it")
+    elif name == "OFF_MANIFOLD" and res > POLISH_RESIDUAL:
+        out.append(f"the {tr.handling.value} nodes are on the manifold only up to the "
+                   f"continuity constraints' final violation ({res:.1e}, too large to polish: "
+                   f"Ipopt stopped at its acceptable level): more iterations (max_iter, "
+                   f"Auto(attempt_max_iter=)) or a smaller ipopt_options "
+                   f"'acceptable_constr_viol_tol'")
     elif name == "OFF_MANIFOLD":
         out.append(f"the {tr.handling.value} nodes are on the manifold only up to the "
-                   f"constraints' final violation ({res:.1e}): a manifold_tol above it, or a "
-                   f"tighter tol")
+                   f"continuity constraints' final violation ({res:.1e}), which a re-solve "
+                   f"with constr_viol_tol = manifold_tol / 10 did not remove: a manifold_tol "
+                   f"above it")
     if name == "INACCURATE":
         out.append("the transcription does not follow the dynamics: more intervals N or a "
                    "higher collocation degree")
@@ -112,7 +128,8 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | 
                    f"symmetry: keep gauge=True), or the guess is far from a minimum (the "
                    f"default strategy's structured guesses)")
     if name == "MAX_ITERATIONS" and not out:
-        out.append("raise max_iter, or start closer (a coarse solve refined: "
+        out.append("raise max_iter (and, with the default strategy, "
+                   "Auto(attempt_max_iter=)), or start closer (a coarse solve refined: "
                    "coarse_to_fine)")
     if name == "INFEASIBLE" and not out:
         out.append("Ipopt found no feasible point near this guess: another guess (the default "

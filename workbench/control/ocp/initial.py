@@ -39,7 +39,7 @@ controllable axes.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -55,8 +55,8 @@ from workbench.core.errors import ManifoldError, ModelError, ParameterError, Sol
 from workbench.core.manifolds import S1, S2, SO3, TS2, Rn, so3_exp, so3_log
 from workbench.core.types import Vector
 
-__all__ = ["StructuredGuess", "structured_guesses", "pumping", "Structure", "structure",
-           "controllable_axes", "natural_frequency"]
+__all__ = ["StructuredGuess", "structured_guesses", "iter_structured_guesses", "pumping",
+           "Structure", "structure", "controllable_axes", "natural_frequency"]
 
 INVERT_ANGLE = np.pi / 2
 """A factor that must turn by more than this (radians) is pumped (see the module docstring)."""
@@ -69,11 +69,6 @@ MAX_SAMPLES = 100_000
 
 MAX_SWINGS = 20
 """At most this many reversals in a pumping path (the strategy's ``swings`` has the same)."""
-
-PUMP_FIRST = 0.0
-"""Where the direct path's input demand exceeds this (in units of the bounds' half-range),
-the energy-pumping guess is tried first: the inputs are too weak to follow the direct path."""
-
 
 @dataclass(frozen=True)
 class StructuredGuess:
@@ -114,12 +109,16 @@ class Structure:
     drift : casadi.Function
         ``(x, p) -> (f_v(x, 0), df_v/du)``: the velocities' rates without input and their
         input matrix.
+    pattern : ndarray of bool
+        The structural nonzeros of ``K`` (``pattern[i, j]``: the rate of ``config[i]``
+        depends on ``velocity[j]`` somewhere, not only at one state).
     """
 
     config: np.ndarray
     velocity: np.ndarray
     kinematics: ca.Function
     drift: ca.Function
+    pattern: np.ndarray
 
 
 def structure(model: Any) -> Structure | None:
@@ -153,9 +152,10 @@ def _structure(model: Any) -> Structure | None:
     fv = ca.vertcat(*[fx[j] for j in velocity])
     zero = ca.substitute(fv, u, ca.DM.zeros(model.n_inputs))
     Bv = ca.substitute(ca.jacobian(fv, u), u, ca.DM.zeros(model.n_inputs))
+    pattern = np.array(ca.DM(K.sparsity(), 1.0)) != 0  # structural: every state
     return Structure(np.array(config), np.array(velocity),
                      ca.Function("kinematics", [x, p], [K]),
-                     ca.Function("drift", [x, p], [zero, Bv]))
+                     ca.Function("drift", [x, p], [zero, Bv]), pattern)
 
 
 # the configuration path ---------------------------------------------------------------------
@@ -412,12 +412,18 @@ def pumping(ocp: OCP, *, half_swings: int, wrap: float = 1.0, T: float | None = 
 
 
 def structured_guesses(ocp: OCP, *, swings: int = 3) -> list[StructuredGuess]:
-    """The default strategy's starts, in order.
+    """The default strategy's starts, in order (all of :func:`iter_structured_guesses`)."""
+    return list(iter_structured_guesses(ocp, swings=swings))
 
-    The direct path, the energy-pumping feedback
-    (:func:`~workbench.control.ocp.pumping.energy_pumping`, where it applies),
-    then paths with 1..``swings`` reversals; an antipodal angle gives each path in both
-    senses of its turn.
+
+def iter_structured_guesses(ocp: OCP, *, swings: int = 3) -> Iterator[StructuredGuess]:
+    """The default strategy's starts, in order, each made when it is asked for.
+
+    The energy-pumping feedback's trajectory
+    (:func:`~workbench.control.ocp.pumping.energy_pumping`, where it applies), the direct
+    path, then paths with 1..``swings`` reversals; an antipodal angle gives each path in
+    both senses of its turn. A start the caller does not ask for (an earlier one solved
+    the problem) is never built.
     """
     swings = validate.count("swings", swings, minimum=0, maximum=MAX_SWINGS)
     axes, where = controllable_axes(ocp)
@@ -425,15 +431,12 @@ def structured_guesses(ocp: OCP, *, swings: int = 3) -> list[StructuredGuess]:
     pumped = any(t.pumped for t in turns)
     senses = (1.0, -1.0) if any(t.kind == "angle" and abs(abs(t.angle) - np.pi) < 1e-9
                                 for t in turns) else (1.0,)
-    out = [pumping(ocp, half_swings=0, wrap=sense, axes=axes, where=where) for sense in senses]
     if pumped:
         from workbench.control.ocp.pumping import energy_pumping
 
-        pump = energy_pumping(ocp)
-        if pump is not None:  # first where the direct path asks for far more than allowed
-            weak = min(g.demand for g in out) > PUMP_FIRST
-            out = [pump, *out] if weak else [*out, pump]
-    for k in range(1, (swings if pumped else 0) + 1):
+        pump = energy_pumping(ocp, axes=axes)
+        if pump is not None:
+            yield pump
+    for k in range(0, (swings if pumped else 0) + 1):
         for sense in senses:
-            out.append(pumping(ocp, half_swings=k, wrap=sense, axes=axes, where=where))
-    return out
+            yield pumping(ocp, half_swings=k, wrap=sense, axes=axes, where=where)

@@ -59,13 +59,12 @@ def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[ca.Funct
     """
     model = ocp.model
     man = model.manifold
-    K0 = np.asarray(st.kinematics(ocp.x0, model.p), float)
     rows = {int(r): i for i, r in enumerate(st.config)}
-    keep = set()
+    keep = set()  # the velocities the pumped factors' kinematics depends on, at any state
     for name in pumped:
         for r in range(man.slices[name].start, man.slices[name].stop):
             if r in rows:
-                keep |= {int(st.velocity[j]) for j in np.flatnonzero(K0[rows[r]])}
+                keep |= {int(st.velocity[j]) for j in np.flatnonzero(st.pattern[rows[r]])}
     nx = man.ambient_dim
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u", model.n_inputs)
     p = ca.SX.sym("p", model.n_params)
@@ -128,7 +127,8 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...
     return np.array(X), np.array(U)
 
 
-def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
+def energy_pumping(ocp: OCP, *, samples: int = 400,
+                   axes: dict[str, np.ndarray] | None = None) -> StructuredGuess | None:
     """A guess simulated with an energy-pumping feedback; ``None`` where none applies.
 
     The law raises the energy ``E_p`` of the factors to invert (see :func:`_pumped_energy`)
@@ -151,6 +151,20 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     is a trajectory too). Of the laws tried, the one that comes closest is kept.
     It applies to models with an ``energy`` invariant, the
     second-order structure, finite input bounds and a factor to invert.
+
+    Parameters
+    ----------
+    ocp : OCP
+        The problem.
+    samples : int
+        Held samples over the longest allowed horizon (at most :data:`MAX_PUMP_SAMPLES`).
+    axes : dict, optional
+        The controllable axes by factor name, as :func:`controllable_axes` gives them
+        (default: computed here; the strategy passes the ones it already has).
+
+    Returns
+    -------
+    StructuredGuess or None
     """
     from workbench.control.ocp.stepper import Stepper
 
@@ -160,7 +174,8 @@ def energy_pumping(ocp: OCP, *, samples: int = 400) -> StructuredGuess | None:
     finite = np.all(np.isfinite(ocp.u_lower) & np.isfinite(ocp.u_upper))
     if st is None or "energy" not in model.invariant_names or not finite:
         return None
-    axes, _ = controllable_axes(ocp)
+    if axes is None:
+        axes, _ = controllable_axes(ocp)
     turns = _turns(ocp, {k: np.asarray(v, float) for k, v in axes.items()}, 1.0)
     pumped = [t.name for t in turns if t.pumped]
     if not pumped:

@@ -42,6 +42,9 @@ class OCPStatus(StatusEnum):
                   "dynamics to defect_tol (local defect against CVODES on each interval)")
     OFF_MANIFOLD = ("Ipopt converged, but the nodes are off the manifold by more than "
                     "manifold_tol")
+    NOT_SOLVED = ("the strategy's attempts ran out before the problem itself (its bounds, "
+                  "terminal condition, transcription and handling) was solved: the solution "
+                  "returned is an intermediate step's (a relaxation or a continuation step)")
 
     @classmethod
     def from_ipopt(cls, status: str) -> OCPStatus:
@@ -92,7 +95,11 @@ class OCPSolution(StatusResult):
         ``build_seconds`` (0 when the transcription was cached), ``transcription_cached``
         (whether this solve reused an earlier build), ``first_build_seconds``,
         ``solve_seconds``, ``solve_cpu_seconds``, ``iterations``, ``nlp_variables``,
-        ``nlp_constraints``.
+        ``nlp_constraints``; from the default strategy also ``strategy_attempt`` (which
+        attempt this solution is), ``strategy_attempts`` (how many were made),
+        ``strategy_cpu_seconds`` (CPU of the whole strategy, its guesses included),
+        ``strategy_solve_cpu_seconds`` (of its solves only) and, where it stopped early,
+        ``strategy_stopped`` (why).
     error : dict
         ``constraint_violation`` (max over the NLP's constraints, from their bounds),
         ``manifold_residual`` (max over the nodes), ``target_residual``,
@@ -114,7 +121,9 @@ class OCPSolution(StatusResult):
     attempts : list of dict
         Every solve the strategy made, in order: ``attempt``, ``what`` (the role: a
         relaxation, an on-manifold solve, a continuation step), ``guess`` (how it was
-        made), ``transcription``, ``handling``, ``status``, ``iterations``,
+        made), ``problem_itself`` (whether the solve was of the problem as posed, not a
+        means such as a relaxation or a continuation step), ``transcription``,
+        ``handling``, ``status``, ``iterations``,
         ``objective``, ``T``, ``cpu_seconds``, ``build_seconds``,
         ``primal_infeasibility``, ``manifold_residual``, ``local_defect`` and
         ``defect_limit`` (None where not measured). One entry for ``Direct``.
@@ -168,10 +177,11 @@ class OCPSolution(StatusResult):
             f"{c['first_build_seconds']:.3f} s); cost {self.objective:.6g}, T = {self.T:.4g} s"
             f"{defect}; symmetry: {self.gauge} [{self.describe()}]"
         )
-        if len(self.attempts) > 1:
-            text += (f"; attempt {self.attempts[-1]['attempt']} of the strategy "
-                     f"({len(self.attempts)} solves, "
-                     f"{sum(a['cpu_seconds'] for a in self.attempts):.2f} s CPU in all)")
+        n = c.get("strategy_attempt")
+        if len(self.attempts) > 1 and n is not None:
+            text += (f"; attempt {n} of the strategy ({self.attempts[n - 1]['what']}; "
+                     f"{len(self.attempts)} solves, "
+                     f"{c.get('strategy_cpu_seconds', 0.0):.2f} s CPU in all)")
         if c.get("strategy_stopped"):
             text += f"; the strategy stopped: {c['strategy_stopped']}"
         if self.diagnosis is not None:

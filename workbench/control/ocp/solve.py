@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.compiled import Compiled
-from workbench.control.ocp.diagnose import diagnose
+from workbench.control.ocp.diagnose import POLISH_RESIDUAL, diagnose
 from workbench.control.ocp.guess import Guess, check_guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solution import OCPSolution, OCPStatus
@@ -242,8 +242,10 @@ def solve(
     (:class:`~workbench.control.ocp.auto.Auto`) builds its initial guesses from the model
     and the OCP (the directions the inputs drive, energy-pumping swings), solves each in
     an ambient relaxation polished on the manifold, and falls back on continuation in the
-    input bound, the terminal condition and the horizon; the solution records every
-    attempt (:attr:`OCPSolution.attempts`). ``strategy=Direct()`` makes one solve.
+    input bound, the terminal condition and from a coarser transcription; the solution
+    records every attempt (:attr:`OCPSolution.attempts`). Each of its solves stops after
+    ``Auto(attempt_max_iter=300)`` iterations (``max_iter`` here caps it). ``strategy=Direct()``
+    makes one solve.
 
     Parameters
     ----------
@@ -270,7 +272,8 @@ def solve(
     tol : float
         Ipopt's tolerance.
     max_iter : int
-        Ipopt's iteration limit (of each attempt).
+        Ipopt's iteration limit of each attempt (the default strategy's own limits,
+        ``Auto(attempt_max_iter=300, relax_max_iter=300)``, apply where smaller).
     print_level : int
         Ipopt's print level (0 = quiet).
     ipopt_options : dict, optional
@@ -285,7 +288,8 @@ def solve(
         SolverError quotes the measured defect. On by default (:data:`DEFECT_TOL`);
         ``None`` explicitly asks for a report only.
     manifold_tol : float or None
-        Largest accepted manifold residual of the nodes of a converged solve (default
+        Largest accepted manifold residual of the nodes a converged solve chose (nodes 1
+        to N; node 0 is ``x0``, whose residual is ``error["x0_manifold_residual"]``; default
         :data:`MANIFOLD_TOL` = 1e-10); above it the status is OFF_MANIFOLD. ``None`` asks
         for a report only.
     compiled : Compiled, optional
@@ -355,13 +359,8 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
             if not out.error["local_defect"] <= limit:
                 out.status = OCPStatus.INACCURATE
     if not out.status.ok:
-        out.diagnosis = diagnose(out, tr, args)
+        out.diagnosis = diagnose(out, tr, args, tol=float(opts["tol"]))
     return out
-
-
-POLISH_RESIDUAL = 1e-6
-"""Largest node residual a converged on-manifold solve is polished from (see :func:`_polish`):
-beyond it the nodes are off the manifold for a reason a tighter tolerance does not fix."""
 
 
 def _polish(out: OCPSolution, tr: Transcription, args: dict[str, Any], opts: dict[str, Any],
@@ -385,8 +384,11 @@ def _polish(out: OCPSolution, tr: Transcription, args: dict[str, Any], opts: dic
         again.cost["polish_iterations"] = again.cost["iterations"]
         for key in ("iterations", "solve_seconds", "solve_cpu_seconds"):
             again.cost[key] += out.cost[key]
-        again.cost["build_seconds"] = out.cost["build_seconds"]
-        again.cost["transcription_cached"] = out.cost["transcription_cached"]
+        for key in ("build_seconds", "transcription_cached", "iterations_gauged"):
+            if key in out.cost:
+                again.cost[key] = out.cost[key]
+        if "gauge_multiplier" in out.error:
+            again.error["gauge_multiplier"] = out.error["gauge_multiplier"]
         if again.status.ok and again.error["manifold_residual"] <= conf.manifold_tol:
             return again
         out = again if again.status.ok else out
@@ -467,9 +469,12 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
     trace = stats.get("iterations") or {}
     for key in ("inf_pr", "inf_du"):  # the last iterate's infeasibilities (for diagnoses)
         cost[f"last_{key}"] = float(trace[key][-1]) if trace.get(key) else None
+    residuals = [max(man.residual_norms(r).values()) for r in X]
     error = {
         "constraint_violation": float(viol.max(initial=0.0)),
-        "manifold_residual": float(max(max(man.residual_norms(r).values()) for r in X)),
+        # the nodes the solve chose (node 0 is x0, fixed: its residual is the caller's)
+        "manifold_residual": float(max(residuals[1:])),
+        "x0_manifold_residual": float(residuals[0]),
         "target_residual": ocp.target.distance(X[-1]),
     }
     sym = ocp.symmetry
@@ -509,8 +514,10 @@ def _check_gauge(out: OCPSolution, tr: Transcription, args: dict[str, Any],
     tr2, built = transcribe(free, tr.method, handling=tr.handling, graph=tr.graph)
     lbw, ubw = tr2.bounds(free)
     keep = np.arange(tr.ng) != tr.i_gauge
-    args = {"lbx": lbw, "ubx": ubw, "lbg": tr2.lbg, "ubg": tr2.ubg, "p": free.model.p,
-            "x0": out.w, "lam_x0": out.lam_x, "lam_g0": out.lam_g[keep]}
+    # the rows of the ungauged NLP are the gauged one's without the gauge: their bounds are
+    # the solve's own (a terminal slack of the continuation is kept)
+    args = {"lbx": lbw, "ubx": ubw, "lbg": args["lbg"][keep], "ubg": args["ubg"][keep],
+            "p": free.model.p, "x0": out.w, "lam_x0": out.lam_x, "lam_g0": out.lam_g[keep]}
     again = _run(tr2, free, built, args, {**WARM_START, **opts} if warm_options else opts,
                  compiled)
     again.cost["iterations_gauged"] = out.cost["iterations"]

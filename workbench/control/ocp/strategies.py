@@ -108,15 +108,20 @@ def multistart(
     starts : str
         ``"seeded"`` (default): seeded geodesic guesses (random great circles, control
         noise), one per seed. ``"structured"``: the default strategy's deterministic starts
-        (:func:`~workbench.control.ocp.initial.structured_guesses`: the direct path, the
-        energy-pumping start, paths with reversals), one start each; ``seeds``, ``noise``
-        and ``T_guesses`` then do not apply.
+        (:func:`~workbench.control.ocp.initial.structured_guesses`: the energy-pumping
+        start, the direct path, paths with reversals), one start each; ``seeds``, ``noise``
+        and ``T_guesses`` then do not apply. Each start is one Ipopt solve from its guess
+        (``strategy=Direct()`` unless ``solve_options`` name another), in the handling of
+        ``solve_options`` (default ``PROJECTED``): not :class:`Auto`'s relaxation and
+        continuation, so a start the default strategy would rescue may fail here.
     executor : dask.distributed.Client or concurrent.futures.Executor, optional
         Run the starts there instead of forked workers (as :func:`workbench.sweep` does).
         An OCP holds casadi graphs and the user's cost functions, which do not pickle: a
         worker receives ``build`` instead, calls it once, and builds its transcriptions
-        itself; it returns numbers only, and ``describe`` runs here on each converged end
-        point.
+        itself; it returns numbers only, and each converged end point is re-solved here (a
+        warm start: a few iterations) before ``describe`` sees it. A dask worker runs its
+        linear algebra on one thread (its nanny sets ``OMP_NUM_THREADS=1``): a long solve
+        can end at another minimum than it does here.
     build : callable, optional
         With ``executor``: a picklable function of no argument returning ``ocp`` (a
         module-level function, or ``functools.partial`` of one); checked here to give the
@@ -200,9 +205,7 @@ def multistart(
     i_best = min(ok)[1]
     best = done[i_best][1]
     if not isinstance(best, OCPSolution):  # a vector from a worker: complete it here
-        m, w, lam_x, lam_g = best
-        best = _direct(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, solve_options),
-                     raise_on_failure=False, **solve_options)
+        best = _complete(ocp, best, solve_options)
     best_cost = records[i_best]["objective"]
     judged = set(counted)
     for i, r in enumerate(records):
@@ -221,9 +224,9 @@ def _refine_best(ocp: OCP, job: dict[str, Any], done: list[tuple], methods: list
     for i, (record, first) in enumerate(done):
         record["refined"] = i in chosen
         ok = record["status"] in ("SUCCESS", "ACCEPTABLE")
-        if ok and not isinstance(first, OCPSolution):  # a vector from a worker
-            m, w, lam_x, lam_g = first
-            first = _warm(ocp, m, w, lam_x, lam_g, options)
+        if ok and not isinstance(first, OCPSolution):  # a vector from a worker: re-solved
+            first = _complete(ocp, first, options)  # here from it (a few iterations)
+            ok = first.status.ok
         s = first
         if i in chosen:
             s, path = coarse_to_fine(ocp, methods, guess=first, raise_on_failure=False,
@@ -245,12 +248,17 @@ _JOB: dict[str, Any] = {}
 
 
 def _structured(ocp: OCP) -> list[Any]:
-    """The structured starts of ``ocp`` (made once per problem, cached on it)."""
+    """The structured starts of ``ocp`` (made once per problem, cached on it).
+
+    The cache is shared with the problem's :meth:`~OCP.with_bounds` copies, whose starts
+    differ (the inputs' bounds and the horizon shape them): it is keyed by both.
+    """
     from workbench.control.ocp.initial import structured_guesses
 
-    if "structured_guesses" not in ocp._cache:
-        ocp._cache["structured_guesses"] = structured_guesses(ocp)
-    return ocp._cache["structured_guesses"]
+    key = ("structured_guesses", tuple(ocp.u_lower), tuple(ocp.u_upper), ocp.T_range)
+    if key not in ocp._cache:
+        ocp._cache[key] = structured_guesses(ocp)
+    return ocp._cache[key]
 
 
 def _one_start(job: dict[str, Any], i: int) -> tuple[dict[str, Any], OCPSolution | None]:
@@ -375,21 +383,40 @@ def _remote_starts(job: dict[str, Any], executor: Any, build: Callable[[], OCP]
                 executor=executor, on_error=OnError.RAISE, progress=False, desc="multistart")
     done = [tuple(v) for v in out.values()]
     if job["describe"] is not None and not job["refine_later"]:
-        for record, (m, w, lam_x, lam_g) in done:
-            if record["status"] in ("SUCCESS", "ACCEPTABLE"):
-                record.update(job["describe"](_warm(job["ocp"], m, w, lam_x, lam_g,
-                                                    job["options"])))
+        for i, (record, point) in enumerate(done):
+            if record["status"] in ("SUCCESS", "ACCEPTABLE"):  # describe a real solution:
+                s = _complete(job["ocp"], point, job["options"])  # re-solved here from the
+                if s.status.ok:  # worker's end point (a warm start: a few iterations)
+                    record.update(job["describe"](s))
+                    done[i] = (record, s)
     return done
+
+
+def _complete(ocp: OCP, point: tuple, options: dict[str, Any]) -> OCPSolution:
+    """The solution at a worker's end point ``(method, w, lam_x, lam_g)``, re-solved here.
+
+    A warm start of the same transcription from a converged point: Ipopt confirms it in a
+    few iterations and the result carries everything a solution has (cost, errors, local
+    defect), not only the vector.
+    """
+    m, w, lam_x, lam_g = point
+    return _direct(ocp, m, guess=_warm(ocp, m, w, lam_x, lam_g, options),
+                   raise_on_failure=False, **options)
 
 
 def _warm(ocp: OCP, method: TranscriptionMethod, w: np.ndarray, lam_x: np.ndarray,
           lam_g: np.ndarray, options: dict[str, Any]) -> OCPSolution:
-    """A primal-dual point of a transcription as a solution object (to warm-start from)."""
+    """A primal-dual point of a transcription as a solution object, only to warm-start from.
+
+    Its status, cost and errors are not measured (a worker's numbers): never returned or
+    described, only passed as ``guess=`` to a solve (see :func:`_complete`).
+    """
     handling = options.get("handling") or DEFAULT_HANDLING
     graph = options.get("graph", Symbolic.SX)
     tr, _ = transcribe(ocp, method, handling=handling, graph=graph)
     X, U, T = tr.unpack(w)
-    return OCPSolution(status=OCPStatus.SUCCESS, ipopt_status="(from a worker)", objective=0.0,
+    return OCPSolution(status=OCPStatus.NOT_SOLVED, ipopt_status="(a worker's end point)",
+                       objective=float("nan"),
                        T=T, t=tr.times(T), x=X, u=U, method=method, handling=handling,
                        graph=graph, cost={}, error={}, ocp=ocp, w=w, lam_x=lam_x,
                        lam_g=lam_g)
