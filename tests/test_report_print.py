@@ -12,10 +12,12 @@ real problem are checked in ``test_report.py``.
 from __future__ import annotations
 
 import csv
+import hashlib
 import html
 import io
 import json
 import math
+import os
 import re
 import types
 from pathlib import Path
@@ -310,3 +312,173 @@ def test_time_estimate_is_scaled_by_the_load():
     Progress(2, stream=idle, enabled=True, jobs=2, load=0.0, cores=2).plan({"a": 60.0})
     assert ("about 1:00 by the last runs (load average 0.00 on 2 cores: about 100% of a core "
             "for the report's process)") in idle.getvalue()
+
+
+# ----------------------------------------------------------------------------------------
+# the tables folder: the report replaces or removes only its own files nobody edited
+
+
+def two_problems(solved: Path | None, **kw) -> types.ModuleType:
+    """The hostile problem under two names; each run adds a line to the file ``solved`` (the
+    problems run in other processes)."""
+    base = catalogue(**kw)
+    cat = types.ModuleType("catalogue")
+    cat.names = lambda: ["hostile", "other"]
+
+    def load(name):
+        mod = types.ModuleType(name)
+        mod.TITLE = name
+
+        def solve(*, quick: bool = False) -> Result:
+            if solved is not None:
+                with solved.open("a") as fh:
+                    fh.write(name + "\n")
+            return base.load("hostile").solve(quick=quick)
+
+        mod.solve = solve
+        return mod
+
+    cat.load = load
+    cat.title = lambda name: name
+    return cat
+
+
+def report(out: Path, name: str, solved: Path | None = None, **kw):
+    return build_report([name], catalogue=two_problems(solved, **kw), out_dir=out,
+                        progress=False, cache_dir=None, formats=[Format.HTML])
+
+
+def snapshot(out: Path) -> dict[str, bytes]:
+    return {p.relative_to(out).as_posix(): (p.read_bytes() if p.is_file() else b"")
+            for p in sorted(out.rglob("*"))}
+
+
+def test_the_marker_records_each_files_sha256(tmp_path):
+    report(tmp_path, "hostile")
+    folder = tmp_path / "report-tables"
+    mark = json.loads((folder / MARKER).read_text())
+    on_disk = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.csv"))
+    assert sorted(mark["sha256"]) == on_disk and len(on_disk) >= 5
+    for rel, digests in mark["sha256"].items():
+        assert digests == [hashlib.sha256((folder / rel).read_bytes()).hexdigest()]
+    assert set(mark["files"]) == {*on_disk, "hostile/"}
+
+
+@pytest.mark.parametrize("next_problem", ["other", "hostile"])
+def test_an_edited_table_stops_the_report_before_anything_runs_or_is_written(tmp_path,
+                                                                            next_problem):
+    """Whether the next report would remove the edited file (another problem) or replace it
+    (the same one): it names the file, runs nothing and writes nothing."""
+    solved, tmp_path = tmp_path / "solved.txt", tmp_path / "out"
+    report(tmp_path, "hostile", solved)
+    edited = tmp_path / "report-tables" / "hostile" / "comparisons.csv"
+    edited.write_text(edited.read_text() + "my note,,\n")
+    before = snapshot(tmp_path)
+    with pytest.raises(ReportInputError, match=r"hostile/comparisons\.csv \(edited since\);"
+                                               r" nothing was written"):
+        report(tmp_path, next_problem, solved)
+    assert solved.read_text().split() == ["hostile"], "refused before any problem ran"
+    assert snapshot(tmp_path) == before
+    # moved away by the user: the report removes its own (unedited) files and folder
+    edited.rename(tmp_path / "mine.csv")
+    report(tmp_path, next_problem, solved)
+    tables = tmp_path / "report-tables"
+    assert (tables / "hostile").is_dir() == (next_problem == "hostile")
+    assert (tables / next_problem / "comparisons.csv").is_file()
+    assert (tmp_path / "mine.csv").read_text().endswith("my note,,\n")
+
+
+def test_a_file_the_report_did_not_write_at_a_new_tables_name_stops_it(tmp_path):
+    """Found only once the problem ran (the table is new): still before anything is written.
+    The same file holding exactly the new table is not a conflict."""
+    report(tmp_path, "hostile", extra=False)
+    theirs = tmp_path / "report-tables" / "hostile" / "only_first_time.csv"
+    theirs.write_text("a user's table\n")
+    before = snapshot(tmp_path)
+    with pytest.raises(ReportInputError, match=r"only_first_time\.csv \(not written by the "
+                                               r"report\)"):
+        report(tmp_path, "hostile", extra=True)
+    assert snapshot(tmp_path) == before
+    other = tmp_path / "elsewhere"
+    report(other, "hostile", extra=True)
+    theirs.write_bytes((other / "report-tables" / "hostile" / "only_first_time.csv")
+                       .read_bytes())
+    report(tmp_path, "hostile", extra=True)
+    assert json.loads((tmp_path / "report-tables" / MARKER).read_text())["sha256"][
+        "hostile/only_first_time.csv"] == [hashlib.sha256(theirs.read_bytes()).hexdigest()]
+
+
+def test_links_and_read_only_tables_stop_the_report_and_are_kept(tmp_path):
+    report(tmp_path, "hostile")
+    folder = tmp_path / "report-tables"
+    secret = tmp_path / "secret.txt"
+    secret.write_text("not the report's")
+    (folder / "hostile" / "A.csv").unlink()
+    (folder / "hostile" / "A.csv").symlink_to(secret)
+    with pytest.raises(ReportInputError, match=r"hostile/A\.csv \(now a symbolic link\)"):
+        report(tmp_path, "other")
+    assert secret.read_text() == "not the report's"
+    (folder / "hostile" / "A.csv").unlink()
+    os.chmod(folder / "hostile" / "long.csv", 0o444)
+    before = snapshot(tmp_path)
+    with pytest.raises(ReportInputError, match=r"long\.csv' is read-only \(mode 0444\)"):
+        report(tmp_path, "hostile")
+    assert snapshot(tmp_path) == before
+
+
+def test_an_interrupted_report_leaves_only_files_the_next_one_may_replace(tmp_path,
+                                                                          monkeypatch):
+    """While the files are written the marker lists both the old and the new digests: after
+    a failure before the final marker, a replaced table (the cost table, whose timings
+    change with every run) is still the report's own, and so are the new problem's."""
+    from workbench.app.report import csvfiles
+
+    report(tmp_path, "hostile", extra=False)
+    folder = tmp_path / "report-tables"
+    cost = folder / "hostile" / "cost-and-accuracy.csv"
+    first = cost.read_bytes()
+    real, markers = csvfiles.write_atomic, []
+
+    def failing(path, data, **kw):
+        if Path(path).name == MARKER:
+            markers.append(data)
+            if len(markers) == 2:  # the final marker, after every table was written
+                raise ReportInputError("--out: injected fault")
+        return real(path, data, **kw)
+
+    monkeypatch.setattr(csvfiles, "write_atomic", failing)
+    with pytest.raises(ReportInputError, match="injected fault"):
+        build_report(["hostile", "other"], catalogue=two_problems(None, extra=False),
+                     out_dir=tmp_path, progress=False, cache_dir=None, formats=[Format.HTML])
+    monkeypatch.undo()
+    assert cost.read_bytes() != first, "the cost table must have been replaced"
+    interim = json.loads((folder / MARKER).read_text())["sha256"]
+    assert len(interim["hostile/cost-and-accuracy.csv"]) == 2
+    report(tmp_path, "hostile", extra=True)
+    assert not (folder / "other").exists()
+    assert sorted(json.loads((folder / MARKER).read_text())["sha256"]) == sorted(
+        p.relative_to(folder).as_posix() for p in folder.rglob("*.csv"))
+
+
+def test_a_marker_without_digests_replaces_only_identical_files(tmp_path):
+    """An older report's marker cannot show a file unedited: what the report would remove,
+    or replace by other content (the cost table's timings change with every run), stops
+    it; a table it writes again with the same content (the values) goes through."""
+    report(tmp_path, "hostile", extra=True)
+    folder = tmp_path / "report-tables"
+    old = json.loads((folder / MARKER).read_text())
+    (folder / MARKER).write_text(json.dumps({"what": old["what"], "files": old["files"]}))
+    before = snapshot(tmp_path)
+    for extra, names in ((True, ["cost-and-accuracy.csv"]),
+                         (False, ["cost-and-accuracy.csv", "only_first_time.csv"])):
+        with pytest.raises(ReportInputError) as info:
+            report(tmp_path, "hostile", extra=extra)
+        named = re.findall(r"hostile/([\w.-]+) \(recorded without its SHA-256 by an older "
+                           r"report", str(info.value))
+        assert named == names, str(info.value)
+        assert snapshot(tmp_path) == before
+    (folder / "hostile" / "cost-and-accuracy.csv").unlink()  # moved away by the user
+    report(tmp_path, "hostile", extra=True)
+    new = json.loads((folder / MARKER).read_text())["sha256"]
+    assert sorted(new) == sorted(old["sha256"])
+    assert new["hostile/A.csv"] == old["sha256"]["hostile/A.csv"]

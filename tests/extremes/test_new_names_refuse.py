@@ -155,6 +155,40 @@ def _scene() -> wb.Scene:
     return wb.Scene(**_scene_args())
 
 
+@pytest.mark.parametrize("outputs, match", [
+    (lambda X: X[:, 2:4] + 1e-3j, r"outputs must be real; got a complex array .*never "
+                                  r"truncated to their real part"),
+    (lambda X: X[:, 2:4] + 0j, "outputs must be real; got a complex array"),
+    (lambda X: X[:, []], r"with n_outputs >= 1; for n = 1 it gave shape \(1, 0\)"),
+    (lambda X: X[:, 2], r"shape \(n, n_outputs\) with n_outputs >= 1; for n = 1 it gave "
+                        r"shape \(1,\)"),
+    (lambda X: X[:, 2:4] > 0, "outputs must be a real numeric array; got booleans"),
+    (lambda X: X[:, 2:4] * np.nan, "outputs must be finite"),
+])
+def test_scene_refuses_complex_empty_and_non_numeric_outputs(outputs, match):
+    """Complex outputs were cut to their real part (a ComplexWarning only, and a model
+    chosen as usual); zero outputs ended in a raw "zero-size array" error of numpy."""
+    with pytest.raises(ParameterError, match=match):
+        wb.Scene(**{**_scene_args(), "outputs": outputs})
+
+
+def test_outputs_that_turn_complex_during_the_comparison_are_refused():
+    """Real for the initial states (one row), complex for a level's trajectory: refused by
+    the comparison too, not truncated."""
+    scene = wb.Scene(**{**_scene_args(),
+                        "outputs": lambda X: X[:, 2:4] + (1e-3j if len(X) > 1 else 0.0)})
+    with pytest.raises(ParameterError, match="outputs must be real; got a complex array"):
+        wb.compare_models(scene, repeats=1)
+
+
+def test_integer_outputs_are_read_as_their_real_values():
+    """Whole-number outputs are real: the scene gives them as floats, exactly."""
+    scene = wb.Scene(**{**_scene_args(), "outputs": lambda X: np.rint(X[:, 2:4] * 1e3)
+                        .astype(np.int64)})
+    Y = scene.output(scene.states)
+    assert Y.dtype == float and np.array_equal(Y, np.rint(scene.states[:, 2:4] * 1e3))
+
+
 def test_compare_models_bounds_repeats():
     with pytest.raises(ParameterError, match=rf"repeats must be an integer >= 1 and <= "
                                              rf"{MAX_REPEATS}; got 1000000000"):

@@ -14,7 +14,9 @@ through :func:`workbench.core.files.write_atomic`; these tests attack it and its
   FIFO, a socket, a directory or a device (``/dev/null``), at the path or at a link's
   target, is refused before anything is written (before any problem runs, on the command
   line) and left as it was;
-- new files and folders get the umask's mode, not 0600/0700;
+- new files and folders get the umask's mode, not 0600/0700; a replaced file keeps its
+  mode, owner and group; a read-only file, a file with other hard links and one of another
+  user or group (that the new file could not be given to) are refused and kept;
 - generated C and Makefiles do not carry injected code from free-text fields;
 - a corrupt compile-cache entry is found by content hash, rebuilt with a warning;
 - two processes exporting the same controller into the same folder and cache at once both
@@ -290,6 +292,151 @@ def test_a_device_is_refused_and_kept(tmp_path, via_link, dev_guarded):
 
 
 # ----------------------------------------------------------------------------------------
+# a replaced file keeps what it was: its mode, owner and group; nor is a read-only or
+# hard-linked file replaced (the tests may run as root: the mode bits are checked, not
+# just what os.access says)
+
+
+@pytest.mark.parametrize("mode", [0o600, 0o640, 0o604, 0o755, 0o2660])
+@pytest.mark.parametrize("via_link", [False, True])
+def test_a_replaced_file_keeps_its_mode(tmp_path, mode, via_link):
+    """A private file stays private whatever the umask; the new content is complete."""
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    os.chmod(target, mode)
+    path = target
+    if via_link:
+        path = tmp_path / "link.json"
+        path.symlink_to("r.json")
+    old = os.umask(0o000)  # the umask would give 0666: the file's own mode must win
+    try:
+        _result().write_json(path)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(os.stat(target).st_mode) == mode
+    assert json.loads(target.read_text())["name"] == "faults"
+    assert _listing(tmp_path) == sorted(["r.json", *(["link.json"] if via_link else [])])
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="only root may give a file to another owner")
+def test_a_replaced_file_keeps_its_owner_and_group(tmp_path):
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    os.chown(target, 12345, 23456)
+    os.chmod(target, 0o640)
+    files.write_atomic(target, "new")
+    st = os.stat(target)
+    assert (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (12345, 23456, 0o640)
+    assert target.read_text() == "new"
+
+
+@pytest.mark.parametrize("mode", [0o444, 0o400, 0o555, 0o044])
+@pytest.mark.parametrize("via_link", [False, True])
+def test_a_read_only_file_is_refused_and_kept(tmp_path, mode, via_link):
+    """As the shell's ``>`` refuses it (even though the folder would allow the rename)."""
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    os.chmod(target, mode)
+    inode = os.stat(target).st_ino
+    path = target
+    if via_link:
+        path = tmp_path / "link.json"
+        path.symlink_to("r.json")
+    with pytest.raises(OutputError, match=rf"is read-only \(mode {mode:04o}\); nothing was "
+                                          "written") as info:
+        files.write_atomic(path, "new")
+    with pytest.raises(OutputError, match="is read-only"):
+        _result().write_json(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+    st = os.stat(target)
+    assert (st.st_ino, stat.S_IMODE(st.st_mode)) == (inode, mode)
+    os.chmod(target, 0o644)  # 0044 is unreadable to its owner (unless root)
+    assert target.read_text() == "old"
+    assert _listing(tmp_path) == sorted(["r.json", *(["link.json"] if via_link else [])])
+
+
+def test_a_file_with_other_hard_links_is_refused_and_every_name_kept(tmp_path):
+    """Replacing it would leave the other name stale; writing in place is not atomic."""
+    (tmp_path / "other").mkdir()
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    os.link(target, tmp_path / "other" / "same.json")
+    os.link(target, tmp_path / "again.json")
+    with pytest.raises(OutputError, match=r"r\.json' has 3 hard links; replacing it would "
+                                          "leave its other names with the old content"):
+        files.write_atomic(target, "new")
+    with pytest.raises(OutputError, match="has 3 hard links"):
+        _result().write_json(target)
+    st = os.stat(target)
+    assert st.st_nlink == 3 and st.st_ino == os.stat(tmp_path / "again.json").st_ino
+    for name in ("r.json", "again.json", "other/same.json"):
+        assert (tmp_path / name).read_text() == "old"
+    assert _listing(tmp_path) == ["again.json", "other", "other/same.json", "r.json"]
+    (tmp_path / "again.json").unlink()
+    (tmp_path / "other" / "same.json").unlink()
+    files.write_atomic(target, "new")  # its only name now: replaced as any file
+    assert target.read_text() == "new"
+
+
+def _as_nobody(call) -> tuple[int, str]:
+    """Run ``call()`` in a child process as the user and group nobody (65534), no groups."""
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        code, text = 0, ""
+        try:
+            os.close(read)
+            os.setgroups([])
+            os.setgid(65534)
+            os.setuid(65534)
+            call()
+        except OutputError as exc:
+            code, text = 1, str(exc)
+        except BaseException as exc:  # noqa: BLE001 - reported to the parent
+            code, text = 2, f"{type(exc).__name__}: {exc}"
+        os.write(write, text.encode())
+        os._exit(code)
+    os.close(write)
+    with os.fdopen(read, "rb") as fh:
+        text = fh.read().decode()
+    return os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), text
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to act as another user")
+def test_a_file_of_another_user_or_group_is_refused_and_kept(tmp_path):
+    """Its replacement would change hands (and who may read it): refused, not given away."""
+    shared = Path(tempfile.mkdtemp(prefix="wb-shared-"))  # /tmp: reachable by nobody
+    try:
+        os.chmod(shared, 0o777)
+        theirs, group = shared / "theirs.json", shared / "group.json"
+        for path, owner, mode in ((theirs, (0, 0), 0o666), (group, (65534, 0), 0o664)):
+            path.write_text("old")
+            os.chown(path, *owner)
+            os.chmod(path, mode)
+        code, text = _as_nobody(lambda: files.write_atomic(theirs, "new"))
+        assert code == 1 and "is owned by another user (uid 0)" in text, text
+        code, text = _as_nobody(lambda: files.write_atomic(group, "new"))
+        assert code == 1 and "belongs to group 0, which this process is not in" in text, text
+        for path, owner in ((theirs, (0, 0)), (group, (65534, 0))):
+            st = os.stat(path)
+            assert (st.st_uid, st.st_gid, path.read_text()) == (*owner, "old")
+        mine = shared / "mine.json"  # and nobody's own file is replaced, mode kept
+        mine.write_text("old")
+        os.chown(mine, 65534, 65534)
+        os.chmod(mine, 0o600)
+        assert _as_nobody(lambda: files.write_atomic(mine, "new")) == (0, "")
+        st = os.stat(mine)
+        assert (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (65534, 65534, 0o600)
+        assert mine.read_text() == "new"
+        assert sorted(p.name for p in shared.iterdir()) == ["group.json", "mine.json",
+                                                            "theirs.json"]
+    finally:
+        for p in shared.iterdir():
+            p.unlink()
+        shared.rmdir()
+
+
+# ----------------------------------------------------------------------------------------
 # the command line
 
 
@@ -330,6 +477,38 @@ def _tiny_problems(monkeypatch, solved: list):
         "P", (), {"names": staticmethod(lambda: ["tiny"]),
                   "load": staticmethod(lambda name: Tiny())}))
     return cli
+
+
+@pytest.mark.parametrize("kind", ["read-only", "hard link"])
+def test_cli_json_over_a_read_only_or_linked_file_is_refused_before_any_work(
+        tmp_path, monkeypatch, capsys, kind):
+    solved: list = []
+    cli = _tiny_problems(monkeypatch, solved)
+    path = tmp_path / "out.json"
+    path.write_text("old")
+    if kind == "read-only":
+        os.chmod(path, 0o444)
+    else:
+        os.link(path, tmp_path / "other.json")
+    code = cli.main(["run", "tiny", "--json", str(path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and solved == [], "refused before the problem ran"
+    what = r"is read-only \(mode 0444\)" if kind == "read-only" else "has 2 hard links"
+    assert len(err.splitlines()) == 1 and re.search(rf"--json: .*out\.json' {what}", err), err
+    assert path.read_text() == "old"
+    assert _listing(tmp_path) == sorted(["out.json", *(["other.json"] if kind == "hard link"
+                                                       else [])])
+
+
+def test_cli_json_over_a_private_file_keeps_it_private(tmp_path, monkeypatch, capsys):
+    solved: list = []
+    cli = _tiny_problems(monkeypatch, solved)
+    path = tmp_path / "out.json"
+    path.write_text("old")
+    os.chmod(path, 0o600)
+    assert cli.main(["run", "tiny", "--json", str(path)]) == 0
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert json.loads(path.read_text())["values"]["x"] == 1.0
 
 
 def test_cli_json_through_a_link_writes_its_target(tmp_path, monkeypatch, capsys):

@@ -7,8 +7,20 @@ report) goes through :func:`write_atomic`:
   renamed over the target in one atomic step when complete;
 - nothing is deleted that the writer did not create: no probe files, no fixed
   ``.partial`` names that could be a user's file;
-- the new file gets the mode ``0o666 & ~umask``, like any file the user's shell creates;
+- a new file gets the mode ``0o666 & ~umask``, like any file the user's shell creates;
   new folders (:func:`make_dir`, :func:`temp_dir`) get ``0o777 & ~umask``;
+- a file that is replaced keeps its permission bits, its owner and its group (a private
+  file of mode 0600 stays private). Its extended attributes and ACLs are not carried over;
+- a read-only file (no write bit for its owner, whoever runs the writer, root included,
+  or not writable by this process) is refused, as the shell's ``>`` refuses it: the
+  rename would succeed in a writable folder, but the file says it is not to be changed;
+- a file owned by another user, or by a group this process is not in, is refused unless
+  this process may give the new file that owner and group (root): the new file would
+  otherwise change hands, and who may read it;
+- a file with more than one hard link is refused: replacing it would leave its other
+  names with the old content (a stale copy, as a replaced symbolic link would be), and
+  writing into it in place would not be atomic (an interrupted or failed write would
+  leave a partial file under every name). Remove the other names, or write elsewhere;
 - on any failure, including a full disk or a KeyboardInterrupt mid-write, the temporary
   file is removed and the target is left as it was; an :class:`OSError` becomes an
   :class:`~workbench.core.errors.OutputError` whose one-line message names the path and
@@ -180,6 +192,31 @@ def _kind(mode: int) -> str:
     return "not a regular file"
 
 
+def _check_replaceable(
+    target: Path, what: str, *, name: str, error: type[WorkbenchError]
+) -> os.stat_result:
+    """Refuse an existing regular file a replacement would change more than in content."""
+    st = os.stat(target)
+    if not st.st_mode & stat.S_IWUSR or not os.access(target, os.W_OK):
+        raise error(f"{name}: {what} is read-only (mode {stat.S_IMODE(st.st_mode):04o}); "
+                    f"nothing was written (make it writable, or choose another path)")
+    if st.st_nlink > 1:
+        raise error(f"{name}: {what} has {st.st_nlink} hard links; replacing it would leave "
+                    f"its other names with the old content, and writing it in place would "
+                    f"not be atomic; nothing was written (remove its other names, or choose "
+                    f"another path)")
+    euid = os.geteuid()
+    if euid != 0 and st.st_uid != euid:
+        raise error(f"{name}: {what} is owned by another user (uid {st.st_uid}); replacing "
+                    f"it would make the new file yours; nothing was written (choose another "
+                    f"path)")
+    if euid != 0 and st.st_gid not in {os.getegid(), *os.getgroups()}:
+        raise error(f"{name}: {what} belongs to group {st.st_gid}, which this process is "
+                    f"not in; replacing it would change its group, and who may read it; "
+                    f"nothing was written (choose another path)")
+    return st
+
+
 def writable_file(
     path: Any, *, name: str = "path", error: type[WorkbenchError] = OutputError
 ) -> Path:
@@ -208,7 +245,8 @@ def writable_file(
     WorkbenchError
         Of class ``error``: an empty path; ``path`` or its link's target is a directory,
         a FIFO, a socket or a device; a loop of links; the folder of the file to write
-        does not exist.
+        does not exist; the file is read-only, has more than one hard link, or has an
+        owner or group its replacement could not keep (see the module's description).
     """
     p = output_path(name, path, error=error)
     target, what = p, f"{str(p)!r}"
@@ -219,7 +257,7 @@ def writable_file(
             raise error(f"{name}: {str(p)!r} is a symbolic link in a loop of links "
                         f"(through {str(target)!r}); nothing was written")
     try:
-        mode = os.stat(target).st_mode
+        mode: int | None = os.stat(target).st_mode
     except FileNotFoundError:
         mode = None
     except OSError as exc:  # e.g. a component that is a file, or no search permission
@@ -228,10 +266,27 @@ def writable_file(
     if mode is not None and not stat.S_ISREG(mode):
         raise error(f"{name}: {what} is {_kind(mode)}, expected a file path (only a regular "
                     f"file is replaced); nothing was written")
+    if mode is not None:
+        _check_replaceable(target, what, name=name, error=error)
     parent = target.parent
     if not parent.is_dir():
         raise error(f"{name}: directory {str(parent)!r} of {what} does not exist")
     return target
+
+
+def _take_over(fd: int, old: os.stat_result | None) -> None:
+    """Give the new file ``fd`` the mode, owner and group of the file it replaces.
+
+    A new file (``old`` None) gets the umask's mode. The owner is set before the mode, as
+    a change of owner may clear the set-user-ID bits.
+    """
+    if old is None:
+        os.fchmod(fd, 0o666 & ~umask())
+        return
+    now = os.fstat(fd)
+    if (now.st_uid, now.st_gid) != (old.st_uid, old.st_gid):
+        os.fchown(fd, old.st_uid, old.st_gid)
+    os.fchmod(fd, stat.S_IMODE(old.st_mode))
 
 
 def write_atomic(
@@ -247,8 +302,8 @@ def write_atomic(
     ----------
     path : path-like
         The target file; its folder must exist. An existing regular file is replaced
-        atomically; a symbolic link is written through (its target is replaced, the link
-        kept; see :func:`writable_file`).
+        atomically, keeping its mode, owner and group; a symbolic link is written through
+        (its target is replaced, the link kept; see :func:`writable_file`).
     data : bytes or str
         The content (str is written as UTF-8).
     name : str
@@ -265,14 +320,22 @@ def write_atomic(
     ------
     WorkbenchError
         Of class ``error``: an empty path; a directory, FIFO, socket or device (at the
-        path or at its link's target); a missing or read-only folder; a full disk.
-        Nothing is left behind; the target is unchanged.
+        path or at its link's target); a missing or read-only folder; a read-only file,
+        one with more than one hard link, or one whose owner or group cannot be kept; a
+        full disk. Nothing is left behind; the target is unchanged.
     """
     p = output_path(name, path, error=error)
     target = writable_file(p, name=name, error=error)
     shown = repr(str(p)) if target == p else \
         f"{str(p)!r} (a symbolic link to {str(target)!r})"
     payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    try:
+        old = os.stat(target)
+    except FileNotFoundError:
+        old = None
+    except OSError as exc:
+        raise error(f"{name}: cannot write {shown} ({_reason(exc)}); nothing was "
+                    f"written") from exc
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
                                    dir=target.parent)
@@ -283,7 +346,7 @@ def write_atomic(
             view = memoryview(payload)
             while view:
                 view = view[os.write(fd, view):]
-            os.fchmod(fd, 0o666 & ~umask())
+            _take_over(fd, old)
         finally:
             os.close(fd)
         os.replace(tmp, target)

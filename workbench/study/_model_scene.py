@@ -47,8 +47,9 @@ class Scene:
     horizon : float
         Final time [s], positive; outputs at ``n_times`` equally spaced times from 0.
     outputs : callable
-        ``y = outputs(X)``: full states ``X`` of shape ``(n, ambient_dim)`` to outputs of
-        shape ``(n, n_outputs)`` (vectorised; e.g. the attitude's ``Gamma = R^T e3``).
+        ``y = outputs(X)``: full states ``X`` of shape ``(n, ambient_dim)`` to real outputs
+        of shape ``(n, n_outputs)``, ``n_outputs >= 1`` (vectorised; e.g. the attitude's
+        ``Gamma = R^T e3``).
     tolerance : float
         Largest accepted max-norm error of the outputs, over every state and time
         (absolute, in the outputs' units).
@@ -60,8 +61,9 @@ class Scene:
     Raises
     ------
     ParameterError
-        A bad horizon, tolerance, ``n_times`` or name, or outputs that are not a finite 2-D
-        array with one row per state.
+        A bad horizon, tolerance, ``n_times`` or name, or outputs that are not a finite real
+        2-D array with one row per state and at least one column (complex, boolean, empty
+        or non-finite outputs are refused).
     ManifoldError
         A state off the model's manifold.
     """
@@ -104,13 +106,24 @@ class Scene:
         return np.linspace(0.0, self.horizon, self.n_times)
 
     def output(self, X: np.ndarray) -> np.ndarray:
-        """The outputs of full states, shape ``(n, n_outputs)``, checked finite and 2-D."""
-        Y = np.asarray(self.outputs(np.asarray(X, dtype=float)), dtype=float)
-        if Y.ndim != 2 or Y.shape[0] != len(X) or not np.all(np.isfinite(Y)):
+        """The outputs of full states ``X``, shape ``(n, n_outputs)``.
+
+        Checked real (a complex output is refused, never truncated to its real part), finite,
+        2-D with one row per state and at least one output (the error of no outputs is
+        undefined).
+
+        Raises
+        ------
+        ParameterError
+            Naming ``outputs``, what it gave and what was expected.
+        """
+        X = np.asarray(X, dtype=float)
+        Y = validate.array("outputs", self.outputs(X), error=ParameterError)
+        if Y.ndim != 2 or Y.shape[0] != len(X) or Y.shape[1] < 1:
             raise ParameterError(
-                f"outputs must map full states of shape (n, n_full) to a finite array of "
-                f"shape (n, n_outputs); for n = {len(X)} it gave shape {Y.shape}"
-                + ("" if np.all(np.isfinite(Y)) else " with non-finite entries"))
+                f"outputs must map full states of shape (n, n_full) to a finite real array "
+                f"of shape (n, n_outputs) with n_outputs >= 1; for n = {len(X)} it gave "
+                f"shape {Y.shape}")
         return Y
 
 
