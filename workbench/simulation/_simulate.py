@@ -30,7 +30,13 @@ from workbench.core.manifolds import DEFAULT_TOL
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
-from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
+from workbench.simulation._cvodes import (
+    MAX_STEPS,
+    Corrector,
+    Multistep,
+    check_max_steps,
+    cvodes_options,
+)
 from workbench.simulation._stability import StepCheck, probe_for
 from workbench.simulation._trajectory import Trajectory, constraint_residuals
 from workbench.simulation._trajectory import diagnostics as _diagnostics
@@ -210,8 +216,10 @@ def simulate(
         ``"newton"`` (default with BDF); see :class:`Corrector`. Adams with Newton, casadi's
         own default, is ``corrector="newton"``.
     max_steps : int
-        CVODES' limit on internal steps per output interval; a long horizon between two
-        output times may need more (the failure says so and names this knob).
+        CVODES' limit on internal steps per output interval, at most
+        :data:`~workbench.simulation._cvodes.MAX_STEPS` (1e8: minutes for a small model);
+        a long horizon between two output times may need more (the failure says so and
+        names this knob).
     max_points : int
         Largest accepted number of output times (default :data:`MAX_POINTS`, 10^6: the
         states alone take ``8 * ambient_dim`` bytes each, and the diagnostics evaluate
@@ -268,7 +276,7 @@ def simulate(
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
         validate.tolerance(name, val, error=ModelError)
-    max_steps = count("max_steps", max_steps, error=ModelError)
+    max_steps = check_max_steps(max_steps, error=ModelError)  # bounded before anything runs
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
     # unrolled into the step's graph: bounded before anything is built
@@ -355,8 +363,10 @@ def simulate(
     except RuntimeError as exc:
         stats = integrator.stats()
         status = str(stats.get("return_status", "integrator error"))
-        knob = (f"; the integrator ran out of steps: raise max_steps= (now {max_steps}) or "
-                f"output at more times t (the limit is per output interval)"
+        raise_it = (f"raise max_steps= (now {max_steps}, at most {MAX_STEPS:.0e}) or "
+                    if max_steps < MAX_STEPS else "")
+        knob = (f"; the integrator ran out of steps: {raise_it}output at more times t (the "
+                f"limit is per output interval)"
                 if "too_much_work" in f"{status} {exc}".lower() else "")
         raise SolverError(
             f"{method.value} failed integrating {model.name} from t={tv[0]:g} "
