@@ -213,13 +213,25 @@ def test_a_conserved_invariant_that_jumps_is_refused_with_its_time(undamped):
     assert check.run(t, x)["stability"]["conserved_invariants"] == ["energy"]
 
 
-def test_a_dissipated_or_forced_invariant_is_not_checked(damped, undamped):
-    t, x = exact_orbit(50, 30)
+def test_a_dissipated_invariant_may_fall_but_not_rise_and_a_forced_one_is_not_checked(
+        damped, undamped):
+    """The damped energy can only fall along the flow: a fall of any size passes, a rise
+    by more than DRIFT_LIMIT times its scale is refused; a fed energy may do either."""
+    t, x = exact_orbit(50, 30)  # the energy x 100 from t[30] on
     check = StepCheck(damped, probe_for(damped, None), "collocation", None, False, 0.1)
-    assert check.run(t, x)["stability"]["conserved_invariants"] == []
+    with pytest.raises(SolverError) as info:
+        check.run(t, x)
+    assert info.value.status == "invariant_drift"
+    assert f"rose from 2 to 200 by t = {t[30]:.6g}" in str(info.value)
+    assert "does not increase" in str(info.value)
+    fallen = x.copy()
+    fallen[30:] *= 1e-5  # the energy / 1e10: what damping may do
+    st = check.run(t, fallen)["stability"]
+    assert st["conserved_invariants"] == [] and st["non_increasing_invariants"] == ["energy"]
     forced = StepCheck(undamped, probe_for(undamped, feedback(0.2)), "collocation", None,
                        False, 0.1)
-    assert forced.run(t, x)["stability"]["conserved_invariants"] == []
+    st = forced.run(t, x)["stability"]
+    assert st["conserved_invariants"] == [] and st["non_increasing_invariants"] == []
 
 
 def test_a_state_exploding_beyond_the_flow_is_refused_whatever_the_method(damped, undamped):

@@ -53,6 +53,14 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import SolverError
 from workbench.core.status import StatusEnum
+from workbench.simulation._invariant_check import (
+    CONSERVED_RTOL,
+    DRIFT_LIMIT,
+    Watch,
+    classify,
+    first_excess,
+    invariant_values,
+)
 from workbench.simulation._probe import Probe, probe_for, rk4_step
 
 __all__ = [
@@ -70,8 +78,14 @@ __all__ = [
     "Probe",
     "probe_for",
     "StepCheck",
+    "Located",
     "rk4_step",
+    "LOCATE_CANDIDATES",
 ]
+
+LOCATE_CANDIDATES = 8
+"""States between two outputs at which the step is linearised when a check failed there:
+those where ``h |A|_F`` (a bound on the spectral radius) is largest."""
 
 STABILITY_RTOL = 1e-2
 """Accepted excess of the linearised step's spectral radius over the exact flow's growth
@@ -82,13 +96,6 @@ stable range the amplification rises far faster (RK4: 1.01 at ``h w = 2.832`` ag
 boundary 2.828; Stormer-Verlet: 1.01 at ``h w = 2.00005``), so the boundary moves by under
 0.2 %."""
 
-DRIFT_LIMIT = 10.0
-"""Largest accepted change of a conserved invariant, in multiples of its scale."""
-
-CONSERVED_RTOL = 1e-8
-"""``|grad I . f| <= CONSERVED_RTOL |grad I| |f|`` at every checked state: the closed-loop
-field conserves ``I`` (round-off is ~1e-16 of the terms)."""
-
 FROZEN_MAX = 0.1
 """Where the linearised step's amplification changes by more than this fraction over the
 step (at the step's end state), the frozen-coefficient estimate decides nothing; below
@@ -98,9 +105,16 @@ amplification rises steeply (RK4: 1.19 at ``h w = 2.9``, 1.5 at 3; Stormer-Verle
 few per cent at most (none for a linear field, whose amplification is the same
 everywhere)."""
 
-GROWTH_LIMIT = 1e6
+GROWTH_LIMIT = 1e4
 """States larger than this many times what the flow allows from ``x0`` are an explosion
-(see :meth:`StepCheck._check_growth`)."""
+(see :meth:`StepCheck._check_growth`). The allowance is a bound of the linearised flow: for
+``x' = A x + b`` with ``A`` diagonalisable, ``|x(t)| <= kappa(V) e^(alpha t)`` times the
+Taylor terms ``max(|x0|, t |f0|, t^2 |A f0| / 2)`` (which cover a free particle under a
+constant force, whose growth is polynomial), ``kappa(V)`` the condition number of ``A``'s
+eigenvectors; 1e4 leaves room for the transient growth (peaking) of strongly non-normal
+loops and for the nonlinearity, while an unstable step multiplies the state by at least its
+amplification (above 1.01, typically 1.1 to 1.5) every step, so that it passes 1e4 within a
+few tens to a few hundred steps. It was 1e6, which let a 3000-fold growth through."""
 
 SAFE_H_RHO = 1.0
 """``h |lambda|max`` at or below which a step is inside the stable range of every
@@ -412,8 +426,9 @@ class StepCheck:
             status=StepStability.UNSTABLE_STEP.code)
 
     def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
-            drift: dict[str, Any] | None = None) -> dict[str, Any]:
-        """Both checks on a finished run; raise SolverError, or return the diagnostics.
+            drift: dict[str, Any] | None = None,
+            between: list[tuple[float, np.ndarray, str]] | None = None) -> dict[str, Any]:
+        """All the checks on a finished run; raise SolverError, or return the diagnostics.
 
         Parameters
         ----------
@@ -425,7 +440,10 @@ class StepCheck:
             The field at the states, when already computed (the fastest state is checked).
         drift : dict, optional
             The run's ``invariant_drift`` diagnostics, when already computed (the
-            invariants are then evaluated again only to locate a failure).
+            invariants are then evaluated again only when one moved beyond its allowance).
+        between : list of (float, ndarray, str), optional
+            States between outputs where the step is linearised too (time, state, what it
+            is: the largest, the fastest), when the integrator gave them.
 
         Returns
         -------
@@ -433,7 +451,8 @@ class StepCheck:
             ``{"stability": {...}}``: ``status``, ``checked_states``,
             ``step_linearised_at`` (how many of them had ``h |lambda|max`` above
             :data:`SAFE_H_RHO`, so that the step map was linearised; None without a step
-            map), ``conserved_invariants`` (those whose drift was checked).
+            map), ``conserved_invariants`` (whose change was checked both ways) and
+            ``non_increasing_invariants`` (whose rise was checked).
 
         Raises
         ------
@@ -442,48 +461,78 @@ class StepCheck:
         """
         idx = _samples(x, xdot)
         linearised = None
+        between = list(between or [])
         if self.linearised:
             fnd, linearised = self.find_unstable(x, idx)
             if fnd is not None:
                 raise self.unstable_error(fnd, x[fnd.index], float(t[fnd.index]))
+            for tb, xb, what in between:
+                fnd = self.finding(xb)
+                if not fnd.stable:
+                    raise self.unstable_error(fnd, xb, tb, what=f" ({what} between outputs)")
+                linearised += not math.isnan(fnd.amplification)
         self._check_growth(t, x, xdot)
-        conserved, grad_norm = self._conserved(x, idx)  # idx[0] == 0: gradients at x0
-        if conserved:
-            self._check_drift(t, x, conserved, drift, grad_norm)
+        watch = classify(self.probe, self.model, x, idx)  # idx[0] == 0
+        if watch.names:
+            self._check_invariants(t, x, watch, drift)
         return {"stability": {
             "status": StepStability.STABLE.code,
-            "checked_states": len(idx),
+            "checked_states": len(idx) + len(between),
             "step_linearised_at": linearised,
-            "conserved_invariants": conserved,
+            "conserved_invariants": watch.conserved,
+            "non_increasing_invariants": watch.non_increasing,
         }}
+
+    def _growth_allowance(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
+                          rate: bool) -> tuple[np.ndarray, float]:
+        """What the flow allows ``max |x|`` to be at the times ``t``, and ``alpha(x0)``.
+
+        ``max(|x0|, |t - t0| |f0|, |t - t0|^2 |A0 f0| / 2)`` (max-norms), times ``exp(max(
+        alpha, 0) |t - t0|)`` when ``rate`` (``alpha`` the largest real part of the
+        linearised field's eigenvalues at ``x0``; 0 otherwise).
+        """
+        f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
+              np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
+        n = x.shape[1]
+        A = np.asarray(self.probe.mapped("field_jac", 1)(x[:1], self.model.p)[0],
+                       dtype=float).reshape(n, n)
+        af0 = float(np.max(np.abs(A @ f0))) if np.all(np.isfinite(A)) else math.inf
+        dt = np.abs(t - t[0])
+        alpha = 0.0
+        if rate:
+            lam = self._field_spectra(x[:1], 0.0)[0][2]
+            alpha = float(np.max(lam.real)) if lam is not None and lam.size else 0.0
+        with np.errstate(over="ignore", invalid="ignore"):  # inf is an allowance too
+            base = np.maximum(max(float(np.max(np.abs(x[0]))), np.finfo(float).tiny),
+                              np.maximum(dt * float(np.max(np.abs(f0))), 0.5 * dt**2 * af0))
+            return base * np.exp(np.minimum(max(alpha, 0.0) * dt, 700.0)), alpha
 
     def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
         """Refuse states grown by orders of magnitude beyond what the flow allows.
 
-        The allowance at ``t_k`` is ``GROWTH_LIMIT * max(|x0|, |t_k - t0| |f(x0)|) *
-        exp(max(alpha(x0), 0) |t_k - t0|)`` (max-norms): the run's own scale, its drift at
-        the initial speed, and the growth of the linearised flow at the start.
+        The allowance at ``t_k`` is ``GROWTH_LIMIT`` times :meth:`_growth_allowance`: the
+        run's own scale, its drift at the initial speed and acceleration, and the growth
+        of the linearised flow at the start.
         """
-        f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
-              np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
         size = np.max(np.abs(x), axis=1)
-        dt = np.abs(t - t[0])
-        with np.errstate(over="ignore", invalid="ignore"):  # inf is an allowance too
-            allowed = GROWTH_LIMIT * np.maximum(max(size[0], np.finfo(float).tiny),
-                                                dt * float(np.max(np.abs(f0))))
-        if np.all(size <= allowed):  # the common case: no need of the flow's growth rate
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=False)
+        if np.all(size <= GROWTH_LIMIT * allowed):  # common: no need of the growth rate
             return
-        A, Q, lam = self._field_spectra(x[:1], 0.0)[0]
-        alpha = float(np.max(lam.real)) if lam is not None and lam.size else 0.0
-        with np.errstate(over="ignore", invalid="ignore"):
-            allowed = allowed * np.exp(np.minimum(max(alpha, 0.0) * dt, 700.0))
-        bad = np.flatnonzero(~(size <= allowed))
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=True)
+        bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
         if not bad.size:
             return
         k = int(bad[0])
+        what = (f" (the state grew to max |x| = {size[k]:.3g} by t = {t[k]:.6g}, more than "
+                f"{GROWTH_LIMIT:.0e} times what the flow allows from x0, {allowed[k]:.3g}: "
+                f"max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) times the growth "
+                f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g})")
+        located = self._locate(t, x, k, self._size_stop(t, allowed), what=what[2:-1])
+        if located is not None:
+            raise located
         estimate = ""
         if self.linearised:
-            fnd = self.finding(x[0], 0, spectrum=(A, Q, lam))
+            fnd = self.finding(x[0], 0)
             est = self.stable_step(x[0])
             amp = ("" if math.isnan(fnd.amplification) else
                    f" and the linearised step amplifies by {fnd.amplification:.3g}")
@@ -494,65 +543,160 @@ class StepCheck:
                            f"there" if est is not None else "no stable step was estimated"))
         raise SolverError(
             f"{self.method}: step h = {abs(self.h):.4g} is beyond the stable range of the "
-            f"method integrating {self.model.name}: the state grew to max |x| = "
-            f"{size[k]:.3g} by t = {t[k]:.6g}, more than {GROWTH_LIMIT:.0e} times what the "
-            f"flow allows from x0 ({allowed[k] / GROWTH_LIMIT:.3g}: max(|x0|, |t - t0| "
-            f"|f(x0)|) times the growth exp(alpha t) of the linearised field at t0, "
-            f"alpha = {alpha:.3g}){estimate}. Reduce step, or use an adaptive method "
-            f"(cvodes) or an A-stable one (collocation)", status=StepStability.UNSTABLE_STEP.code)
+            f"method integrating {self.model.name}{what}{estimate}. Reduce step, or use an "
+            f"adaptive method (cvodes) or an A-stable one (collocation)",
+            status=StepStability.UNSTABLE_STEP.code)
 
-    def _conserved(self, x: np.ndarray, idx: list[int]) -> tuple[list[str], np.ndarray]:
-        """The invariants the closed-loop field conserves at every state ``x[idx]``.
+    def _size_stop(self, t: np.ndarray, allowed: np.ndarray) -> Any:
+        """A stop rule for :meth:`locate`: the state's size beyond the allowance."""
+        t0, a0 = float(t[0]), float(allowed[0])
+        rate = (np.log(allowed[-1] / a0) / abs(t[-1] - t0)
+                if allowed[-1] > a0 and t[-1] != t0 else 0.0)
 
-        Returns them with ``|grad I|`` of every invariant at ``x[idx[0]]``.
+        def stop(ts: np.ndarray, X: np.ndarray) -> int | None:
+            # the allowance between outputs: the larger of its values at the two ends
+            lim = GROWTH_LIMIT * a0 * np.exp(np.minimum(rate * np.abs(ts - t0), 700.0))
+            bad = np.flatnonzero(~(np.max(np.abs(X), axis=1) <= np.maximum(lim, a0)))
+            return int(bad[0]) if bad.size else None
+        return stop
+
+    def _check_invariants(self, t: np.ndarray, x: np.ndarray, watch: Watch,
+                          drift: dict[str, Any] | None) -> None:
+        """Refuse a conserved invariant that moved, or a non-increasing one that rose.
+
+        Either by more than :data:`DRIFT_LIMIT` times its scale (see
+        :mod:`workbench.simulation._invariant_check`).
         """
-        if self.probe.rates is None:
-            return [], np.zeros(0)
-        names = self.model.invariant_names
-        rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(idx))
-                        for v in self.probe.mapped("rates", len(idx))(x[idx], self.model.p))
-        keep = np.all(np.abs(rate) <= CONSERVED_RTOL * gn * fn + np.finfo(float).tiny, axis=1)
-        return [n for n, k in zip(names, keep) if k], gn[:, 0]
-
-    def _check_drift(self, t: np.ndarray, x: np.ndarray, names: list[str],
-                     drift: dict[str, Any] | None, grad_norm: np.ndarray) -> None:
         model = self.model
-        x0_norm = float(np.linalg.norm(x[0]))
-        values = None
-        for name in names:
-            k = model.invariant_names.index(name)
-            known = (drift or {}).get(name)
-            if known is not None:
-                initial, max_abs = float(known["initial"]), float(known["max_abs"])
-            else:
-                values = values if values is not None else self._invariants(x)
-                initial = float(values[k, 0])
-                max_abs = float(np.max(np.abs(values[k] - initial)))
-            scale = max(abs(initial), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
-            if max_abs <= DRIFT_LIMIT * scale:
-                continue
-            values = values if values is not None else self._invariants(x)
-            series = values[k]
-            j = int(np.argmax(~(np.abs(series - series[0]) <= DRIFT_LIMIT * scale)))
-            hint = ""
-            if self.linearised and j > 0:
-                fnd = self.finding(x[j - 1], j - 1,
-                                   spectrum=self._field_spectra(x[j - 1: j], 0.0)[0])
-                hint = (f"; at the output before, h * |lambda|max = "
-                        f"{abs(self.h) * fnd.spectral_radius:.3g}"
-                        + ("" if math.isnan(fnd.amplification) else
-                           f" and the linearised step amplifies by {fnd.amplification:.3g} "
-                           f"per step (the exact linearised flow by at most "
-                           f"{fnd.flow_growth:.3g})"))
-            raise SolverError(
-                f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
-                f"{model.name}: the invariant {name!r}, which the field conserves at every "
-                f"checked state (no controller working on it, no dissipation, no load), "
-                f"changed from {series[0]:.6g} to {series[j]:.6g} by t = {t[j]:.6g}, more "
+        known = drift or {}
+        moved = [n for n in watch.names if n not in known
+                 or not float(known[n]["max_abs"]) <= DRIFT_LIMIT * watch.scale[n]]
+        if not moved:  # the common case: every watched invariant within its allowance
+            return
+        values = invariant_values(model, x)
+        names = model.invariant_names
+        hit = first_excess(watch, names, values, values[:, 0])
+        if hit is None:  # a non-increasing invariant that fell: legitimate
+            return
+        name, j = hit
+        k = names.index(name)
+        rising = name in watch.non_increasing
+        scale = watch.scale[name]
+        what = (f"the invariant {name!r}, which the closed-loop field "
+                + ("does not increase at any sampled state (dissipated, no input feeding it: "
+                   "it can only fall along the exact flow), rose"
+                   if rising else
+                   "conserves at every sampled state (no controller working on it, no "
+                   "dissipation, no load), changed")
+                + f" from {values[k, 0]:.6g} to {values[k, j]:.6g} by t = {t[j]:.6g}, more "
                 f"than {DRIFT_LIMIT:g} times its scale {scale:.3g} (max(|I(x0)|, "
-                f"|grad I(x0)| |x0|)){hint}. Reduce step",
-                status=StepStability.INVARIANT_DRIFT.code)
+                f"|grad I(x0)| |x0|))")
+        initial = values[:, 0]
 
-    def _invariants(self, x: np.ndarray) -> np.ndarray:
-        fn = self.model.function("invariants")
-        return np.asarray(fn.map(len(x))(x.T, self.model.p), dtype=float)  # (n_inv, n_times)
+        def stop(ts: np.ndarray, X: np.ndarray) -> int | None:
+            found = first_excess(watch, names, invariant_values(model, X), initial)
+            return None if found is None else found[1]
+        located = self._locate(t, x, j, stop, what=what)
+        if located is not None:
+            raise located
+        if rising and self.linearised:  # a method with a stable range it can leave
+            raise SolverError(
+                f"{self.method}: step h = {abs(self.h):.4g} is beyond the stable range of the "
+                f"method integrating {model.name} somewhere between t = {t[j - 1]:.6g} and "
+                f"t = {t[j]:.6g}: {what}. Reduce step, or use an adaptive method (cvodes) or "
+                f"an A-stable one (collocation)", status=StepStability.UNSTABLE_STEP.code)
+        raise SolverError(
+            f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
+            f"{model.name}: {what}. Reduce step", status=StepStability.INVARIANT_DRIFT.code)
+
+    def locate(self, t0: float, x0: np.ndarray, t1: float, stop: Any = None) -> Located:
+        """Step the output interval ``[t0, t1]`` again from ``x0`` and find where it failed.
+
+        The states between two outputs are not kept by a run; this re-steps the interval
+        with the run's step map (:meth:`Probe.walk`) until ``stop(times, states)`` names a
+        state (or one is not finite), then linearises the step at the
+        :data:`LOCATE_CANDIDATES` states before it where ``h |A|_F`` is largest and
+        returns the earliest where the linearised step amplifies a mode beyond the flow's
+        bound (the run is known to have failed there: the persistence one step on that
+        :meth:`finding` asks of an output state is not asked here).
+
+        Parameters
+        ----------
+        t0, t1 : float
+            The interval's output times.
+        x0 : ndarray, shape=(ambient_dim,)
+            The state at ``t0``.
+        stop : callable, optional
+            ``stop(times, states) -> int or None``: the first index of a chunk of states
+            where the run is known to have failed.
+
+        Returns
+        -------
+        Located
+        """
+        n = max(1, round(abs(t1 - t0) / abs(self.h)))
+        dt = (t1 - t0) / n
+        cand: list[tuple[float, float, np.ndarray]] = []  # (h |A|_F, t, x)
+        last_t, last_x, done = t0, np.asarray(x0, dtype=float), 0
+        for X in self.probe.walk(x0, self.model.p, self.h, n):
+            ts = t0 + dt * np.arange(done + 1, done + len(X) + 1)
+            finite = np.all(np.isfinite(X), axis=1)
+            m = len(X) if np.all(finite) else int(np.argmin(finite))
+            hit = stop(ts[:m], X[:m]) if stop is not None and m else None
+            m = m if hit is None else hit
+            if m:
+                out = self.probe.mapped("field_jac", m)(X[:m], self.model.p)[0]
+                norms = abs(self.h) * np.sqrt(np.sum(np.asarray(out).reshape(
+                    -1, m, X.shape[1]) ** 2, axis=(0, 2)))
+                for i in np.argsort(norms)[::-1][:LOCATE_CANDIDATES]:
+                    cand.append((float(norms[i]), float(ts[i]), X[i]))
+                cand = sorted(cand, key=lambda c: c[0], reverse=True)[:LOCATE_CANDIDATES]
+                last_t, last_x = float(ts[m - 1]), X[m - 1]
+            done += len(X)
+            if m < len(X):
+                break
+        # the run is known to have failed by the stop: a step that amplifies a mode beyond
+        # the flow's bound is the cause even where it does not persist one step on (a
+        # stiff wall kicks the state in one step and lets it go the next)
+        for _, tc, xc in sorted(cand, key=lambda c: c[1]):
+            fnd = self.finding(xc)
+            if not fnd.stable or fnd.amplification > fnd.bound:
+                return Located(fnd, xc, tc, last_x, last_t)
+        return Located(None, None, None, last_x, last_t)
+
+    def _locate(self, t: np.ndarray, x: np.ndarray, j: int, stop: Any,
+                what: str = "") -> SolverError | None:
+        """The unstable-step error found by re-stepping the interval before output ``j``."""
+        if not self.linearised or j == 0:
+            return None
+        loc = self.locate(float(t[j - 1]), x[j - 1], float(t[j]), stop)
+        if loc.finding is None:
+            return None
+        return self.unstable_error(loc.finding, loc.x, loc.t,
+                                   what=f", between outputs (found by stepping again the "
+                                        f"interval where {what})")
+
+
+@dataclass(frozen=True)
+class Located:
+    """What :meth:`StepCheck.locate` found between two outputs.
+
+    Attributes
+    ----------
+    finding : StabilityFinding or None
+        The first unstable step found (None: none at the states linearised).
+    x : ndarray or None
+        Its state.
+    t : float or None
+        Its time.
+    last_x : ndarray
+        The last state before the failure (finite, before ``stop``).
+    last_t : float
+        Its time.
+    """
+
+    finding: StabilityFinding | None
+    x: np.ndarray | None
+    t: float | None
+    last_x: np.ndarray
+    last_t: float
