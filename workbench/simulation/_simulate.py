@@ -524,6 +524,7 @@ def _simulate_geometric(
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"])
+    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"],
+                       between=run.between)
     traj.diagnostics = {**diag, **run.diagnostics, **checks}
     return traj

@@ -163,6 +163,10 @@ class Integration:
     diagnostics : dict
         ``newton`` (tolerance, largest residual, iterations per step: max and mean) and
         ``structure`` (the scheme's :attr:`DiscreteFlow.structure`).
+    between : list of (float, ndarray, str)
+        The largest state (max-norm) and the fastest (largest ``|x_(k+1) - x_k| / |h|``)
+        among all the steps, outputs or not: ``(time, state, what)``, for the stability
+        checks (they cost two reductions per chunk of steps).
     """
 
     t: np.ndarray
@@ -170,6 +174,7 @@ class Integration:
     step: float
     cost: IntegrationCost
     diagnostics: dict[str, Any]
+    between: list[tuple[float, np.ndarray, str]] = field(default_factory=list)
 
 
 def check_newton_options(newton_tol: float, newton_max_iter: int) -> tuple[float, int]:
@@ -467,6 +472,9 @@ def integrate(
     setup = time.perf_counter() - t_setup
     out = [x.copy()]
     max_res, its_total, its_max = 0.0, 0, 0
+    # the largest and the fastest state of all the steps: (value, step index, state)
+    largest = (float(np.max(np.abs(x))), 0, x.copy())
+    fastest = (0.0, 0, x.copy())
     t_run = time.perf_counter()
     done = 0
     while done < n_total:
@@ -516,6 +524,13 @@ def integrate(
             )
             err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
             raise err
+        size = np.max(np.abs(X), axis=1)
+        speed = np.max(np.abs(np.diff(np.vstack([x, X]), axis=0)), axis=1)
+        i, j = int(size.argmax()), int(speed.argmax())
+        if size[i] > largest[0]:
+            largest = (float(size[i]), done + i + 1, X[i].copy())
+        if speed[j] > fastest[0]:
+            fastest = (float(speed[j]), done + j, (x if j == 0 else X[j - 1]).copy())
         max_res = max(max_res, float(res.max()))
         its_total += int(its.sum())
         its_max = max(its_max, int(its.max()))
@@ -545,4 +560,6 @@ def integrate(
         },
         "structure": dict(scheme.structure),
     }
-    return Integration(tv, xs, h, cost, diagnostics)
+    between = [(float(tv[0] + k * h), state, what) for (_, k, state), what in
+               ((largest, "the largest state"), (fastest, "the start of the fastest step"))]
+    return Integration(tv, xs, h, cost, diagnostics, between)
