@@ -264,13 +264,14 @@ class LinearisedStep:
         # one step on (exactly so for a linear field); there the change is a margin,
         # elsewhere (fast nonlinear motion, the frame turning) it decides nothing. An
         # instability persists: it must show at the step's end state as well.
-        growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
+        # exponents capped at 350: squared below, e^700 is the largest that stays finite
+        growth = max(1.0, math.exp(min(ha * alpha, 350.0)))
         amp_next, growth_next = math.inf, math.nan
         if np.all(np.isfinite(x_next)):
             _, Q1, lam1 = self._field_spectra(x_next.reshape(1, -1), 0.0)[0]
             if lam1 is not None:
                 alpha1 = float(np.max(lam1.real)) if lam1.size else 0.0
-                growth_next = max(1.0, math.exp(min(ha * alpha1, 700.0)))
+                growth_next = max(1.0, math.exp(min(ha * alpha1, 350.0)))
                 amp_next = self._amplification(x_next, h, Q1)[0]
         change = abs(amp_next / amp - 1.0) if amp else 0.0
         # a growing mode may grow up to twice as fast numerically (the method's own error
