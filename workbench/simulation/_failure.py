@@ -102,7 +102,8 @@ def casadi_non_finite(model: Model, controller: ca.Function | None, check: StepC
     if check is not None and check.linearised:
         loc = check.locate(float(tv[a]), xs[a], float(tv[bad]))
         last_t, last_x = loc.last_t, loc.last_x
-        singular = kinetic_energy_error(model, method, last_x, np.array([last_t]),
+        singular = kinetic_energy_error(model, method, np.vstack([xs[: a + 1], loc.states]),
+                                        np.concatenate([tv[: a + 1], loc.times]),
                                         f"its states became non-finite {where}")
         if singular is not None:
             return singular
@@ -119,7 +120,7 @@ def casadi_non_finite(model: Model, controller: ca.Function | None, check: StepC
             return SolverError(f"{method} integrating {model.name}: the states became "
                                f"non-finite {where}: {nan_field}", status="non_finite_field")
     else:
-        singular = kinetic_energy_error(model, method, last_x, np.array([last_t]),
+        singular = kinetic_energy_error(model, method, xs[: a + 1], tv[: a + 1],
                                         f"its states became non-finite {where}")
         if singular is not None:
             return singular
@@ -139,20 +140,29 @@ def _without_status(err: SolverError) -> str:
 
 
 def geometric_failure(model: Model, check: StepCheck, err: SolverError, x0: np.ndarray,
-                      t0: float) -> SolverError:
+                      tv: np.ndarray) -> SolverError:
     """The SolverError to raise for a failed step of a geometric method (``err``).
 
-    The kinetic energy at the failing step's start first (a singular one is the cause,
-    not the step); then the linearised step at the start and there (beyond the stable
-    range: the estimate of the stable step); else ``err`` itself.
+    The kinetic energy first, at the outputs reached and the steps after the last of them
+    (stepped again): a singular one is the cause, not the step. Then the linearised step
+    at the start and at the failing step's start (beyond the stable range: the estimate
+    of the stable step); else ``err`` itself.
     """
     state = getattr(err, "state", None)
     if state is None or err.status == "non_finite_field":
         return err
-    singular = kinetic_energy_error(model, check.method, state, np.array([err.time]),
+    outputs = getattr(err, "outputs", np.asarray(x0, dtype=float)[None, :])
+    t_out = float(tv[len(outputs) - 1])
+    states, times = outputs, tv[: len(outputs)]
+    if getattr(model, "state_check", None) is not None and err.time != t_out:
+        loc = check.locate(t_out, outputs[-1], float(err.time))
+        states, times = np.vstack([states, loc.states]), np.concatenate([times, loc.times])
+    singular = kinetic_energy_error(model, check.method, np.vstack([states, state]),
+                                    np.append(times, err.time),
                                     f"step {err.step_index + 1} failed: {err.status}")
     if singular is not None:
         return singular
+    t0 = float(tv[0])
     # a step that failed (non-finite, no solution, Newton): beyond the stable range?
     xs = np.vstack([x0, state])
     fnd, _ = check.find_unstable(xs, [0, 1])

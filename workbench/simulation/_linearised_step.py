@@ -31,7 +31,7 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import SolverError
 from workbench.core.status import StatusEnum
-from workbench.simulation._probe import Probe
+from workbench.simulation._probe import RESTEP_CHUNK, Probe
 
 __all__ = [
     "StepStability",
@@ -44,7 +44,12 @@ __all__ = [
     "RK4_IMAGINARY",
     "RK4_REAL",
     "LOCATE_CANDIDATES",
+    "WALK_KEEP",
 ]
+
+WALK_KEEP = 100_000
+"""States kept of an interval stepped again (the last ones before the failure), for the
+model's state check."""
 
 LOCATE_CANDIDATES = 8
 """States between two outputs at which the step is linearised when a check failed there:
@@ -388,7 +393,8 @@ class LinearisedStep:
         n = max(1, round(abs(t1 - t0) / abs(self.h)))
         dt = (t1 - t0) / n
         cand: list[tuple[float, float, np.ndarray]] = []  # (h |A|_F, t, x)
-        last_t, last_x, done = t0, np.asarray(x0, dtype=float), 0
+        kept: list[tuple[np.ndarray, np.ndarray]] = []  # (times, states), the last WALK_KEEP
+        last_t, last_x, done, nk = t0, np.asarray(x0, dtype=float), 0, 0
         for X in self.probe.walk(x0, self.model.p, self.h, n):
             ts = t0 + dt * np.arange(done + 1, done + len(X) + 1)
             finite = np.all(np.isfinite(X), axis=1)
@@ -396,24 +402,33 @@ class LinearisedStep:
             hit = stop(ts[:m], X[:m]) if stop is not None and m else None
             m = m if hit is None else hit
             if m:
-                out = self.probe.mapped("field_jac", m)(X[:m], self.model.p)[0]
+                pad = np.vstack([X[:m], np.repeat(X[m - 1:m], RESTEP_CHUNK - m, axis=0)])
+                out = self.probe.mapped("field_jac", RESTEP_CHUNK)(pad, self.model.p)[0]
                 norms = abs(self.h) * np.sqrt(np.sum(np.asarray(out).reshape(
-                    -1, m, X.shape[1]) ** 2, axis=(0, 2)))
+                    -1, RESTEP_CHUNK, X.shape[1])[:, :m] ** 2, axis=(0, 2)))
                 for i in np.argsort(norms)[::-1][:LOCATE_CANDIDATES]:
                     cand.append((float(norms[i]), float(ts[i]), X[i]))
                 cand = sorted(cand, key=lambda c: c[0], reverse=True)[:LOCATE_CANDIDATES]
                 last_t, last_x = float(ts[m - 1]), X[m - 1]
+                kept.append((ts[:m], X[:m]))
+                nk += m
+                while nk - len(kept[0][0]) >= WALK_KEEP:
+                    nk -= len(kept.pop(0)[0])
             done += len(X)
             if m < len(X):
                 break
+        times = np.concatenate([k[0] for k in kept]) if kept else np.zeros(0)
+        states = (np.vstack([k[1] for k in kept]) if kept else
+                  np.zeros((0, np.asarray(x0).size)))
         # the run is known to have failed by the stop: a step that amplifies a mode beyond
         # the flow's bound is the cause even where it does not persist one step on (a
         # stiff wall kicks the state in one step and lets it go the next)
         for _, tc, xc in sorted(cand, key=lambda c: c[1]):
             fnd = self.finding(xc)
             if not fnd.stable or fnd.amplification > fnd.bound:
-                return Located(fnd, xc, tc, last_x, last_t)
-        return Located(None, None, None, last_x, last_t)
+                return Located(fnd, xc, tc, last_x, last_t, states, times)
+        return Located(None, None, None, last_x, last_t, states, times)
+
 
 @dataclass(frozen=True)
 class Located:
@@ -431,6 +446,10 @@ class Located:
         The last state before the failure (finite, before ``stop``).
     last_t : float
         Its time.
+    states : ndarray, shape=(n, ambient_dim)
+        The states stepped again, before the failure (the last :data:`WALK_KEEP`).
+    times : ndarray, shape=(n,)
+        Their times.
     """
 
     finding: StabilityFinding | None
@@ -438,3 +457,5 @@ class Located:
     t: float | None
     last_x: np.ndarray
     last_t: float
+    states: np.ndarray
+    times: np.ndarray

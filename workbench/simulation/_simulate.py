@@ -470,7 +470,7 @@ def _simulate_geometric(
     try:
         run = integrate(model, scheme, x0v, tv, step=step, controller=controller)
     except SolverError as err:
-        raise geometric_failure(model, check, err, x0v, float(tv[0])) from err
+        raise geometric_failure(model, check, err, x0v, tv) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)

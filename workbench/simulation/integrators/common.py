@@ -440,7 +440,8 @@ def integrate(
         with the step number, its time interval and residual), or a non-finite state; a
         field or controller that is not finite at the step's start (status
         ``non_finite_field``). The error carries ``state`` (the state at the start of the
-        failing step), ``time`` (its time) and ``step_index`` (zero-based).
+        failing step), ``time`` (its time), ``step_index`` (zero-based) and ``outputs``
+        (the states at the output times reached, ``t[:len(outputs)]``).
     """
     tv = np.asarray(t, dtype=float).ravel()
     if tv.size < 2 or not np.all(np.isfinite(tv)):
@@ -495,6 +496,7 @@ def integrate(
                     f"{t_k + h:.6g}, h = {h:.6g}) integrating {model.name}: {nan_field}",
                     status="non_finite_field")
                 err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+                err.outputs = np.array(out)  # type: ignore[attr-defined]
                 raise err
             if np.isinf(r):
                 what = f"the discrete update has no solution ({scheme.no_solution})"
@@ -523,6 +525,7 @@ def integrate(
                 status=status,
             )
             err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
+            err.outputs = np.array(out)  # type: ignore[attr-defined]  # the states at t[:len]
             raise err
         size = np.max(np.abs(X), axis=1)
         speed = np.max(np.abs(np.diff(np.vstack([x, X]), axis=0)), axis=1)
