@@ -99,7 +99,8 @@ def _rate_indices(n: int, idx: list[int]) -> list[int]:
     return out[:RATE_SAMPLES]
 
 
-def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int]) -> Watch:
+def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int],
+             initial: np.ndarray | None = None) -> Watch:
     """The conserved and the non-increasing invariants of a run.
 
     Parameters
@@ -112,6 +113,8 @@ def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int]) -> Watch
         The output states.
     idx : list of int
         The checked output indices, ``idx[0] == 0`` (at most ``RATE_SAMPLES``).
+    initial : ndarray, shape=(n_invariants,), optional
+        The invariants at ``x[0]``, when already computed.
 
     Returns
     -------
@@ -127,7 +130,8 @@ def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int]) -> Watch
     conserved = np.all(np.abs(rate) <= room, axis=1)
     falling = np.all(rate <= room, axis=1) & ~conserved
     x0_norm = float(np.linalg.norm(x[0]))
-    values = np.asarray(model.function("invariants")(x[0], model.p), dtype=float).ravel()
+    values = (np.asarray(model.function("invariants")(x[0], model.p), dtype=float).ravel()
+              if initial is None else np.asarray(initial, dtype=float))
     names = model.invariant_names
     scale = {n: max(abs(float(values[k])), float(gn[k, 0]) * x0_norm, tiny)
              for k, n in enumerate(names) if conserved[k] or falling[k]}

@@ -288,9 +288,11 @@ class LinearisedStep:
         return StabilityFinding(index, amp, growth, bound, rho_a, stable,
                                 trusted=change <= FROZEN_MAX)
 
-    def find_unstable(self, x: np.ndarray, indices: list[int]
+    def find_unstable(self, x: np.ndarray, indices: list[int], spectra: list | None = None
                       ) -> tuple[StabilityFinding | None, int]:
         """The earliest of the states ``x[indices]`` where the step is unstable.
+
+        ``spectra`` is :meth:`_field_spectra` of ``x[indices]`` when already computed.
 
         Returns
         -------
@@ -300,7 +302,7 @@ class LinearisedStep:
             :data:`SAFE_H_RHO`).
         """
         linearised = 0
-        spectra = self._field_spectra(x[indices])
+        spectra = self._field_spectra(x[indices]) if spectra is None else spectra
         for i, spec in zip(indices, spectra):
             fnd = self.finding(x[i], i, spectrum=spec)
             if not fnd.stable:

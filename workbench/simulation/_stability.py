@@ -163,19 +163,24 @@ class StepCheck(LinearisedStep):
             Status ``unstable_step`` or ``invariant_drift``.
         """
         idx = _samples(x, xdot)
-        linearised = None
-        between = list(between or [])
-        if self.linearised:
-            fnd, linearised = self.find_unstable(x, idx)
-            if fnd is not None:
+        linearised, A0 = None, None
+        between = list(between or []) if self.linearised else []
+        if self.linearised:  # the outputs and the states between them, in one evaluation
+            n = len(x)
+            xs = np.vstack([x, *[xb[None, :] for _, xb, _ in between]]) if between else x
+            at = idx + list(range(n, len(xs)))
+            spectra = self._field_spectra(xs[at])
+            A0 = spectra[0][0]
+            fnd, linearised = self.find_unstable(xs, at, spectra=spectra)
+            if fnd is not None and fnd.index < n:
                 raise self.unstable_error(fnd, x[fnd.index], float(t[fnd.index]))
-            for tb, xb, what in between:
-                fnd = self.finding(xb)
-                if not fnd.stable:
-                    raise self.unstable_error(fnd, xb, tb, what=f" ({what} between outputs)")
-                linearised += not math.isnan(fnd.amplification)
-        self._check_growth(t, x, xdot)
-        watch = classify(self.probe, self.model, x, idx)  # idx[0] == 0
+            if fnd is not None:
+                tb, xb, what = between[fnd.index - n]
+                raise self.unstable_error(fnd, xb, tb, what=f" ({what} between outputs)")
+        self._check_growth(t, x, xdot, A0)
+        initial = None if drift is None else np.array(
+            [float(drift[k]["initial"]) for k in self.model.invariant_names])
+        watch = classify(self.probe, self.model, x, idx, initial)  # idx[0] == 0
         if watch.names:
             self._check_invariants(t, x, watch, drift)
         return {"stability": {
@@ -187,7 +192,7 @@ class StepCheck(LinearisedStep):
         }}
 
     def _growth_allowance(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
-                          rate: bool) -> tuple[np.ndarray, float]:
+                          rate: bool, A: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """What the flow allows ``max |x|`` to be at the times ``t``, and ``alpha(x0)``.
 
         ``max(|x0|, |t - t0| |f0|, |t - t0|^2 |A0 f0| / 2)`` (max-norms), times ``exp(max(
@@ -196,9 +201,10 @@ class StepCheck(LinearisedStep):
         """
         f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
               np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
-        n = x.shape[1]
-        A = np.asarray(self.probe.mapped("field_jac", 1)(x[:1], self.model.p)[0],
-                       dtype=float).reshape(n, n)
+        if A is None:  # the ambient Jacobian at x0
+            n = x.shape[1]
+            A = np.asarray(self.probe.mapped("field_jac", 1)(x[:1], self.model.p)[0],
+                           dtype=float).reshape(n, n)
         af0 = float(np.max(np.abs(A @ f0))) if np.all(np.isfinite(A)) else math.inf
         dt = np.abs(t - t[0])
         alpha = 0.0
@@ -210,7 +216,8 @@ class StepCheck(LinearisedStep):
                               np.maximum(dt * float(np.max(np.abs(f0))), 0.5 * dt**2 * af0))
             return base * np.exp(np.minimum(max(alpha, 0.0) * dt, 700.0)), alpha
 
-    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
+    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
+                      A0: np.ndarray | None = None) -> None:
         """Refuse states grown by orders of magnitude beyond what the flow allows.
 
         The allowance at ``t_k`` is ``GROWTH_LIMIT`` times :meth:`_growth_allowance`: the
@@ -218,10 +225,10 @@ class StepCheck(LinearisedStep):
         of the linearised flow at the start.
         """
         size = np.max(np.abs(x), axis=1)
-        allowed, alpha = self._growth_allowance(t, x, xdot, rate=False)
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=False, A=A0)
         if np.all(size <= GROWTH_LIMIT * allowed):  # common: no need of the growth rate
             return
-        allowed, alpha = self._growth_allowance(t, x, xdot, rate=True)
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=True, A=A0)
         bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
         if not bad.size:
             return

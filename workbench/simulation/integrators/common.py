@@ -527,13 +527,15 @@ def integrate(
             err.state, err.time, err.step_index = x_k.copy(), t_k, k  # type: ignore[attr-defined]
             err.outputs = np.array(out)  # type: ignore[attr-defined]  # the states at t[:len]
             raise err
-        size = np.max(np.abs(X), axis=1)
-        speed = np.max(np.abs(np.diff(np.vstack([x, X]), axis=0)), axis=1)
+        # flat argmax: ~15 us per chunk of 512 steps (row-wise reductions take ~100 us)
+        size, speed = np.abs(X), np.abs(np.diff(X, axis=0, prepend=x[None, :]))
         i, j = int(size.argmax()), int(speed.argmax())
-        if size[i] > largest[0]:
-            largest = (float(size[i]), done + i + 1, X[i].copy())
-        if speed[j] > fastest[0]:
-            fastest = (float(speed[j]), done + j, (x if j == 0 else X[j - 1]).copy())
+        if size.flat[i] > largest[0]:
+            i //= X.shape[1]
+            largest = (float(size[i].max()), done + i + 1, X[i].copy())
+        if speed.flat[j] > fastest[0]:
+            j //= X.shape[1]
+            fastest = (float(speed[j].max()), done + j, (x if j == 0 else X[j - 1]).copy())
         max_res = max(max_res, float(res.max()))
         its_total += int(its.sum())
         its_max = max(its_max, int(its.max()))
