@@ -78,6 +78,7 @@ __all__ = [
     "SAFE_H_RHO",
     "FROZEN_MAX",
     "GROWTH_LIMIT",
+    "EXPLODED",
     "RK4_IMAGINARY",
     "RK4_REAL",
     "LOCATE_CANDIDATES",
@@ -99,6 +100,11 @@ eigenvectors; 1e4 leaves room for the transient growth (peaking) of strongly non
 loops and for the nonlinearity, while an unstable step multiplies the state by at least its
 amplification (above 1.01, typically 1.1 to 1.5) every step, so that it passes 1e4 within a
 few tens to a few hundred steps. It was 1e6, which let a 3000-fold growth through."""
+
+EXPLODED = 1e3
+"""A non-increasing invariant that rose by more than this many times its scale has exploded:
+the run is refused as an unstable step even where re-stepping located no unstable state
+(below it, as an untrustworthy run: an unstable or too coarse step)."""
 
 SAMPLES = 4
 """Evenly spaced output states checked (the first and the last among them), besides the
@@ -309,7 +315,8 @@ class StepCheck(LinearisedStep):
         located = self._locate(t, x, j, stop, what=what)
         if located is not None:
             raise located
-        if rising and self.linearised:  # a method with a stable range it can leave
+        if rising and self.linearised and values[k, j] - values[k, 0] > EXPLODED * scale:
+            # orders of magnitude: an instability even where no step was located
             raise SolverError(
                 f"{self.method}: step h = {abs(self.h):.4g} is beyond the stable range of the "
                 f"method integrating {model.name} somewhere between t = {t[j - 1]:.6g} and "
