@@ -179,7 +179,7 @@ def geometric_failure(model: Model, check: StepCheck, err: SolverError, x0: np.n
 
 
 def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
-                 tv: np.ndarray, opts: dict[str, Any]) -> tuple[float, np.ndarray]:
+                 tv: np.ndarray, opts: dict[str, Any]) -> tuple[float, np.ndarray, bool]:
     """The last time and state CVODES reaches from ``x0`` along ``tv`` (after a failure).
 
     Restarts of at most :data:`REACH_STEPS` steps each, :data:`REACH_TRIES` of them: a
@@ -201,8 +201,9 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
 
     Returns
     -------
-    (float, ndarray)
-        The time reached and the state there.
+    (float, ndarray, bool)
+        The time reached, the state there, and whether CVODES stalls there (the stride
+        fell below 1e-12 of the horizon; False when the restarts ran out first).
     """
     S = model.sym
     x, p, tau = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("tau")
@@ -212,9 +213,11 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
                           0.0, 1.0, {**opts, "max_num_steps": REACH_STEPS})
     span, sign = abs(float(tv[-1] - tv[0])), 1.0 if tv[-1] > tv[0] else -1.0
     done, xa, stride = 0.0, np.asarray(x0, dtype=float), abs(float(tv[1] - tv[0]))
+    stalled = False
     for _ in range(REACH_TRIES):
         stride = min(stride, span - done)
         if stride <= 1e-12 * span:
+            stalled = done < span
             break
         try:
             xb = np.asarray(reach(x0=xa, p=np.append(model.p, sign * stride))["xf"],
@@ -225,4 +228,4 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
             done, xa, stride = done + stride, xb, 2.0 * stride
         else:
             stride *= 0.5
-    return float(tv[0] + sign * done), xa
+    return float(tv[0] + sign * done), xa, stalled

@@ -39,6 +39,7 @@ from workbench.simulation._cvodes import (
 )
 from workbench.simulation._failure import (
     REACH_STEPS,
+    REACH_TRIES,
     casadi_non_finite,
     cvodes_reach,
     geometric_failure,
@@ -502,7 +503,7 @@ def _integrator_failure(model: Model, controller: ca.Function | None, method: Me
     reached = ""
     has_check = getattr(model, "state_check", None) is not None
     if method is Method.CVODES and (out_of_steps or has_check):
-        t_r, x_r = cvodes_reach(model, controller, x0v, tv, opts)
+        t_r, x_r, stalled = cvodes_reach(model, controller, x0v, tv, opts)
         singular = kinetic_energy_error(model, method.value, x_r, np.array([t_r]),
                                         f"CVODES: {text.strip()}")
         if singular is not None:
@@ -511,8 +512,10 @@ def _integrator_failure(model: Model, controller: ca.Function | None, method: Me
         f0, fr = (float(np.max(np.abs(np.asarray(loop(x, model.p)[0], dtype=float))))
                   for x in (x0v, x_r))
         reached = (f"; restarted with {REACH_STEPS} steps at a time it gets no further than "
-                   f"t = {t_r:.6g}, x = {np.array2string(x_r, precision=4)}")
-        if fr > STALL_GROWTH * max(f0, np.finfo(float).tiny):
+                   f"t = {t_r:.6g}, x = {np.array2string(x_r, precision=4, max_line_width=10_000)}" if stalled else
+                   f"; restarted {REACH_TRIES} times with {REACH_STEPS} steps at a time it "
+                   f"reaches t = {t_r:.6g}, x = {np.array2string(x_r, precision=4, max_line_width=10_000)}")
+        if stalled and fr > STALL_GROWTH * max(f0, np.finfo(float).tiny):
             out_of_steps = False  # the advice to raise max_steps would not help
             reached += (f", where the field has grown to max |f| = {fr:.3g} from {f0:.3g} at "
                         f"x0: the steps shrink without end towards a singularity of the "
