@@ -24,7 +24,7 @@ from workbench.simulation._stability import StepCheck
 from workbench.simulation.integrators.common import field_failure
 
 __all__ = ["kinetic_energy_error", "cvodes_reach", "casadi_non_finite", "geometric_failure",
-           "REACH_STEPS", "REACH_TRIES", "KINETIC_ENERGY_STATUS"]
+           "REACH_STEPS", "REACH_TRIES", "STALL_STRIDE", "KINETIC_ENERGY_STATUS"]
 
 REACH_STEPS = 2000
 """CVODES steps allowed to each restart of :func:`cvodes_reach`."""
@@ -32,6 +32,10 @@ REACH_STEPS = 2000
 REACH_TRIES = 80
 """Restarts of :func:`cvodes_reach` (at most ``REACH_STEPS * REACH_TRIES`` steps: about a
 second for a small model)."""
+
+STALL_STRIDE = 1e-6
+"""CVODES stalls (:func:`cvodes_reach`) where the strides it can still take are below this
+fraction of the time it travelled."""
 
 KINETIC_ENERGY_STATUS = "kinetic_energy_not_definite"
 """Status of the SolverError of a run that reached a state where the kinetic energy is not
@@ -184,7 +188,7 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
 
     Restarts of at most :data:`REACH_STEPS` steps each, :data:`REACH_TRIES` of them: a
     stride that succeeds is taken and doubled, one that fails is halved, until the stride
-    is below 1e-12 of the horizon.
+    no longer moves ``t``.
 
     Parameters
     ----------
@@ -202,8 +206,8 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
     Returns
     -------
     (float, ndarray, bool)
-        The time reached, the state there, and whether CVODES stalls there (the stride
-        fell below 1e-12 of the horizon; False when the restarts ran out first).
+        The time reached, the state there, and whether CVODES stalls there (the last
+        stride below :data:`STALL_STRIDE` times the time travelled).
     """
     S = model.sym
     x, p, tau = S.sym("x", model.manifold.ambient_dim), S.sym("p", model.n_params), S.sym("tau")
@@ -213,12 +217,10 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
                           0.0, 1.0, {**opts, "max_num_steps": REACH_STEPS})
     span, sign = abs(float(tv[-1] - tv[0])), 1.0 if tv[-1] > tv[0] else -1.0
     done, xa, stride = 0.0, np.asarray(x0, dtype=float), abs(float(tv[1] - tv[0]))
-    stalled = False
     for _ in range(REACH_TRIES):
         stride = min(stride, span - done)
-        if stride <= 1e-12 * span:
-            stalled = done < span
-            break
+        if stride <= 4 * np.finfo(float).eps * (abs(float(tv[0])) + done):
+            break  # a stride that no longer moves t
         try:
             xb = np.asarray(reach(x0=xa, p=np.append(model.p, sign * stride))["xf"],
                             dtype=float).ravel()
@@ -228,4 +230,7 @@ def cvodes_reach(model: Model, controller: ca.Function | None, x0: np.ndarray,
             done, xa, stride = done + stride, xb, 2.0 * stride
         else:
             stride *= 0.5
+    # a stall: the strides that still succeed have shrunk to a millionth of the time
+    # travelled (towards a singular time); a long horizon keeps strides of its own scale
+    stalled = done < span and stride < STALL_STRIDE * done
     return float(tv[0] + sign * done), xa, stalled

@@ -511,10 +511,11 @@ def _integrator_failure(model: Model, controller: ca.Function | None, method: Me
         loop = closed_loop_function(model, controller)
         f0, fr = (float(np.max(np.abs(np.asarray(loop(x, model.p)[0], dtype=float))))
                   for x in (x0v, x_r))
+        x_text = np.array2string(x_r, precision=4, max_line_width=10_000)
         reached = (f"; restarted with {REACH_STEPS} steps at a time it gets no further than "
-                   f"t = {t_r:.6g}, x = {np.array2string(x_r, precision=4, max_line_width=10_000)}" if stalled else
+                   f"t = {t_r:.6g}, x = {x_text}" if stalled else
                    f"; restarted {REACH_TRIES} times with {REACH_STEPS} steps at a time it "
-                   f"reaches t = {t_r:.6g}, x = {np.array2string(x_r, precision=4, max_line_width=10_000)}")
+                   f"reaches t = {t_r:.6g}, x = {x_text}")
         if stalled and fr > STALL_GROWTH * max(f0, np.finfo(float).tiny):
             out_of_steps = False  # the advice to raise max_steps would not help
             reached += (f", where the field has grown to max |f| = {fr:.3g} from {f0:.3g} at "
