@@ -431,3 +431,24 @@ def test_rkmk4_on_the_sphere_beyond_stability_raises(sphere):
         simulate(sphere, x0, np.linspace(0, 40, 11), method="rkmk4", step=3.2 / w)
     est = float(str(info.value).split("estimated stable step h < ")[1].split(" ")[0])
     assert est == pytest.approx(2.0 * np.sqrt(2.0) / w, rel=0.02)
+
+
+def test_integrate_reports_the_largest_and_fastest_step_between_outputs(body):
+    """Two outputs, 200 steps: the largest state and the start of the fastest step that
+    integrate reports are those of the same run with an output at every step."""
+    x0 = body_state(body, c=2.0)
+    h, n = 0.01, 200
+    coarse = integrate(body, rkmk4(body), x0, [0.0, n * h], step=h)
+    fine = integrate(body, rkmk4(body), x0, h * np.arange(n + 1), step=h)
+    assert_close(coarse.x[-1], fine.x[-1], atol=1e-12, what="the same steps (round-off)")
+    (t_big, x_big, what_big), (t_fast, x_fast, what_fast) = coarse.between
+    assert "largest" in what_big and "fastest" in what_fast
+    k = int(np.argmax(np.max(np.abs(fine.x), axis=1)))
+    assert t_big == pytest.approx(fine.t[k])
+    assert_close(x_big, fine.x[k], atol=1e-12, what="the largest state")
+    j = int(np.argmax(np.max(np.abs(np.diff(fine.x, axis=0)), axis=1)))
+    assert t_fast == pytest.approx(fine.t[j])
+    assert_close(x_fast, fine.x[j], atol=1e-12, what="the start of the fastest step")
+    # simulate linearises the step there too
+    tr = simulate(body, x0, [0.0, n * h], method="rkmk4", step=h)
+    assert tr.diagnostics["stability"]["checked_states"] == 2 + 2

@@ -232,3 +232,17 @@ def test_fixed_step_count_and_collocation_degree_are_bounded():
     with pytest.raises(ModelError, match=r"degree must be .*9"):
         simulate(model, x0, np.linspace(0.0, 1.0, 3), method="collocation", step=0.1,
                  degree=10)
+
+
+def test_cvodes_max_steps_is_bounded_before_anything_runs(planar):
+    """``max_steps = 10**18`` over ``t = [0, 1e9]`` ran for hours; it is refused at once,
+    with the bound in the message, and the bound itself is accepted."""
+    from workbench.simulation._cvodes import MAX_STEPS
+
+    x0 = planar_state(planar)
+    with pytest.raises(ModelError, match=rf"max_steps must be .*<= 1e\+08; got {10**18}"):
+        simulate(planar, x0, [0.0, 1e9], max_steps=10**18)
+    at_bound = simulate(planar, x0, [0.0, 0.5], max_steps=MAX_STEPS)
+    default = simulate(planar, x0, [0.0, 0.5])
+    assert at_bound.cost["steps"] == default.cost["steps"]  # the knob only caps the steps
+    assert np.array_equal(at_bound.x, default.x)

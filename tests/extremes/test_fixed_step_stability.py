@@ -213,13 +213,25 @@ def test_a_conserved_invariant_that_jumps_is_refused_with_its_time(undamped):
     assert check.run(t, x)["stability"]["conserved_invariants"] == ["energy"]
 
 
-def test_a_dissipated_or_forced_invariant_is_not_checked(damped, undamped):
-    t, x = exact_orbit(50, 30)
+def test_a_dissipated_invariant_may_fall_but_not_rise_and_a_forced_one_is_not_checked(
+        damped, undamped):
+    """The damped energy can only fall along the flow: a fall of any size passes, a rise
+    by more than DRIFT_LIMIT times its scale is refused; a fed energy may do either."""
+    t, x = exact_orbit(50, 30)  # the energy x 100 from t[30] on
     check = StepCheck(damped, probe_for(damped, None), "collocation", None, False, 0.1)
-    assert check.run(t, x)["stability"]["conserved_invariants"] == []
+    with pytest.raises(SolverError) as info:
+        check.run(t, x)
+    assert info.value.status == "invariant_drift"
+    assert f"rose from 2 to 200 by t = {t[30]:.6g}" in str(info.value)
+    assert "does not increase" in str(info.value)
+    fallen = x.copy()
+    fallen[30:] *= 1e-5  # the energy / 1e10: what damping may do
+    st = check.run(t, fallen)["stability"]
+    assert st["conserved_invariants"] == [] and st["non_increasing_invariants"] == ["energy"]
     forced = StepCheck(undamped, probe_for(undamped, feedback(0.2)), "collocation", None,
                        False, 0.1)
-    assert forced.run(t, x)["stability"]["conserved_invariants"] == []
+    st = forced.run(t, x)["stability"]
+    assert st["conserved_invariants"] == [] and st["non_increasing_invariants"] == []
 
 
 def test_a_state_exploding_beyond_the_flow_is_refused_whatever_the_method(damped, undamped):
@@ -302,3 +314,131 @@ def test_sample_repeat_halving_and_worker_counts_are_bounded_before_any_work(und
         default_reference(1.0, halvings=60)
     with pytest.raises(ParameterError, match=rf"workers must be .*<= {MAX_WORKERS}"):
         sweep(abs, [{"x": 1}], workers=10**6)
+
+
+# ----------------------------------------------------------------------------------------
+# an instability between outputs: a stiff wall hit and left within one output interval
+
+
+def wall(damping: float) -> Model:
+    """``V = x^2 / 2 + x^12``: soft near 0, stiff for ``|x| > 1`` (``V'' = 1 + 132 x^10``)."""
+    s = mechanics.System("wall")
+    f = s.rn("x", 1, velocity="v")
+    s.kinetic(0.5 * ca.dot(f.v, f.v))
+    s.potential(0.5 * f.x[0] ** 2 + f.x[0] ** 12)
+    if damping:
+        s.dissipation(0.5 * damping * f.v[0] ** 2)
+    return s.model()
+
+
+@pytest.mark.parametrize(("method", "v0", "horizon", "h"), [
+    ("rk", 6.0, 1.7, 0.0763536),                     # energy 18 -> 1.9e8, was "stable"
+    ("mechanics_variational", 4.0, 1.0, 0.0873806),  # energy 8 -> 4.2e9, was "stable"
+])
+def test_a_damped_wall_exploding_between_outputs_is_refused_and_the_estimate_holds(
+        method, v0, horizon, h):
+    """Two outputs, the blow-up between them: the linearised step at the outputs (soft
+    region) sees nothing, but the damped energy, which the flow can only lower, rose by
+    orders of magnitude. The interval is stepped again: the error names the state at the
+    wall where the step is unstable, and the step estimated there runs, its energy never
+    rising and ending within 10 % of CVODES'."""
+    model = wall(0.02)
+    x0 = model.state(x=[0.0], v=[v0])
+    t = np.array([0.0, horizon])
+    with pytest.raises(SolverError) as info:
+        simulate(model, x0, t, method=method, step=h)
+    msg = str(info.value)
+    assert info.value.status == "unstable_step" and "between outputs" in msg, msg
+    state = re.search(r"\(x = \[\s*([-0-9.e+]+)", msg)
+    assert state and abs(float(state.group(1))) > 1.0  # at the wall, where V'' > 133
+    est = estimate(msg)
+    assert est < h
+    ok = simulate(model, x0, t, method=method, step=est)
+    ref = simulate(model, x0, t, rtol=1e-12, atol=1e-12)
+    E, E_ref = ok.invariant_series("energy"), ref.invariant_series("energy")
+    # stable, if coarse: the energy never rises by more than 5 % (it rose 1e7-fold at h),
+    # and ends within 15 % of CVODES' (RK4 loses 11 % more, the variational step gains 4 %)
+    assert np.max(E - E[0]) <= 0.05 * E[0]
+    assert E[-1] == pytest.approx(E_ref[-1], rel=0.15)
+    assert ok.diagnostics["stability"]["non_increasing_invariants"] == ["energy"]
+
+
+def test_a_conservative_wall_whose_energy_grows_elevenfold_is_refused():
+    """Undamped, RK4 at h = 0.1: the energy went 8 -> 89 between the outputs (it was
+    accepted within the former 10 times its scale); the conserved energy may move by
+    DRIFT_LIMIT = 1 times its scale (2 E0 here: E is a quadratic form near 0) at most."""
+    model = wall(0.0)
+    with pytest.raises(SolverError, match="changed from 8 to 88.9") as info:
+        simulate(model, model.state(x=[0.0], v=[4.0]), np.array([0.0, 1.0]), method="rk",
+                 step=0.1)
+    assert info.value.status == "unstable_step"
+
+
+def test_the_drift_limit_admits_the_variational_energy_error_of_stable_steps(undamped):
+    """The variational step on x'' = -W^2 x conserves v^2 + W^2 (1 - c) x^2, c = (h W / 2)^2,
+    so from x = 0 the energy peaks at exactly E0 / (1 - c): a rise of c / (2 (1 - c)) times
+    the scale 2 E0, within DRIFT_LIMIT = 1 up to c = 2/3 (h W = 1.633); beyond it refused
+    (the steps are stable but the energy error exceeds the energy)."""
+    x0 = undamped.state(x=[0.0], v=[1.0])
+    for hw in (1.3, 1.5, 1.62):  # rotation angles incommensurate with pi: the peak is met
+        h = hw / W
+        tr = simulate(undamped, x0, h * np.arange(401), method="mechanics_variational",
+                      step=h)
+        E = tr.invariant_series("energy")
+        assert E.max() / E[0] == pytest.approx(1.0 / (1.0 - (hw / 2) ** 2), rel=1e-4)
+    with pytest.raises(SolverError) as info:
+        simulate(undamped, x0, 0.85 * np.arange(401), method="mechanics_variational",
+                 step=0.85)
+    assert info.value.status == "invariant_drift"  # h W = 1.7: c / (2 (1 - c)) = 1.30
+
+
+def test_a_forced_run_is_never_flagged_for_its_energy_rise(undamped):
+    """The loop feeds the energy (grad E . f > 0 at the samples): its rise by e^(0.2 t) over
+    100 s, a factor 5e8, is legitimate, within the stable range."""
+    tr = simulate(undamped, x0_of(undamped), outputs(0.25, 400), controller=feedback(0.2),
+                  method="rk", step=0.25)
+    st = tr.diagnostics["stability"]
+    assert st["non_increasing_invariants"] == [] and st["conserved_invariants"] == []
+
+
+# ----------------------------------------------------------------------------------------
+# a run that meets a singular kinetic energy says so, with the state and the time
+
+
+def coupled() -> Model:
+    """``T = (v1^2 + v2^2) / 2 + q1 v1 v2``: ``M = [[1, q1], [q1, 1]]``, singular on
+    ``|q1| = 1`` and indefinite beyond; ``V = -2 q1`` pulls ``q1`` from 0.5 towards 1."""
+    s = mechanics.System("coupled")
+    q = s.rn("q", 2, velocity="v")
+    s.kinetic(0.5 * (q.v[0] ** 2 + q.v[1] ** 2) + q.x[0] * q.v[0] * q.v[1])
+    s.potential(-2.0 * q.x[0])
+    return s.model()
+
+
+@pytest.mark.parametrize("method", ["rk", "rkmk4"])
+def test_a_fixed_step_run_past_a_singular_kinetic_energy_names_the_first_bad_state(method):
+    model = coupled()
+    x0 = model.state(q=[0.5, 0.0], v=[0.0, 0.0])
+    with pytest.raises(SolverError) as info:
+        simulate(model, x0, np.linspace(0.0, 3.0, 31), method=method, step=0.05)
+    msg = str(info.value)
+    assert info.value.status == "kinetic_energy_not_definite", msg
+    assert "not positive definite" in msg and "Reduce step" not in msg
+    when = float(re.search(r"at t = ([0-9.e+-]+) \(state", msg).group(1))
+    q1 = float(re.search(r"at the state x = \[\s*([-0-9.e+]+)", msg).group(1))
+    assert abs(q1) > 1.0  # M's eigenvalues are 1 +- q1: indefinite there
+    assert when > 0.5  # after the exact motion reaches q1 = 1 (CVODES stalls at t = 0.5002)
+
+
+def test_cvodes_stalling_at_a_singular_kinetic_energy_says_so_and_not_raise_max_steps():
+    model = coupled()
+    x0 = model.state(q=[0.5, 0.0], v=[0.0, 0.0])
+    with pytest.raises(SolverError) as info:
+        simulate(model, x0, np.array([0.0, 3.0]), max_steps=20_000)
+    msg = str(info.value)
+    reached = float(re.search(r"no further than t = ([0-9.e+-]+), x = \[\s*([-0-9.e+]+)",
+                              msg).group(1))
+    q1 = float(re.search(r"no further than t = [0-9.e+-]+, x = \[\s*([-0-9.e+]+)",
+                         msg).group(1))
+    assert reached == pytest.approx(0.5002, abs=1e-3) and q1 == pytest.approx(1.0, abs=1e-3)
+    assert "singularity of the equations" in msg and "raise max_steps" not in msg

@@ -5,10 +5,18 @@ from __future__ import annotations
 from enum import Enum
 from typing import Any
 
+import numpy as np
+
 from workbench.core.errors import ModelError, WorkbenchError
 from workbench.core.validate import choice, count, tolerance
 
-__all__ = ["Multistep", "Corrector", "cvodes_options"]
+__all__ = ["Multistep", "Corrector", "cvodes_options", "check_max_steps", "MAX_STEPS"]
+
+MAX_STEPS = 10**8
+"""Largest accepted CVODES ``max_steps`` (internal steps per output interval): 1e8 steps of
+a small model take minutes (the 3D pendulum runs about 3e5 steps/s), the same bound as the
+fixed-step methods' total (``integrators.common.MAX_FIXED_STEPS``). Without it a run of
+``t = [0, 1e9]`` with ``max_steps = 10**18`` would go on for hours before saying anything."""
 
 
 class Multistep(str, Enum):
@@ -67,8 +75,8 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
     rtol, atol : float
         Tolerances: positive finite numbers.
     max_steps : int, optional
-        CVODES' limit on internal steps per output interval, an integer >= 1 (casadi's
-        default when None).
+        CVODES' limit on internal steps per output interval, an integer in ``[1,
+        MAX_STEPS]`` (casadi's default when None).
     error : type of Exception
         Raised for an unknown ``multistep`` or ``corrector``, a bad tolerance or
         ``max_steps``, naming the argument.
@@ -81,7 +89,7 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
     rtol = tolerance("rtol", rtol, error=error)
     atol = tolerance("atol", atol, error=error)
     if max_steps is not None:
-        max_steps = count("max_steps", max_steps, error=error)
+        max_steps = check_max_steps(max_steps, error=error)
     multistep = choice(Multistep, multistep, "multistep", error=error)
     if corrector is None:
         corrector = Corrector.FUNCTIONAL if multistep is Multistep.ADAMS else Corrector.NEWTON
@@ -92,3 +100,27 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
     if max_steps is not None:
         opts["max_num_steps"] = max_steps
     return opts
+
+
+def check_max_steps(max_steps: object, *, error: type[WorkbenchError] = ModelError) -> int:
+    """CVODES' ``max_steps`` as an int in ``[1, MAX_STEPS]``, checked before anything runs.
+
+    Parameters
+    ----------
+    max_steps : int
+        Internal steps per output interval.
+    error : type of Exception
+        Raised for a value that is not such an integer, naming the argument and the bound.
+
+    Returns
+    -------
+    int
+    """
+    if (isinstance(max_steps, (int, np.integer)) and not isinstance(max_steps, bool)
+            and max_steps > MAX_STEPS):
+        raise error(
+            f"max_steps must be an integer >= 1 and <= {MAX_STEPS:.0e}; got {max_steps}: it "
+            f"bounds CVODES' internal steps per output interval, and {MAX_STEPS:.0e} steps of "
+            f"a small model already take minutes. For a long horizon output at more times t "
+            f"(the limit is per output interval), or shorten the horizon")
+    return count("max_steps", max_steps, maximum=MAX_STEPS, error=error)

@@ -9,11 +9,13 @@ invariants along it, and the step map whose Jacobian is built on first use.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Any
 
 import casadi as ca
+import numpy as np
 
 from workbench.core._evaluator import DenseEvaluator
 from workbench.core._feedback import feedback_function
@@ -21,7 +23,11 @@ from workbench.core._model import Model
 from workbench.core.errors import SolverError
 from workbench.simulation.integrators.common import controller_key
 
-__all__ = ["Probe", "probe_for", "rk4_step"]
+__all__ = ["Probe", "probe_for", "rk4_step", "RESTEP_CHUNK"]
+
+RESTEP_CHUNK = 256
+"""Steps evaluated per call when an output interval is stepped again to locate a failure
+(:meth:`Probe.walk`)."""
 
 
 def rk4_step(field: ca.Function, sym: type) -> ca.Function:
@@ -65,6 +71,12 @@ class Probe:
         The step map ``(x, p, h) -> (x_next, ...)`` (None: none to linearise).
     rates : casadi.Function or None
         ``(x, p) -> (grad I . f, |grad I|, |f|)`` for every invariant (None: none).
+
+    Notes
+    -----
+    The states between two outputs are not kept by the integrators; when a check fails
+    between outputs, :meth:`walk` steps that interval again with the same step map (the
+    same arithmetic as the run, up to round-off for casadi's ``rk``) to locate the failure.
     """
 
     field: ca.Function
@@ -82,6 +94,32 @@ class Probe:
             hit = self._maps[(name, k)] = DenseEvaluator(
                 fn.map(f"{fn.name()}_{k}", "serial", k, [1], []))
         return hit
+
+    def walk(self, x: np.ndarray, p: np.ndarray, h: float, n: int
+             ) -> Iterator[np.ndarray]:
+        """The states after each of ``n`` steps from ``x``, chunk by chunk.
+
+        Yields arrays of shape ``(m, ambient_dim)`` (``m <= RESTEP_CHUNK``) of consecutive
+        states; stops after the chunk where a state is not finite.
+        """
+        if self.step is None:
+            raise SolverError("no step map to re-step")  # a caller's defect
+        ev = self._maps.get(("walk", RESTEP_CHUNK))
+        if ev is None:
+            xs, ps, hs = (ca.MX.sym(k, self.step.nnz_in(i)) for i, k in enumerate("xph"))
+            out = self.step.mapaccum(f"{self.step.name()}_walk", RESTEP_CHUNK)(
+                xs, ca.repmat(ps, 1, RESTEP_CHUNK), ca.repmat(hs, 1, RESTEP_CHUNK))
+            X = out[0] if isinstance(out, (list, tuple)) else out
+            ev = self._maps[("walk", RESTEP_CHUNK)] = DenseEvaluator(
+                ca.Function("walk", [xs, ps, hs], [X]))
+        done, cur = 0, np.asarray(x, dtype=float).ravel()
+        while done < n:
+            m = min(RESTEP_CHUNK, n - done)
+            X = ev(cur, p, h)[0].T[:m]
+            yield X
+            if not np.all(np.isfinite(X)):
+                return
+            done, cur = done + m, X[-1]
 
     @property
     def step_jac(self) -> ca.Function:

@@ -30,7 +30,21 @@ from workbench.core.manifolds import DEFAULT_TOL
 from workbench.core.types import ArrayLike
 from workbench.core.validate import choice, count
 from workbench.simulation._compiled_rhs import compiled_ode
-from workbench.simulation._cvodes import Corrector, Multistep, cvodes_options
+from workbench.simulation._cvodes import (
+    MAX_STEPS,
+    Corrector,
+    Multistep,
+    check_max_steps,
+    cvodes_options,
+)
+from workbench.simulation._failure import (
+    REACH_STEPS,
+    REACH_TRIES,
+    casadi_non_finite,
+    cvodes_reach,
+    geometric_failure,
+    kinetic_energy_error,
+)
 from workbench.simulation._stability import StepCheck, probe_for
 from workbench.simulation._trajectory import Trajectory, constraint_residuals
 from workbench.simulation._trajectory import diagnostics as _diagnostics
@@ -106,6 +120,10 @@ GEOMETRIC_METHODS = (Method.LGVI, Method.S2_VARIATIONAL, Method.RKMK4,
                      Method.MECHANICS_VARIATIONAL)
 """Methods implemented in :mod:`workbench.simulation.integrators` (fixed step, manifold kept)."""
 
+
+STALL_GROWTH = 1e3
+"""A CVODES run that stalls where the field has grown this many times over its value at
+``x0`` has met a singularity of the equations (more steps do not pass it)."""
 
 MAX_POINTS = 1_000_000
 """Default ``max_points`` of :func:`simulate`: the largest output grid accepted unasked."""
@@ -210,8 +228,10 @@ def simulate(
         ``"newton"`` (default with BDF); see :class:`Corrector`. Adams with Newton, casadi's
         own default, is ``corrector="newton"``.
     max_steps : int
-        CVODES' limit on internal steps per output interval; a long horizon between two
-        output times may need more (the failure says so and names this knob).
+        CVODES' limit on internal steps per output interval, at most
+        :data:`~workbench.simulation._cvodes.MAX_STEPS` (1e8: minutes for a small model);
+        a long horizon between two output times may need more (the failure says so and
+        names this knob).
     max_points : int
         Largest accepted number of output times (default :data:`MAX_POINTS`, 10^6: the
         states alone take ``8 * ambient_dim`` bytes each, and the diagnostics evaluate
@@ -268,7 +288,7 @@ def simulate(
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
     for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
         validate.tolerance(name, val, error=ModelError)
-    max_steps = count("max_steps", max_steps, error=ModelError)
+    max_steps = check_max_steps(max_steps, error=ModelError)  # bounded before anything runs
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
     _check_knobs_used(method, step=step, degree=degree, jit=jit)
     # unrolled into the step's graph: bounded before anything is built
@@ -353,17 +373,8 @@ def simulate(
     try:
         res = integrator(x0=x0v, p=p_in)
     except RuntimeError as exc:
-        stats = integrator.stats()
-        status = str(stats.get("return_status", "integrator error"))
-        knob = (f"; the integrator ran out of steps: raise max_steps= (now {max_steps}) or "
-                f"output at more times t (the limit is per output interval)"
-                if "too_much_work" in f"{status} {exc}".lower() else "")
-        raise SolverError(
-            f"{method.value} failed integrating {model.name} from t={tv[0]:g} "
-            f"(reached t={tv[0] + sign * float(stats.get('tcur', 0.0)):g}): "
-            f"{str(exc).splitlines()[-1] if str(exc) else exc!r}{knob}",
-            status=status,
-        ) from exc
+        raise _integrator_failure(model, controller, method, integrator, exc, x0v, tv,
+                                  opts, max_steps) from exc
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
@@ -373,7 +384,7 @@ def simulate(
                           method.value, "rk" if method is Method.RK else None, False,
                           float(abs(s_grid[1])) / opts["number_of_finite_elements"])
     if not np.all(np.isfinite(xs_out)):
-        _non_finite(model, controller, check, method, tv, xs_out)
+        raise casadi_non_finite(model, controller, check, method.value, tv, xs_out)
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -408,36 +419,6 @@ def simulate(
                                                 diag["invariant_drift"])
     traj.diagnostics = {**diag, **checks}
     return traj
-
-
-def _non_finite(model: Model, controller: ca.Function | None, check: StepCheck | None,
-                method: Method, tv: np.ndarray, xs: np.ndarray) -> None:
-    """Raise the SolverError for non-finite states of a casadi method, saying why."""
-    bad = int(np.argmin(np.all(np.isfinite(xs), axis=1)))
-    a = bad - 1  # the last finite output (x0 is finite)
-    where = f"between t = {tv[a]:g} and t = {tv[bad]:g}"
-    nan_field = field_failure(model, controller, xs[a], float(tv[a]))
-    if nan_field is not None:
-        raise SolverError(f"{method.value} integrating {model.name}: the states became "
-                          f"non-finite {where}: {nan_field}", status="non_finite_field")
-    if check is not None and check.linearised:
-        fnd, _ = check.find_unstable(xs, [0, a])
-        if fnd is not None:
-            raise check.unstable_error(fnd, xs[fnd.index], float(tv[fnd.index]),
-                                       what=f" (its states became non-finite {where})")
-    raise SolverError(
-        f"{method.value} produced non-finite states for {model.name} {where}; the field and "
-        f"the control are finite at t = {tv[a]:g}"
-        f"{' and the linearised step is stable there' if check and check.linearised else ''}"
-        f": a step left the field's domain, or an instability grew between outputs (output "
-        f"at more times t to locate it)", status="non-finite")
-
-
-def _without_status(err: SolverError) -> str:
-    """The message of a SolverError without its ``[status: ...]`` suffix."""
-    text = str(err)
-    suffix = f" [status: {err.status}]"
-    return text[: -len(suffix)] if err.status and text.endswith(suffix) else text
 
 
 def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
@@ -490,23 +471,7 @@ def _simulate_geometric(
     try:
         run = integrate(model, scheme, x0v, tv, step=step, controller=controller)
     except SolverError as err:
-        state = getattr(err, "state", None)
-        if state is None or err.status == "non_finite_field":
-            raise
-        # a step that failed (non-finite, no solution, Newton): beyond the stable range?
-        xs = np.vstack([x0v, state])
-        fnd, _ = check.find_unstable(xs, [0, 1])
-        if fnd is None:
-            raise
-        t_bad = float(tv[0] if fnd.index == 0 else err.time)
-        if err.status == "non-finite":  # the state exploded: the instability is the cause
-            raise check.unstable_error(fnd, xs[fnd.index], t_bad,
-                                       what=f" (step {err.step_index + 1} failed)",
-                                       cause=str(err)) from err
-        # the step's own failure stays the status; the estimate says what to do about it
-        unstable = check.unstable_error(fnd, xs[fnd.index], t_bad)
-        raise SolverError(f"{_without_status(err)} Besides, {_without_status(unstable)}",
-                          status=err.status) from err
+        raise geometric_failure(model, check, err, x0v, tv) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
     rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
@@ -514,6 +479,53 @@ def _simulate_geometric(
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"])
+    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"],
+                       between=run.between)
     traj.diagnostics = {**diag, **run.diagnostics, **checks}
     return traj
+
+
+def _integrator_failure(model: Model, controller: ca.Function | None, method: Method,
+                        integrator: ca.Function, exc: RuntimeError, x0v: np.ndarray,
+                        tv: np.ndarray, opts: dict[str, Any], max_steps: int) -> SolverError:
+    """The SolverError for a casadi integrator that raised.
+
+    For CVODES (casadi keeps nothing of a failed call) the last state it can reach is
+    found (:func:`~workbench.simulation._failure.cvodes_reach`) when the model has a state
+    check or CVODES ran out of steps: a kinetic energy that is not definite there is the
+    cause; a field grown by orders of magnitude there is a singularity that more steps do
+    not pass.
+    """
+    stats = integrator.stats()
+    status = str(stats.get("return_status", "integrator error"))
+    text = str(exc).splitlines()[-1] if str(exc) else repr(exc)
+    out_of_steps = "too_much_work" in f"{status} {exc}".lower()
+    reached = ""
+    has_check = getattr(model, "state_check", None) is not None
+    if method is Method.CVODES and (out_of_steps or has_check):
+        t_r, x_r, stalled = cvodes_reach(model, controller, x0v, tv, opts)
+        singular = kinetic_energy_error(model, method.value, x_r, np.array([t_r]),
+                                        f"CVODES: {text.strip()}")
+        if singular is not None:
+            return singular
+        loop = closed_loop_function(model, controller)
+        f0, fr = (float(np.max(np.abs(np.asarray(loop(x, model.p)[0], dtype=float))))
+                  for x in (x0v, x_r))
+        x_text = np.array2string(x_r, precision=4, max_line_width=10_000)
+        reached = (f"; restarted with {REACH_STEPS} steps at a time it gets no further than "
+                   f"t = {t_r:.6g}, x = {x_text}" if stalled else
+                   f"; restarted {REACH_TRIES} times with {REACH_STEPS} steps at a time it "
+                   f"reaches t = {t_r:.6g}, x = {x_text}")
+        if stalled and fr > STALL_GROWTH * max(f0, np.finfo(float).tiny):
+            out_of_steps = False  # the advice to raise max_steps would not help
+            reached += (f", where the field has grown to max |f| = {fr:.3g} from {f0:.3g} at "
+                        f"x0: the steps shrink without end towards a singularity of the "
+                        f"equations there, which more steps do not pass")
+    elif float(stats.get("tcur", 0.0)) > 0:
+        reached = f" (reached t = {tv[0] + np.sign(tv[-1] - tv[0]) * float(stats['tcur']):g})"
+    raise_it = (f"raise max_steps= (now {max_steps}, at most {MAX_STEPS:.0e}) or "
+                if max_steps < MAX_STEPS else "")
+    knob = (f"; the integrator ran out of steps: {raise_it}output at more times t (the limit "
+            f"is per output interval)" if out_of_steps else "")
+    return SolverError(f"{method.value} failed integrating {model.name} from t = {tv[0]:g}: "
+                       f"{text}{reached}{knob}", status=status)

@@ -1,39 +1,33 @@
-"""Whether a fixed-step run is stable: the linearised step against the exact flow.
+"""Whether a fixed-step run is stable: the linearised step, the growth and the invariants.
 
 A fixed-step method beyond its stability range amplifies some mode of the flow by more
 than the flow does, every step, and its states grow without bound (RK4 on ``x'' = -w^2 x``
 with ``h w = 3``: by ``|R(3i)| = 1.5`` per step). :meth:`StepCheck.run` tells such a run
 from a legitimate one, and :meth:`StepCheck.unstable_error` says why and for which step.
-Three checks, all on a few output states (the start, evenly spaced ones, the largest and
-the fastest), so that they cost little next to the integration:
+Three checks, on a few output states (the start, evenly spaced ones, the largest and the
+fastest, and the largest and fastest states between outputs when the integrator gives
+them), so that they cost little next to the integration:
 
 * **Stability estimate** (the methods with a step map: ``rk``, ``rkmk4``, ``lgvi``,
-  ``s2_variational``, ``mechanics_variational``). The closed-loop field is linearised,
-  ``A = df/dx`` (the model's own Jacobian, with the controller's; in tangent coordinates
-  for the methods that keep the manifold, ambient for ``rk``, which integrates the
-  ambient equations). Where ``h |lambda|max <= SAFE_H_RHO`` (1: inside every method's
-  range by a factor 2 or more) nothing more is done. Elsewhere the step map is
-  linearised, ``J = d Phi_h / dx`` (automatic derivative of its graph), and its spectral
-  radius, the smaller of its ambient and tangent values, is compared with what the exact
-  flow allows, ``max(1, exp(h alpha))^2`` with ``alpha = max Re lambda(A)`` (a growing
-  mode may grow up to twice as fast numerically, never more), times ``1 +
-  STABILITY_RTOL`` plus the relative change of the amplification over the step. The step
-  is unstable there when that bound is exceeded at the state and again at the step's end
-  (an instability persists; a frozen-coefficient artefact off an equilibrium does not).
-  For a linear field the test is exact: on ``x'' = -w^2 x`` it finds RK4's ``h w <= 2
-  sqrt 2`` and the variational steps' ``h w <= 2`` (Stormer-Verlet's). Damping (``alpha
-  < 0``) and forcing (a controller, ``alpha > 0`` when it feeds energy) enter through
-  ``A`` and ``J`` alike, so neither is mistaken for instability. The stable step is
-  estimated by bisection on ``h`` of the same test. Collocation (Gauss-Legendre,
-  A-stable: ``|R(z)| <= 1`` for ``Re z <= 0``) has no such range.
+  ``s2_variational``, ``mechanics_variational``): the linearised step against the exact
+  linearised flow (:mod:`workbench.simulation._linearised_step`). Damping (``alpha < 0``)
+  and forcing (a controller, ``alpha > 0`` when it feeds energy) enter the field's and the
+  step's linearisations alike, so neither is mistaken for instability. Collocation
+  (Gauss-Legendre, A-stable: ``|R(z)| <= 1`` for ``Re z <= 0``) has no such range.
 * **Growth.** A state larger than :data:`GROWTH_LIMIT` times what the flow allows from
-  ``x0`` (``max(|x0|, |t - t0| |f(x0)|) exp(max(alpha(x0), 0) |t - t0|)``, max-norms) is an
-  explosion, whatever the linearisation said.
-* **Invariant drift.** An invariant that the closed-loop field conserves at every checked
-  state (``|grad I . f| <= CONSERVED_RTOL |grad I| |f|``: no controller that works on it,
-  no dissipation, no load) must not drift by more than :data:`DRIFT_LIMIT` times its
-  scale ``max(|I(x0)|, |grad I(x0)| |x0|)``. A dissipated or forced invariant is not
-  checked: its change is legitimate.
+  ``x0`` (``max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) exp(max(alpha(x0), 0)
+  |t - t0|)``, max-norms) is an explosion, whatever the linearisation said.
+* **Invariants** (:mod:`workbench.simulation._invariant_check`). One that the closed-loop
+  field conserves at every sampled state must not move by more than :data:`DRIFT_LIMIT`
+  times its scale ``max(|I(x0)|, |grad I(x0)| |x0|)``; one that it does not increase
+  (dissipated, with no input feeding it) must not *rise* by more: along the exact flow it
+  can only fall. An invariant fed by the loop is not checked: its change is legitimate.
+
+The linearised step at an output state can miss an instability between outputs (a stiff
+wall hit and left within one output interval): the invariants and the growth do not.
+When one of those fails, the interval is stepped again with the run's step map
+(:meth:`~workbench.simulation._linearised_step.LinearisedStep.locate`), and the error names
+the state between outputs where the step is unstable and the stable step estimated there.
 
 The linearised step at a state off an equilibrium is the frozen-coefficient estimate of
 the usual stability analysis: exact for a linear field, close for the smooth fields of
@@ -50,9 +44,28 @@ from typing import Any
 
 import numpy as np
 
-from workbench.core._model import Model
 from workbench.core.errors import SolverError
-from workbench.core.status import StatusEnum
+from workbench.simulation._invariant_check import (
+    CONSERVED_RTOL,
+    DRIFT_LIMIT,
+    Watch,
+    classify,
+    first_excess,
+    invariant_values,
+)
+from workbench.simulation._linearised_step import (
+    _INTERVALS,
+    FROZEN_MAX,
+    LOCATE_CANDIDATES,
+    RK4_IMAGINARY,
+    RK4_REAL,
+    SAFE_H_RHO,
+    STABILITY_RTOL,
+    LinearisedStep,
+    Located,
+    StabilityFinding,
+    StepStability,
+)
 from workbench.simulation._probe import Probe, probe_for, rk4_step
 
 __all__ = [
@@ -65,130 +78,37 @@ __all__ = [
     "SAFE_H_RHO",
     "FROZEN_MAX",
     "GROWTH_LIMIT",
+    "EXPLODED",
     "RK4_IMAGINARY",
     "RK4_REAL",
+    "LOCATE_CANDIDATES",
     "Probe",
     "probe_for",
     "StepCheck",
+    "LinearisedStep",
+    "Located",
     "rk4_step",
 ]
 
-STABILITY_RTOL = 1e-2
-"""Accepted excess of the linearised step's spectral radius over the exact flow's growth
-per step. A symmetry of the model (a conserved momentum) gives the linearised step an
-eigenvalue 1 in a Jordan block, which a perturbation ``eps`` (the method's local error)
-moves by ``sqrt(eps)``: about 3e-3 for the LGVI at ``h omega = 1.4``. Just beyond the
-stable range the amplification rises far faster (RK4: 1.01 at ``h w = 2.832`` against the
-boundary 2.828; Stormer-Verlet: 1.01 at ``h w = 2.00005``), so the boundary moves by under
-0.2 %."""
-
-DRIFT_LIMIT = 10.0
-"""Largest accepted change of a conserved invariant, in multiples of its scale."""
-
-CONSERVED_RTOL = 1e-8
-"""``|grad I . f| <= CONSERVED_RTOL |grad I| |f|`` at every checked state: the closed-loop
-field conserves ``I`` (round-off is ~1e-16 of the terms)."""
-
-FROZEN_MAX = 0.1
-"""Where the linearised step's amplification changes by more than this fraction over the
-step (at the step's end state), the frozen-coefficient estimate decides nothing; below
-it, the change is a margin on the accepted amplification. Just beyond the stable range the
-amplification rises steeply (RK4: 1.19 at ``h w = 2.9``, 1.5 at 3; Stormer-Verlet: 1.33 at
-``h w = 2.02``), so the margin moves the detected boundary of a near-linear motion by a
-few per cent at most (none for a linear field, whose amplification is the same
-everywhere)."""
-
-GROWTH_LIMIT = 1e6
+GROWTH_LIMIT = 1e4
 """States larger than this many times what the flow allows from ``x0`` are an explosion
-(see :meth:`StepCheck._check_growth`)."""
+(see :meth:`StepCheck._check_growth`). The allowance is a bound of the linearised flow: for
+``x' = A x + b`` with ``A`` diagonalisable, ``|x(t)| <= kappa(V) e^(alpha t)`` times the
+Taylor terms ``max(|x0|, t |f0|, t^2 |A f0| / 2)`` (which cover a free particle under a
+constant force, whose growth is polynomial), ``kappa(V)`` the condition number of ``A``'s
+eigenvectors; 1e4 leaves room for the transient growth (peaking) of strongly non-normal
+loops and for the nonlinearity, while an unstable step multiplies the state by at least its
+amplification (above 1.01, typically 1.1 to 1.5) every step, so that it passes 1e4 within a
+few tens to a few hundred steps. It was 1e6, which let a 3000-fold growth through."""
 
-SAFE_H_RHO = 1.0
-"""``h |lambda|max`` at or below which a step is inside the stable range of every
-fixed-step method here by a factor 2 or more (RK4: 2.79 on the real axis, 2.83 on the
-imaginary axis; the variational steps: 2 on an oscillation); the step map is then not
-linearised."""
+EXPLODED = 1e3
+"""A non-increasing invariant that rose by more than this many times its scale has exploded:
+the run is refused as an unstable step even where re-stepping located no unstable state
+(below it, as an untrustworthy run: an unstable or too coarse step)."""
 
 SAMPLES = 4
 """Evenly spaced output states checked (the first and the last among them), besides the
 largest and the fastest."""
-
-RK4_IMAGINARY = 2.0 * math.sqrt(2.0)
-"""RK4's stability interval on the imaginary axis: ``|R(iy)| <= 1`` for ``|y| <= 2 sqrt 2``."""
-
-RK4_REAL = 2.785293563405282
-"""RK4's stability interval on the negative real axis (root of ``R(-x) = 1``)."""
-
-_INTERVALS = {
-    "rk": f"RK4 is stable for h |lambda| <= {RK4_IMAGINARY:.3g} on the imaginary axis and "
-          f"<= {RK4_REAL:.3g} on the negative real axis",
-    "rkmk4": f"RKMK4 is RK4 in the group's coordinates: stable for h |lambda| <= "
-             f"{RK4_IMAGINARY:.3g} on the imaginary axis and <= {RK4_REAL:.3g} on the negative "
-             f"real axis",
-    "variational": "the variational step is, like Stormer-Verlet, stable for h omega < 2 "
-                   "on an undamped oscillation of frequency omega",
-}
-_IMAGINARY = {"rk": RK4_IMAGINARY, "rkmk4": RK4_IMAGINARY, "variational": 2.0}
-
-
-class StepStability(StatusEnum):
-    """Outcome of the checks of a fixed-step run (the ``status`` of its SolverError)."""
-
-    STABLE = "the linearised step stays within the flow's growth and conserved invariants stay"
-    UNSTABLE_STEP = "the step is beyond the method's stable range: the run explodes, or would"
-    INVARIANT_DRIFT = "a conserved invariant drifted by orders of magnitude"
-    NON_FINITE_FIELD = "the field or the controller returned NaN or inf"
-
-    @classmethod
-    def successes(cls) -> frozenset[str]:
-        """Only ``STABLE``."""
-        return frozenset({"STABLE"})
-
-
-@dataclass(frozen=True)
-class StabilityFinding:
-    """The stability estimate at one state.
-
-    Attributes
-    ----------
-    index : int
-        Output index of the state.
-    amplification : float
-        Spectral radius of the linearised step (``inf`` when it is not finite; NaN when
-        the step was not linearised: ``h |lambda|max <= SAFE_H_RHO``).
-    flow_growth : float
-        ``max(1, exp(h alpha))``: what the exact linearised flow allows per step.
-    bound : float
-        The accepted amplification (``flow_growth`` with the margins; NaN when the step was
-        not linearised).
-    spectral_radius : float
-        ``max |lambda|`` of the linearised field.
-    stable : bool
-        ``amplification <= bound`` (True where the estimate is not trusted).
-    trusted : bool
-        Whether the frozen-coefficient estimate holds there (the amplification changes by
-        at most the fraction ``FROZEN_MAX`` over the step); an untrusted finding decides
-        nothing.
-    """
-
-    index: int
-    amplification: float
-    flow_growth: float
-    bound: float
-    spectral_radius: float
-    stable: bool
-    trusted: bool = True
-
-
-def _basis(model: Model, x: np.ndarray, tangent: bool) -> np.ndarray | None:
-    """Orthonormal tangent basis at ``x`` (None: ambient coordinates)."""
-    if not tangent or model.manifold.dim == model.manifold.ambient_dim:
-        return None
-    try:
-        Q, _ = np.linalg.qr(model.manifold.tangent_basis(x))
-    except (ValueError, ArithmeticError):  # a state too far off the manifold for its basis
-        return None
-    return Q
-
 
 def _samples(x: np.ndarray, xdot: np.ndarray | None) -> list[int]:
     """The output indices checked, in order.
@@ -204,216 +124,20 @@ def _samples(x: np.ndarray, xdot: np.ndarray | None) -> list[int]:
     return sorted(idx)
 
 
-def _state_text(x: np.ndarray) -> str:
-    return np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
-
-
 @dataclass(frozen=True)
-class StepCheck:
-    """The checks of one fixed-step run.
+class StepCheck(LinearisedStep):
+    """The checks of one fixed-step run (the linearised step, growth, invariants).
 
     Attributes
     ----------
-    model : Model
-        The model.
-    probe : Probe
-        Its functions (:func:`probe_for`).
-    method : str
-        The method's name, for messages.
-    family : str or None
-        ``"rk"``, ``"rkmk4"`` or ``"variational"`` (whose stability interval the message
-        quotes), or None for a method without a step map to linearise (collocation).
-    tangent : bool
-        Linearise in tangent coordinates (the methods that stay on the manifold); ambient
-        for ``rk``, which integrates the ambient equations.
-    h : float
-        The step: signed for a geometric step function, positive for the RK4 step of the
-        signed field.
+    model, probe, method, family, tangent, h
+        As :class:`~workbench.simulation._linearised_step.LinearisedStep`.
     """
 
-    model: Model
-    probe: Probe
-    method: str
-    family: str | None
-    tangent: bool
-    h: float
-
-    @property
-    def linearised(self) -> bool:
-        """Whether the run has a step map to linearise."""
-        return self.probe.step is not None and self.family is not None
-
-    def _field_spectra(self, xs: np.ndarray, h: float | None = None
-                       ) -> list[tuple[np.ndarray, np.ndarray | None, np.ndarray | None]]:
-        """``(A, Q, lambda)`` at every state of ``xs`` (one call of the mapped Jacobian).
-
-        ``A`` is ambient, ``Q`` the orthonormal tangent basis (None: ambient coordinates),
-        ``lambda`` the eigenvalues of ``Q^T A Q`` (None when ``A`` is not finite). Where
-        ``|h| |A|_F <= SAFE_H_RHO`` (a bound on the spectral radius of every compression
-        of ``A``) ``Q`` and ``lambda`` are skipped (None, ``[]``): the step is safe there.
-        ``h`` is the step (default the run's; 0 skips nothing).
-        """
-        h = self.h if h is None else h
-        k, n = len(xs), xs.shape[1]
-        # xs (k, n) in C order is the mapped input (n, k) in casadi's column-major order
-        out = self.probe.mapped("field_jac", k)(xs, self.model.p)[0]
-        As = np.asarray(out, dtype=float).reshape(n, k, n).transpose(1, 0, 2)
-        safe = (abs(h) * np.sqrt(np.sum(As * As, axis=(1, 2))) <= SAFE_H_RHO) & (h != 0)
-        res = []
-        for x, A, ok in zip(xs, As, safe):
-            if ok:
-                res.append((A, None, np.zeros(0)))
-                continue
-            Q = _basis(self.model, x, self.tangent)
-            lam = None
-            if np.all(np.isfinite(A)):
-                lam = np.linalg.eigvals(A if Q is None else Q.T @ A @ Q)
-            res.append((A, Q, lam))
-        return res
-
-    def _amplification(self, x: np.ndarray, h: float, Q: np.ndarray | None
-                       ) -> tuple[float, np.ndarray]:
-        """Spectral radius of the linearised step at ``x``, and the step's end state.
-
-        The smaller of its values in ambient coordinates and in the tangent space at ``x``
-        (``Q``): a real instability shows in both, the artefact of a frame or of a
-        direction normal to the manifold in one only. ``inf`` when not finite.
-        """
-        x_next, J = (np.asarray(v, dtype=float) for v in self.probe.step_jac(x, self.model.p, h))
-        if not np.all(np.isfinite(J)):
-            return math.inf, x_next.ravel()
-        amp = float(np.max(np.abs(np.linalg.eigvals(J)))) if J.size else 0.0
-        if Q is not None:
-            amp = min(amp, float(np.max(np.abs(np.linalg.eigvals(Q.T @ J @ Q)))))
-        return amp, x_next.ravel()
-
-    def finding(self, x: np.ndarray, index: int = -1, h: float | None = None,
-                spectrum: tuple | None = None) -> StabilityFinding:
-        """The stability estimate at the state ``x`` (for step ``h``, default the run's).
-
-        The field's linearisation first: with ``h |lambda|max <= SAFE_H_RHO`` the step is
-        well inside the method's range and the step map is not linearised (its derivative
-        costs about ``ambient_dim`` steps). Otherwise, where the frozen-coefficient
-        estimate holds (the amplification changes by at most the fraction ``FROZEN_MAX``
-        over the step), the linearised step decides.
-        ``spectrum`` is ``(A, Q, lambda)`` at ``x`` when already computed.
-        """
-        h = self.h if h is None else h
-        ha = abs(h)
-        A, Q, lam = spectrum if spectrum is not None else \
-            self._field_spectra(np.asarray(x, dtype=float)[None, :], h)[0]
-        rho_a, alpha = math.inf, 0.0
-        if lam is not None:
-            rho_a = float(np.max(np.abs(lam))) if lam.size else 0.0
-            alpha = float(np.max(lam.real)) if lam.size else 0.0
-            if ha * rho_a <= SAFE_H_RHO:
-                growth = max(1.0, math.exp(ha * alpha))
-                return StabilityFinding(index, math.nan, growth, math.nan, rho_a, True)
-        amp, x_next = self._amplification(x, h, Q)
-        if lam is None or not math.isfinite(amp):
-            return StabilityFinding(index, math.inf, math.nan, math.nan, rho_a, False)
-        # the frozen-coefficient estimate holds where the amplification is about the same
-        # one step on (exactly so for a linear field); there the change is a margin,
-        # elsewhere (fast nonlinear motion, the frame turning) it decides nothing. An
-        # instability persists: it must show at the step's end state as well.
-        growth = max(1.0, math.exp(min(ha * alpha, 700.0)))
-        amp_next, growth_next = math.inf, math.nan
-        if np.all(np.isfinite(x_next)):
-            _, Q1, lam1 = self._field_spectra(x_next.reshape(1, -1), 0.0)[0]
-            if lam1 is not None:
-                alpha1 = float(np.max(lam1.real)) if lam1.size else 0.0
-                growth_next = max(1.0, math.exp(min(ha * alpha1, 700.0)))
-                amp_next = self._amplification(x_next, h, Q1)[0]
-        change = abs(amp_next / amp - 1.0) if amp else 0.0
-        # a growing mode may grow up to twice as fast numerically (the method's own error
-        # on an unstable focus), never more: beyond that the step adds growth of its own
-        margin = 1.0 + STABILITY_RTOL + change
-        bound = growth ** 2 * margin
-        stable = not (amp > bound and amp_next > max(bound, min(growth_next, growth) ** 2
-                                                     * margin))
-        return StabilityFinding(index, amp, growth, bound, rho_a, stable,
-                                trusted=change <= FROZEN_MAX)
-
-    def find_unstable(self, x: np.ndarray, indices: list[int]
-                      ) -> tuple[StabilityFinding | None, int]:
-        """The earliest of the states ``x[indices]`` where the step is unstable.
-
-        Returns
-        -------
-        (StabilityFinding or None, int)
-            The first unstable finding (None if all are stable) and the number of states
-            before it where the step map had to be linearised (``h |lambda|max`` above
-            :data:`SAFE_H_RHO`).
-        """
-        linearised = 0
-        spectra = self._field_spectra(x[indices])
-        for i, spec in zip(indices, spectra):
-            fnd = self.finding(x[i], i, spectrum=spec)
-            if not fnd.stable:
-                return fnd, linearised
-            linearised += not math.isnan(fnd.amplification)
-        return None, linearised
-
-    def stable_step(self, x: np.ndarray) -> float | None:
-        """Largest ``|h'| < |h|`` (bisection, 1e-4 relative) where the step at ``x`` is stable.
-
-        None when no halving of ``h`` (40 of them) is stable there.
-        """
-        sign = 1.0 if self.h > 0 else -1.0
-        lo = abs(self.h)
-        for _ in range(40):  # a stable step first
-            lo /= 2
-            f = self.finding(x, h=sign * lo)
-            if f.stable and f.trusted:
-                break
-        else:
-            return None
-        hi = min(2 * lo, abs(self.h))
-        while hi - lo > 1e-4 * lo:
-            mid = 0.5 * (lo + hi)
-            f = self.finding(x, h=sign * mid)
-            if f.stable and f.trusted:
-                lo = mid
-            else:
-                hi = mid
-        return lo
-
-    def unstable_error(self, fnd: StabilityFinding, x: np.ndarray, t: float, *,
-                       what: str = "", cause: str = "") -> SolverError:
-        """The SolverError for an unstable step at ``x``, with the estimated stable step.
-
-        ``what`` is said after the state, ``cause`` (the failure of the run itself) at the
-        end.
-        """
-        ha = abs(self.h)
-        est = self.stable_step(x)
-        limit = _IMAGINARY.get(self.family or "")
-        prod = ha * fnd.spectral_radius
-        cmp = f" > {limit:.3g}" if limit is not None and prod > limit else ""
-        interval = _INTERVALS.get(self.family or "", "")
-        est_text = (f"estimated stable step h < {est:.4g} from the linearised step there"
-                    if est is not None else
-                    "no stable step was found by halving h 40 times")
-        if math.isfinite(fnd.amplification):
-            amp = (f"the linearised step amplifies a mode by {fnd.amplification:.3g} per "
-                   f"step where the exact linearised flow grows by at most "
-                   f"{fnd.flow_growth:.3g} ({fnd.bound:.3g} accepted with the margins of the "
-                   f"estimate)")
-        else:
-            amp = "the linearised step or field is not finite there (the state has exploded)"
-        return SolverError(
-            f"{self.method}: step h = {ha:.4g} is beyond the stable range of the method "
-            f"integrating {self.model.name} at t = {t:.6g} (x = {_state_text(x)}){what}: "
-            f"{amp}; h * |lambda|max = {prod:.3g}{cmp} (|lambda|max = "
-            f"{fnd.spectral_radius:.3g}, the spectral radius of the linearised field there"
-            f"{'; ' + interval if interval else ''}); {est_text}. Reduce step, or use an "
-            f"adaptive method (cvodes) or an A-stable one (collocation)"
-            f"{'. The run itself reported: ' + cause if cause else ''}",
-            status=StepStability.UNSTABLE_STEP.code)
-
     def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
-            drift: dict[str, Any] | None = None) -> dict[str, Any]:
-        """Both checks on a finished run; raise SolverError, or return the diagnostics.
+            drift: dict[str, Any] | None = None,
+            between: list[tuple[float, np.ndarray, str]] | None = None) -> dict[str, Any]:
+        """All the checks on a finished run; raise SolverError, or return the diagnostics.
 
         Parameters
         ----------
@@ -425,7 +149,10 @@ class StepCheck:
             The field at the states, when already computed (the fastest state is checked).
         drift : dict, optional
             The run's ``invariant_drift`` diagnostics, when already computed (the
-            invariants are then evaluated again only to locate a failure).
+            invariants are then evaluated again only when one moved beyond its allowance).
+        between : list of (float, ndarray, str), optional
+            States between outputs where the step is linearised too (time, state, what it
+            is: the largest, the fastest), when the integrator gave them.
 
         Returns
         -------
@@ -433,7 +160,8 @@ class StepCheck:
             ``{"stability": {...}}``: ``status``, ``checked_states``,
             ``step_linearised_at`` (how many of them had ``h |lambda|max`` above
             :data:`SAFE_H_RHO`, so that the step map was linearised; None without a step
-            map), ``conserved_invariants`` (those whose drift was checked).
+            map), ``conserved_invariants`` (whose change was checked both ways) and
+            ``non_increasing_invariants`` (whose rise was checked).
 
         Raises
         ------
@@ -441,49 +169,86 @@ class StepCheck:
             Status ``unstable_step`` or ``invariant_drift``.
         """
         idx = _samples(x, xdot)
-        linearised = None
-        if self.linearised:
-            fnd, linearised = self.find_unstable(x, idx)
-            if fnd is not None:
+        linearised, A0 = None, None
+        between = list(between or []) if self.linearised else []
+        if self.linearised:  # the outputs and the states between them, in one evaluation
+            n = len(x)
+            xs = np.vstack([x, *[xb[None, :] for _, xb, _ in between]]) if between else x
+            at = idx + list(range(n, len(xs)))
+            spectra = self._field_spectra(xs[at])
+            A0 = spectra[0][0]
+            fnd, linearised = self.find_unstable(xs, at, spectra=spectra)
+            if fnd is not None and fnd.index < n:
                 raise self.unstable_error(fnd, x[fnd.index], float(t[fnd.index]))
-        self._check_growth(t, x, xdot)
-        conserved, grad_norm = self._conserved(x, idx)  # idx[0] == 0: gradients at x0
-        if conserved:
-            self._check_drift(t, x, conserved, drift, grad_norm)
+            if fnd is not None:
+                tb, xb, what = between[fnd.index - n]
+                raise self.unstable_error(fnd, xb, tb, what=f" ({what} between outputs)")
+        self._check_growth(t, x, xdot, A0)
+        initial = None if drift is None else np.array(
+            [float(drift[k]["initial"]) for k in self.model.invariant_names])
+        watch = classify(self.probe, self.model, x, idx, initial)  # idx[0] == 0
+        if watch.names:
+            self._check_invariants(t, x, watch, drift)
         return {"stability": {
             "status": StepStability.STABLE.code,
-            "checked_states": len(idx),
+            "checked_states": len(idx) + len(between),
             "step_linearised_at": linearised,
-            "conserved_invariants": conserved,
+            "conserved_invariants": watch.conserved,
+            "non_increasing_invariants": watch.non_increasing,
         }}
 
-    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
-        """Refuse states grown by orders of magnitude beyond what the flow allows.
+    def _growth_allowance(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
+                          rate: bool, A: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """What the flow allows ``max |x|`` to be at the times ``t``, and ``alpha(x0)``.
 
-        The allowance at ``t_k`` is ``GROWTH_LIMIT * max(|x0|, |t_k - t0| |f(x0)|) *
-        exp(max(alpha(x0), 0) |t_k - t0|)`` (max-norms): the run's own scale, its drift at
-        the initial speed, and the growth of the linearised flow at the start.
+        ``max(|x0|, |t - t0| |f0|, |t - t0|^2 |A0 f0| / 2)`` (max-norms), times ``exp(max(
+        alpha, 0) |t - t0|)`` when ``rate`` (``alpha`` the largest real part of the
+        linearised field's eigenvalues at ``x0``; 0 otherwise).
         """
         f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
               np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
-        size = np.max(np.abs(x), axis=1)
+        if A is None:  # the ambient Jacobian at x0
+            n = x.shape[1]
+            A = np.asarray(self.probe.mapped("field_jac", 1)(x[:1], self.model.p)[0],
+                           dtype=float).reshape(n, n)
+        af0 = float(np.max(np.abs(A @ f0))) if np.all(np.isfinite(A)) else math.inf
         dt = np.abs(t - t[0])
+        alpha = 0.0
+        if rate:
+            lam = self._field_spectra(x[:1], 0.0)[0][2]
+            alpha = float(np.max(lam.real)) if lam is not None and lam.size else 0.0
         with np.errstate(over="ignore", invalid="ignore"):  # inf is an allowance too
-            allowed = GROWTH_LIMIT * np.maximum(max(size[0], np.finfo(float).tiny),
-                                                dt * float(np.max(np.abs(f0))))
-        if np.all(size <= allowed):  # the common case: no need of the flow's growth rate
+            base = np.maximum(max(float(np.max(np.abs(x[0]))), np.finfo(float).tiny),
+                              np.maximum(dt * float(np.max(np.abs(f0))), 0.5 * dt**2 * af0))
+            return base * np.exp(np.minimum(max(alpha, 0.0) * dt, 700.0)), alpha
+
+    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
+                      A0: np.ndarray | None = None) -> None:
+        """Refuse states grown by orders of magnitude beyond what the flow allows.
+
+        The allowance at ``t_k`` is ``GROWTH_LIMIT`` times :meth:`_growth_allowance`: the
+        run's own scale, its drift at the initial speed and acceleration, and the growth
+        of the linearised flow at the start.
+        """
+        size = np.max(np.abs(x), axis=1)
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=False, A=A0)
+        if np.all(size <= GROWTH_LIMIT * allowed):  # common: no need of the growth rate
             return
-        A, Q, lam = self._field_spectra(x[:1], 0.0)[0]
-        alpha = float(np.max(lam.real)) if lam is not None and lam.size else 0.0
-        with np.errstate(over="ignore", invalid="ignore"):
-            allowed = allowed * np.exp(np.minimum(max(alpha, 0.0) * dt, 700.0))
-        bad = np.flatnonzero(~(size <= allowed))
+        allowed, alpha = self._growth_allowance(t, x, xdot, rate=True, A=A0)
+        bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
         if not bad.size:
             return
         k = int(bad[0])
+        what = (f" (the state grew to max |x| = {size[k]:.3g} by t = {t[k]:.6g}, more than "
+                f"{GROWTH_LIMIT:.0e} times what the flow allows from x0, {allowed[k]:.3g}: "
+                f"max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) times the growth "
+                f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g})")
+        located = self._locate(t, x, k, self._size_stop(t, allowed), what=what[2:-1])
+        if located is not None:
+            raise located
         estimate = ""
         if self.linearised:
-            fnd = self.finding(x[0], 0, spectrum=(A, Q, lam))
+            fnd = self.finding(x[0], 0)
             est = self.stable_step(x[0])
             amp = ("" if math.isnan(fnd.amplification) else
                    f" and the linearised step amplifies by {fnd.amplification:.3g}")
@@ -494,65 +259,83 @@ class StepCheck:
                            f"there" if est is not None else "no stable step was estimated"))
         raise SolverError(
             f"{self.method}: step h = {abs(self.h):.4g} is beyond the stable range of the "
-            f"method integrating {self.model.name}: the state grew to max |x| = "
-            f"{size[k]:.3g} by t = {t[k]:.6g}, more than {GROWTH_LIMIT:.0e} times what the "
-            f"flow allows from x0 ({allowed[k] / GROWTH_LIMIT:.3g}: max(|x0|, |t - t0| "
-            f"|f(x0)|) times the growth exp(alpha t) of the linearised field at t0, "
-            f"alpha = {alpha:.3g}){estimate}. Reduce step, or use an adaptive method "
-            f"(cvodes) or an A-stable one (collocation)", status=StepStability.UNSTABLE_STEP.code)
+            f"method integrating {self.model.name}{what}{estimate}. Reduce step, or use an "
+            f"adaptive method (cvodes) or an A-stable one (collocation)",
+            status=StepStability.UNSTABLE_STEP.code)
 
-    def _conserved(self, x: np.ndarray, idx: list[int]) -> tuple[list[str], np.ndarray]:
-        """The invariants the closed-loop field conserves at every state ``x[idx]``.
+    def _size_stop(self, t: np.ndarray, allowed: np.ndarray) -> Any:
+        """A stop rule for :meth:`locate`: the state's size beyond the allowance."""
+        t0, a0 = float(t[0]), float(allowed[0])
+        rate = (np.log(allowed[-1] / a0) / abs(t[-1] - t0)
+                if allowed[-1] > a0 and t[-1] != t0 else 0.0)
 
-        Returns them with ``|grad I|`` of every invariant at ``x[idx[0]]``.
+        def stop(ts: np.ndarray, X: np.ndarray) -> int | None:
+            # the allowance between outputs: the larger of its values at the two ends
+            lim = GROWTH_LIMIT * a0 * np.exp(np.minimum(rate * np.abs(ts - t0), 700.0))
+            bad = np.flatnonzero(~(np.max(np.abs(X), axis=1) <= np.maximum(lim, a0)))
+            return int(bad[0]) if bad.size else None
+        return stop
+
+    def _check_invariants(self, t: np.ndarray, x: np.ndarray, watch: Watch,
+                          drift: dict[str, Any] | None) -> None:
+        """Refuse a conserved invariant that moved, or a non-increasing one that rose.
+
+        Either by more than :data:`DRIFT_LIMIT` times its scale (see
+        :mod:`workbench.simulation._invariant_check`).
         """
-        if self.probe.rates is None:
-            return [], np.zeros(0)
-        names = self.model.invariant_names
-        rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(idx))
-                        for v in self.probe.mapped("rates", len(idx))(x[idx], self.model.p))
-        keep = np.all(np.abs(rate) <= CONSERVED_RTOL * gn * fn + np.finfo(float).tiny, axis=1)
-        return [n for n, k in zip(names, keep) if k], gn[:, 0]
-
-    def _check_drift(self, t: np.ndarray, x: np.ndarray, names: list[str],
-                     drift: dict[str, Any] | None, grad_norm: np.ndarray) -> None:
         model = self.model
-        x0_norm = float(np.linalg.norm(x[0]))
-        values = None
-        for name in names:
-            k = model.invariant_names.index(name)
-            known = (drift or {}).get(name)
-            if known is not None:
-                initial, max_abs = float(known["initial"]), float(known["max_abs"])
-            else:
-                values = values if values is not None else self._invariants(x)
-                initial = float(values[k, 0])
-                max_abs = float(np.max(np.abs(values[k] - initial)))
-            scale = max(abs(initial), float(grad_norm[k]) * x0_norm, np.finfo(float).tiny)
-            if max_abs <= DRIFT_LIMIT * scale:
-                continue
-            values = values if values is not None else self._invariants(x)
-            series = values[k]
-            j = int(np.argmax(~(np.abs(series - series[0]) <= DRIFT_LIMIT * scale)))
-            hint = ""
-            if self.linearised and j > 0:
-                fnd = self.finding(x[j - 1], j - 1,
-                                   spectrum=self._field_spectra(x[j - 1: j], 0.0)[0])
-                hint = (f"; at the output before, h * |lambda|max = "
-                        f"{abs(self.h) * fnd.spectral_radius:.3g}"
-                        + ("" if math.isnan(fnd.amplification) else
-                           f" and the linearised step amplifies by {fnd.amplification:.3g} "
-                           f"per step (the exact linearised flow by at most "
-                           f"{fnd.flow_growth:.3g})"))
-            raise SolverError(
-                f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
-                f"{model.name}: the invariant {name!r}, which the field conserves at every "
-                f"checked state (no controller working on it, no dissipation, no load), "
-                f"changed from {series[0]:.6g} to {series[j]:.6g} by t = {t[j]:.6g}, more "
+        known = drift or {}
+        moved = [n for n in watch.names if n not in known
+                 or not float(known[n]["max_abs"]) <= DRIFT_LIMIT * watch.scale[n]]
+        if not moved:  # the common case: every watched invariant within its allowance
+            return
+        values = invariant_values(model, x)
+        names = model.invariant_names
+        hit = first_excess(watch, names, values, values[:, 0])
+        if hit is None:  # a non-increasing invariant that fell: legitimate
+            return
+        name, j = hit
+        k = names.index(name)
+        rising = name in watch.non_increasing
+        scale = watch.scale[name]
+        what = (f"the invariant {name!r}, which the closed-loop field "
+                + ("does not increase at any sampled state (dissipated, no input feeding it: "
+                   "it can only fall along the exact flow), rose"
+                   if rising else
+                   "conserves at every sampled state (no controller working on it, no "
+                   "dissipation, no load), changed")
+                + f" from {values[k, 0]:.6g} to {values[k, j]:.6g} by t = {t[j]:.6g}, more "
                 f"than {DRIFT_LIMIT:g} times its scale {scale:.3g} (max(|I(x0)|, "
-                f"|grad I(x0)| |x0|)){hint}. Reduce step",
-                status=StepStability.INVARIANT_DRIFT.code)
+                f"|grad I(x0)| |x0|))")
+        initial = values[:, 0]
 
-    def _invariants(self, x: np.ndarray) -> np.ndarray:
-        fn = self.model.function("invariants")
-        return np.asarray(fn.map(len(x))(x.T, self.model.p), dtype=float)  # (n_inv, n_times)
+        def stop(ts: np.ndarray, X: np.ndarray) -> int | None:
+            found = first_excess(watch, names, invariant_values(model, X), initial)
+            return None if found is None else found[1]
+        located = self._locate(t, x, j, stop, what=what)
+        if located is not None:
+            raise located
+        if rising and self.linearised and values[k, j] - values[k, 0] > EXPLODED * scale:
+            # orders of magnitude: an instability even where no step was located
+            raise SolverError(
+                f"{self.method}: step h = {abs(self.h):.4g} is beyond the stable range of the "
+                f"method integrating {model.name} somewhere between t = {t[j - 1]:.6g} and "
+                f"t = {t[j]:.6g}: {what}. Reduce step, or use an adaptive method (cvodes) or "
+                f"an A-stable one (collocation)", status=StepStability.UNSTABLE_STEP.code)
+        raise SolverError(
+            f"{self.method}: step h = {abs(self.h):.4g} gives an untrustworthy run of "
+            f"{model.name}: {what}. Reduce step", status=StepStability.INVARIANT_DRIFT.code)
+
+    def _locate(self, t: np.ndarray, x: np.ndarray, j: int, stop: Any,
+                what: str = "") -> SolverError | None:
+        """The unstable-step error found by re-stepping the interval before output ``j``."""
+        if not self.linearised or j == 0:
+            return None
+        loc = self.locate(float(t[j - 1]), x[j - 1], float(t[j]), stop)
+        if loc.finding is None:
+            return None
+        return self.unstable_error(loc.finding, loc.x, loc.t,
+                                   what=f", between outputs (found by stepping again the "
+                                        f"interval where {what})")
+
+

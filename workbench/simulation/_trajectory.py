@@ -54,7 +54,9 @@ class Trajectory:
         ``stability``: the checks the run passed (``status``, ``checked_states``,
         ``step_linearised_at``, how many of them were close enough to the stable range
         for the step map to be linearised, None for collocation; ``conserved_invariants``,
-        those whose drift was checked; see :mod:`workbench.simulation._stability`).
+        those whose drift was checked both ways; ``non_increasing_invariants``, those the
+        loop does not feed, whose rise was checked; see
+        :mod:`workbench.simulation._stability`).
     """
 
     t: np.ndarray

@@ -1,0 +1,179 @@
+"""Which invariants a fixed-step run must keep, and the first output where one did not.
+
+The closed-loop field ``f`` (the model with the controller in the loop, in the direction
+of integration) says what the exact flow does to an invariant ``I``: it changes at the
+rate ``grad I . f``. :func:`classify` evaluates that rate at a fixed number of output
+states (:data:`RATE_SAMPLES`, the checked ones among them) and sorts the invariants:
+
+* **conserved**: ``|grad I . f| <= CONSERVED_RTOL |grad I| |f|`` at every sampled state
+  (no controller that works on it, no dissipation, no load). It must not move, in either
+  direction, by more than :data:`DRIFT_LIMIT` times its scale;
+* **non-increasing**: ``grad I . f <= CONSERVED_RTOL |grad I| |f|`` at every sampled state,
+  but not conserved (a dissipated energy with no input acting: no controller, or one whose
+  power is non-positive there). Along the exact flow it can only fall; a *rise* by more
+  than :data:`DRIFT_LIMIT` times its scale is an instability of the step (a fall is
+  legitimate and never flagged).
+
+Any other invariant is fed by the loop (a controller, a load) and its change is not
+checked. The scale of ``I`` is ``max(|I(x0)|, |grad I(x0)| |x0|)``: for an energy that is
+a quadratic form (Euler's relation ``grad I . x = 2 I``) it is at least ``2 |I(x0)|``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from workbench.core._model import Model
+from workbench.simulation._probe import Probe
+
+__all__ = ["DRIFT_LIMIT", "CONSERVED_RTOL", "RATE_SAMPLES", "Watch", "classify",
+           "first_excess", "invariant_values"]
+
+DRIFT_LIMIT = 1.0
+"""Largest accepted change of a conserved invariant (either way), or rise of a
+non-increasing one, in multiples of its scale ``max(|I(x0)|, |grad I(x0)| |x0|)``.
+
+What a stable step does to an energy bounds it from below. RK4 within its range
+(``|R(i y)| <= 1`` for ``|y| <= 2 sqrt 2``) never raises the energy of a linear
+oscillation: each step multiplies the amplitude by ``|R| <= 1``. A variational step
+(Stormer-Verlet on ``x'' = -w^2 x``) conserves the modified energy ``v^2 + w^2 (1 - c)
+x^2``, ``c = (h w / 2)^2``, so the energy itself moves within a factor ``1 / (1 - c)``:
+from a start at ``x = 0`` it peaks at ``I(x0) / (1 - c)``, a rise of ``c / (2 (1 - c))``
+times its scale ``2 I(x0)``. That is at most 1 for ``c <= 2/3``, ``h w <= 1.63`` (82 % of
+the stable range ``h w < 2``); closer to the edge the step is stable but the energy error
+exceeds the energy itself (up to three times it), which is no usable answer. Damping only
+shrinks these excursions. An unstable step, even one between outputs, amplifies some mode
+by a factor above 1 every step, and its energy grows by orders of magnitude within a few
+tens of steps (the stiff wall of the hostile review: x 1e7 in 23 RK4 steps, x 5e8 in 12
+variational steps), far beyond the limit. It was 10, which let a conservative wall whose
+RK4 energy grew 11- to 19-fold, and damped ones whose energy grew 4-fold, pass."""
+
+CONSERVED_RTOL = 1e-8
+"""``|grad I . f| <= CONSERVED_RTOL |grad I| |f|`` at every sampled state: the closed-loop
+field conserves ``I`` (round-off is ~1e-16 of the terms); ``grad I . f <= CONSERVED_RTOL
+|grad I| |f|``: it does not increase ``I``."""
+
+RATE_SAMPLES = 32
+"""Output states at which the rates ``grad I . f`` are evaluated (evenly spaced, the checked
+ones among them; a fixed number, so that one mapped function serves every run): a loop
+that feeds an invariant anywhere along the run is very unlikely to show a non-positive
+rate at all of them."""
+
+
+@dataclass(frozen=True)
+class Watch:
+    """The invariants a run must keep.
+
+    Attributes
+    ----------
+    conserved : list of str
+        Conserved by the closed-loop field at every sampled state.
+    non_increasing : list of str
+        Not increased by it at any sampled state (and not conserved).
+    scale : dict
+        ``max(|I(x0)|, |grad I(x0)| |x0|)`` of every watched invariant.
+    """
+
+    conserved: list[str]
+    non_increasing: list[str]
+    scale: dict[str, float]
+
+    @property
+    def names(self) -> list[str]:
+        """All watched invariants."""
+        return [*self.conserved, *self.non_increasing]
+
+
+def _rate_indices(n: int, idx: list[int]) -> list[int]:
+    """Exactly :data:`RATE_SAMPLES` output indices: ``idx`` and evenly spaced ones.
+
+    Repeated indices fill the list when there are fewer outputs; ``idx[0]`` comes first.
+    """
+    out = list(dict.fromkeys(idx))
+    room = RATE_SAMPLES - len(out)
+    if room > 0:
+        out += [int(i) for i in np.linspace(0, n - 1, room).round()]
+    return out[:RATE_SAMPLES]
+
+
+def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int],
+             initial: np.ndarray | None = None) -> Watch:
+    """The conserved and the non-increasing invariants of a run.
+
+    Parameters
+    ----------
+    probe : Probe
+        The run's functions (its ``rates``: ``grad I . f``, ``|grad I|``, ``|f|``).
+    model : Model
+        The model.
+    x : ndarray, shape=(n_times, ambient_dim)
+        The output states.
+    idx : list of int
+        The checked output indices, ``idx[0] == 0`` (at most ``RATE_SAMPLES``).
+    initial : ndarray, shape=(n_invariants,), optional
+        The invariants at ``x[0]``, when already computed.
+
+    Returns
+    -------
+    Watch
+    """
+    if probe.rates is None:
+        return Watch([], [], {})
+    at = _rate_indices(len(x), idx)
+    rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(at))
+                    for v in probe.mapped("rates", len(at))(x[at], model.p))
+    tiny = np.finfo(float).tiny
+    room = CONSERVED_RTOL * gn * fn + tiny
+    conserved = np.all(np.abs(rate) <= room, axis=1)
+    falling = np.all(rate <= room, axis=1) & ~conserved
+    x0_norm = float(np.linalg.norm(x[0]))
+    values = (np.asarray(model.function("invariants")(x[0], model.p), dtype=float).ravel()
+              if initial is None else np.asarray(initial, dtype=float))
+    names = model.invariant_names
+    scale = {n: max(abs(float(values[k])), float(gn[k, 0]) * x0_norm, tiny)
+             for k, n in enumerate(names) if conserved[k] or falling[k]}
+    return Watch([n for n, k in zip(names, conserved) if k],
+                 [n for n, k in zip(names, falling) if k], scale)
+
+
+def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
+    """Every invariant at every state, shape ``(n_invariants, n_states)``."""
+    fn = model.function("invariants")
+    return np.asarray(fn.map(len(x))(x.T, model.p), dtype=float).reshape(-1, len(x))
+
+
+def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np.ndarray
+                 ) -> tuple[str, int] | None:
+    """The first state where a watched invariant left its allowance, and which one.
+
+    Parameters
+    ----------
+    watch : Watch
+        The watched invariants.
+    names : list of str
+        All the model's invariants, in the order of ``values``' rows.
+    values : ndarray, shape=(n_invariants, n_states)
+        Their values at consecutive states.
+    initial : ndarray, shape=(n_invariants,)
+        Their values at the run's start.
+
+    Returns
+    -------
+    (str, int) or None
+        The invariant and the state's index (the earliest over all watched invariants); a
+        non-finite value counts as an excess.
+    """
+    best: tuple[str, int] | None = None
+    for name in watch.names:
+        k = names.index(name)
+        dev = values[k] - initial[k]
+        if name in watch.conserved:
+            dev = np.abs(dev)
+        bad = ~(dev <= DRIFT_LIMIT * watch.scale[name])
+        if np.any(bad):
+            j = int(np.argmax(bad))
+            if best is None or j < best[1]:
+                best = (name, j)
+    return best
