@@ -187,11 +187,16 @@ class Homotopy:
 
     def gauged(self, c: Vector) -> tuple[Vector, Matrix]:
         """``G = [F(c, 1); xi . dW]`` and its tangent Jacobian."""
+        G, A, _ = self.gauged_basis(c)
+        return G, A
+
+    def gauged_basis(self, c: Vector) -> tuple[Vector, Matrix, Matrix]:
+        """``G``, its tangent Jacobian and the tangent basis ``N`` at ``c`` (used for both)."""
         self.evaluations += 1
         F, D, _, g, Dg = self._ev(c, np.array([1.0]), self.fn.p)
         D, Dg = D.reshape(F.size, c.size), Dg.reshape(g.size, c.size)
         N = self.manifold.tangent_basis(c)
-        return np.concatenate([F, g]), np.vstack([D @ N, Dg @ N]) if g.size else D @ N
+        return np.concatenate([F, g]), np.vstack([D @ N, Dg @ N]) if g.size else D @ N, N
 
 
 @dataclass
@@ -287,10 +292,9 @@ def deflate(h: Homotopy, known: list[Vector], c0: Vector, *, tol: float,
     log0 = log_factor(np.asarray(c0, dtype=float))[0]
 
     def fun(c: Vector) -> tuple[Vector, Matrix]:
-        G, A = h.gauged(c)
+        G, A, N = h.gauged_basis(c)
         logm, dlog = log_factor(c)
         m = np.exp(logm - log0)
-        N = man.tangent_basis(c)
         return m * G, m * (A + np.outer(G, dlog @ N))
 
     root = newton_on_manifold(fun, man, c0, tol=tol, max_iterations=max_iterations,
