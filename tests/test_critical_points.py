@@ -339,6 +339,10 @@ def test_the_morse_bott_inequalities_cannot_see_missing_sets():
     assert short.status is CriticalStatus.UNSETTLED and short.check.holds
     assert not short.search.settled and short.search.starts == 40
     assert "raise max_deflation_starts" in short.message
+    # with sets known to be missing (the inequalities fail) the patience is 4 times longer
+    early = critical_points(V, manifold=torus, max_deflation_starts=10, raise_on_failure=False)
+    assert early.status is CriticalStatus.MISSED and not early.check.holds
+    assert early.search.patience == 4 * 3 * (len(early) + 2) and not early.search.settled
 
 
 def test_a_non_abelian_symmetry_is_reported_unclassified():

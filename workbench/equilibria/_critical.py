@@ -240,9 +240,9 @@ def critical_points(
         failure or known point).
     max_deflation_starts : int
         The budget: at most this many starts in all (``deflation["starts"]``), at least
-        ``deflation_starts``. Deflation goes on past the patience while the Morse-Bott
-        inequalities fail; a budget spent before the patience is reached gives UNSETTLED
-        (or MISSED) and says so in ``search``.
+        ``deflation_starts``. While the Morse-Bott inequalities fail the patience is 4 times
+        longer; a budget spent before the patience is reached gives UNSETTLED (or MISSED)
+        and says so in ``search``.
     max_iterations : int
         Newton iterations per solve.
     seed : int

@@ -14,13 +14,17 @@ sets keep appearing, and ends when ``patience`` starts *in a row* found no new s
     patience = max(deflation_starts, PATIENCE_PER_SET * (n_sets + dim))
 
 (``n_sets`` the critical sets found so far, ``dim`` the manifold's dimension), or when the
-budget ``max_deflation_starts`` is spent. While no new set is found the deflated system does
-not change, so the starts of such a run are independent trials of one experiment; after
-``m`` of them that all failed, the probability ``p`` that a random start finds a new set is
-below ``1 - 0.05^(1/m)`` (about ``3 / m``, the "rule of three") with 95 % confidence. With
-``m >= 3 (n_sets + dim)``, a missing set that attracts as many starts as an average found
-set (a share ``1 / (n_sets + 1)``) would have been found with probability 95 %. A set whose
-basin is much smaller can still be missed: the bound is reported, not a proof.
+budget ``max_deflation_starts`` is spent. While the Morse-Bott inequalities fail, sets are
+known to be missing and the patience is ``MISSING_FACTOR`` (4) times longer.
+
+While no new set is found the deflated system does not change (but for further points of
+sets already known), so the starts of such a run are independent trials of one experiment;
+after ``m`` of them that all failed, the probability ``p`` that a random start finds a new
+set is below ``1 - 0.05^(1/m)`` (about ``3 / m``, the "rule of three") with 95 %
+confidence. With ``m >= 3 (n_sets + dim) >= 3 (n_sets + 1)``, a missing set that attracts
+as many starts as an average found set (a share ``1 / (n_sets + 1)``) would have been found
+with probability at least ``1 - e^-3 = 95 %``. A set whose basin is much smaller can still
+be missed: the bound is reported, not a proof.
 """
 
 from __future__ import annotations
@@ -33,11 +37,15 @@ import numpy as np
 from workbench.core.types import Vector
 from workbench.equilibria._critical_search import Homotopy, deflate
 
-__all__ = ["PATIENCE_PER_SET", "CONFIDENCE", "SearchEnd", "deflation_stage", "patience"]
+__all__ = ["PATIENCE_PER_SET", "MISSING_FACTOR", "CONFIDENCE", "SearchEnd", "deflation_stage",
+           "patience", "rate_bound"]
 
 PATIENCE_PER_SET = 3
 """Starts in a row without a new set, per set found and per dimension, that end the search
 (module docstring: 3 per set is the rule of three at 95 % for a set with an average basin)."""
+
+MISSING_FACTOR = 4
+"""The patience is this many times longer while the Morse-Bott inequalities fail."""
 
 CONFIDENCE = 0.95
 """Confidence of :attr:`SearchEnd.new_rate_bound`."""
@@ -90,7 +98,8 @@ class SearchEnd:
         Starts after ``last_new``, in a row, that found no new set.
     patience : int
         Starts in a row without a new set that end the search, for the sets found at the
-        end (:func:`patience`); 0 when deflation was off.
+        end (:func:`patience`, times ``MISSING_FACTOR`` while the Morse-Bott inequalities
+        fail); 0 when deflation was off.
     settled : bool
         ``fruitless >= patience > 0``: the search stopped because new sets stopped
         appearing, not because the budget ran out (or deflation was off).
@@ -115,7 +124,7 @@ class SearchEnd:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
-def _end(starts: int, budget: int, last_new: int, pat: int) -> SearchEnd:
+def _end(starts: int, budget: int, last_new: int, pat: int, longer: bool) -> SearchEnd:
     fruitless = starts - last_new
     settled = pat > 0 and fruitless >= pat
     bound = rate_bound(fruitless)
@@ -125,8 +134,9 @@ def _end(starts: int, budget: int, last_new: int, pat: int) -> SearchEnd:
         msg = ("deflation was off (deflation_starts = 0): only the homotopy's paths were "
                "followed, nothing looked for the sets they missed")
     elif settled:
+        why = f", {MISSING_FACTOR} times longer as sets are missing" if longer else ""
         msg = (f"{where}; the {fruitless} starts after it found nothing new (patience "
-               f"{pat}), so a random start finds a new set with probability below "
+               f"{pat}{why}), so a random start finds a new set with probability below "
                f"{bound:.2g} ({CONFIDENCE:.0%} confidence); sets with smaller basins can "
                "still be missing")
     else:
@@ -154,8 +164,8 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
     n_sets : callable
         The number of critical sets found so far.
     failing : callable
-        Whether the Morse-Bott inequalities fail for the sets found so far (the search
-        then goes on regardless of the patience, up to the budget).
+        Whether the Morse-Bott inequalities fail for the sets found so far (the patience
+        is then ``MISSING_FACTOR`` times longer).
     seed : int
         Of the starts (the stream ``[seed, 1]``).
     deflation_starts, deflation_rounds, budget : int
@@ -175,9 +185,16 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
     man = hom.manifold
     rng = np.random.default_rng([seed, 1])
     starts = solves = found = last_new = 0
+    seen: dict[int, bool] = {}  # failing() by the number of sets (it changes with them only)
+
+    def in_force() -> tuple[int, bool]:
+        n = n_sets()
+        longer = seen[n] if n in seen else seen.setdefault(n, failing())
+        pat = patience(deflation_starts, n, man.dim)
+        return pat * MISSING_FACTOR if longer else pat, longer
+
     while deflation_starts and starts < budget:
-        pat = patience(deflation_starts, n_sets(), man.dim)
-        if starts - last_new >= pat and not failing():
+        if starts - last_new >= in_force()[0]:
             break
         c0 = man.random_point(rng)
         starts += 1
@@ -190,5 +207,5 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
             if add(root.x, f"deflation from seeded start {starts - 1}"):
                 found += 1
                 last_new = starts
-    end = _end(starts, budget, last_new, patience(deflation_starts, n_sets(), man.dim))
+    end = _end(starts, budget, last_new, *in_force())
     return {"starts": starts, "solves": solves, "found": found}, end
