@@ -205,9 +205,10 @@ def critical_points(
     seed: int = 0,
     raise_on_failure: bool = True,
 ) -> CriticalPoints:
-    """Every critical set of a smooth function on a product of S^1, S^2, SO(3) and R^k.
+    """Search for every critical set of a smooth function on a product of S^1, S^2, SO(3), R^k.
 
-    No guess is needed: see the module docstring for the method.
+    No guess is needed: see the module docstring for the method, and for what the result
+    vouches for (CONSISTENT is necessary for completeness, not a proof of it).
 
     Parameters
     ----------
@@ -285,11 +286,13 @@ def find_all_equilibria(
     raise_on_failure: bool = True,
     **options: Any,
 ) -> CriticalPoints:
-    """All equilibria at rest (zero input) of a mechanics model, without guesses.
+    """Search for all equilibria at rest (zero input) of a mechanics model, without guesses.
 
     They are the critical sets of the potential on the configuration manifold
     (:func:`critical_points`); each set's ``state`` is a full model state with zero
-    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there.
+    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there. The status
+    CONSISTENT says the Morse-Bott inequalities hold and the search settled (``search``):
+    necessary for having found them all, not sufficient.
 
     Parameters
     ----------
@@ -308,6 +311,7 @@ def find_all_equilibria(
     Returns
     -------
     CriticalPoints
+        As :func:`critical_points`, with ``search`` saying how the search ended.
     """
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
