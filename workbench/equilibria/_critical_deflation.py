@@ -92,8 +92,9 @@ class SearchEnd:
     budget : int
         ``max_deflation_starts``: the most starts allowed.
     last_new : int
-        The start (counted from 1) at which the last new set was found by deflation; 0 when
-        deflation found none (every set came from the homotopy).
+        The start (counted from 1, as in the sets' ``found_by``) at which the last new set
+        was found by deflation; 0 when deflation found none (every set came from the
+        homotopy).
     fruitless : int
         Starts after ``last_new``, in a row, that found no new set.
     patience : int
@@ -204,7 +205,7 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
             if not root.ok or any(float(np.max(np.abs(root.x - q))) <= point_tol
                                   for q in known):
                 break
-            if add(root.x, f"deflation from seeded start {starts - 1}"):
+            if add(root.x, f"deflation from seeded start {starts}"):
                 found += 1
                 last_new = starts
     end = _end(starts, budget, last_new, *in_force())
