@@ -122,7 +122,7 @@ class Reduction(ReconstructionMixin):
                                          ["J"])
         self._functions()
         self.held_inputs: tuple[int, ...] = ()
-        self.rtol = INVARIANCE_RTOL
+        self.rtol, self.seed = INVARIANCE_RTOL, 0  # reduce's, for with_parameters' checks
         self._model: Model | None = None
 
     # the symbolic pieces ---------------------------------------------------------------
@@ -206,7 +206,7 @@ class Reduction(ReconstructionMixin):
                 mu_new = validate.real(self.momentum_parameter,
                                        model.values[self.momentum_parameter], error=ModelError)
                 check_momentum(self.momentum_parameter, mu_new,
-                               momentum_scale(self, values.p, self.rtol))
+                               momentum_scale(self, values.p, self.rtol, seed=self.seed))
 
         what = ("Routh model at the momentum value "
                 f"{self.momentum_parameter}" if routh else "Lagrange-Poincare reduced model")
@@ -558,7 +558,7 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     quotient = classify(list(der.ing.factors), der.ing.momenta[symmetry],
                         _evaluator(der, full.p), states, symmetry)
     red = Reduction(full, symmetry, kind, quotient, mu_name)
-    red.rtol = rtol
+    red.rtol, red.seed = rtol, seed
     if kind is Kind.ROUTH:  # a momentum the lift cannot carry is refused before the checks
         check_momentum("momentum", mu, momentum_scale(red, full.p, rtol, seed=seed))
     broken = _check(red, mu, rng, n_states, rtol)
