@@ -7,6 +7,11 @@ SO(3) x SO(3) (the double 3D pendulum: four 2-tori) and the 2-torus of the Furut
 checks: the closed forms of the equilibria and of ``V`` there, the model's own field
 ``f(x, 0)`` at the states found, the unstable count of the model's linearisation against the
 index, and finite differences of ``V`` along the retraction against the Riemannian Hessian.
+Functions with many critical points (cos 5a + cos(5b) / 2 on T^2: 100; cos 40 theta on S^1:
+80) are found in full and in closed form, the search ending only when new sets stop
+appearing; and the Morse-Bott inequalities are shown blind to missing sets (a perfect
+subset; a dropped pair of indices 0 and 1), which is why a search that did not settle is
+UNSETTLED, never CONSISTENT.
 """
 
 from __future__ import annotations
@@ -67,6 +72,7 @@ def test_chain_on_a_cart_has_2_to_the_n_equilibria():
     model = chain_cart(n, masses=masses, lengths=lengths, g=g)
     res = find_all_equilibria(model)
     assert res.status is CriticalStatus.CONSISTENT and len(res) == 2**n
+    _assert_settled(res)
     assert res.check.perfect and res.check.betti_sum_critical == res.check.betti_sum_manifold == 8
     below = np.cumsum(masses[::-1])[::-1]  # mass at and below each link
     patterns = set()
@@ -112,6 +118,7 @@ def test_double_pendulum3d_has_four_critical_2tori():
     res = find_all_equilibria(model)
     assert res.ok and res.indices == [0, 2, 2, 4]
     assert res.check.perfect and res.check.betti_sum_critical == 16  # 4 x 4
+    _assert_settled(res)
     v = model.values
     for s in res.sets:
         assert (s.topology, s.betti, s.dimension) == ("2-torus", (1, 2, 1), 2)
@@ -254,6 +261,88 @@ def test_deflation_finds_what_the_homotopy_misses():
     for s in tilted:
         assert abs(abs(s.point[0]) - np.sqrt(1 - z * z)) <= 1e-12
         assert s.value == pytest.approx(-z + kappa * (1 - z * z), rel=1e-12)
+
+
+def _re_power(a, b, k):
+    """``Re (a + i b)^k``: ``cos(k theta)`` on the unit circle ``(a, b) = (cos, sin) theta``."""
+    re, im = 1, 0
+    for _ in range(k):
+        re, im = re * a - im * b, re * b + im * a
+    return re
+
+
+def _torus_cosines(k=5, weight=0.5):
+    """``cos(k a) + weight cos(k b)`` on T^2: (2k)^2 critical points, all nondegenerate."""
+    c = ca.SX.sym("c", 4)
+    V = _re_power(c[0], c[1], k) + weight * _re_power(c[2], c[3], k)
+    torus = ProductManifold([("a", S1()), ("b", S1())])
+    return ca.Function("V", [c, ca.SX.sym("p", 0)], [V]), torus
+
+
+def _assert_settled(res):
+    end = res.search
+    assert end.settled and end.last_new + end.fruitless == end.starts == res.deflation["starts"]
+    assert end.patience == max(8, 3 * (len(res) + res.manifold.dim)) <= end.fruitless
+    assert end.new_rate_bound == pytest.approx(1 - 0.05 ** (1 / end.fruitless), rel=1e-12)
+    assert end.new_rate_bound <= 3 / end.fruitless  # the rule of three
+
+
+def test_many_critical_points_are_all_found_until_new_ones_stop_appearing():
+    """cos 5a + cos(5b) / 2 on T^2 has its critical points where 5a and 5b are multiples of
+    pi: 100 points of index [cos 5a = 1] + [cos 5b = 1]; cos 40 theta on S^1 has 80. The
+    deflation goes on until 3 (sets + dim) starts in a row find nothing new."""
+    V, torus = _torus_cosines()
+    res = critical_points(V, manifold=torus)
+    assert res.status is CriticalStatus.CONSISTENT and len(res) == 100
+    cells = set()
+    for s in res.sets:
+        a = np.arctan2(s.point[1], s.point[0])
+        b = np.arctan2(s.point[3], s.point[2])
+        ja, jb = np.rint(5 * a / np.pi), np.rint(5 * b / np.pi)
+        assert abs(5 * a - ja * np.pi) <= 1e-9 and abs(5 * b - jb * np.pi) <= 1e-9
+        ca_, cb = (-1.0) ** ja, (-1.0) ** jb
+        assert s.index == int(ca_ > 0) + int(cb > 0) and s.topology == "point"
+        assert s.value == pytest.approx(ca_ + 0.5 * cb, abs=1e-12)
+        cells.add((int(ja) % 10, int(jb) % 10))
+    assert len(cells) == 100
+    assert [res.indices.count(i) for i in range(3)] == [25, 50, 25]
+    _assert_settled(res)
+    c = ca.SX.sym("c", 2)
+    circle = critical_points(ca.Function("V", [c], [_re_power(c[0], c[1], 40)]),
+                             manifold=ProductManifold([("t", S1())]))
+    assert circle.ok and len(circle) == 80 and circle.indices.count(1) == 40
+    angles = np.sort([np.arctan2(s.point[1], s.point[0]) % (2 * np.pi) for s in circle.sets])
+    np.testing.assert_allclose(angles, np.arange(80) * np.pi / 40, atol=1e-9)
+    _assert_settled(circle)
+
+
+def test_the_morse_bott_inequalities_cannot_see_missing_sets():
+    """Why CONSISTENT is not a proof of completeness: the homotopy alone finds 4 of the
+    torus's 100 critical points and they are a perfect Morse function's (M = P_T2); and
+    dropping a pair of sets of indices 0 and 1 from the 100 leaves the inequalities holding.
+    So without a settled search the status is UNSETTLED, never CONSISTENT."""
+    V, torus = _torus_cosines()
+    alone = critical_points(V, manifold=torus, deflation_starts=0, raise_on_failure=False)
+    assert len(alone) == 4 and alone.check.perfect
+    assert alone.status is CriticalStatus.UNSETTLED and alone.search.starts == 0
+    assert "deflation was off" in alone.message
+    with pytest.raises(SolverError, match="UNSETTLED"):
+        critical_points(V, manifold=torus, deflation_starts=0)
+    full = critical_points(V, manifold=torus)
+    pairs = [(s.index, s.betti) for s in full.sets]
+    drop = [pairs.index((0, (1,))), pairs.index((1, (1,)))]
+    fewer = [pq for i, pq in enumerate(pairs) if i not in drop]
+    assert morse_bott_check(manifold_polynomial(torus), fewer).holds
+    assert "necessary for completeness, not sufficient" in full.message
+    assert "not sufficient" in CriticalStatus.CONSISTENT.value
+    short = critical_points(V, manifold=torus, max_deflation_starts=40, raise_on_failure=False)
+    assert short.status is CriticalStatus.UNSETTLED and short.check.holds
+    assert not short.search.settled and short.search.starts == 40
+    assert "raise max_deflation_starts" in short.message
+    # with sets known to be missing (the inequalities fail) the patience is 4 times longer
+    early = critical_points(V, manifold=torus, max_deflation_starts=10, raise_on_failure=False)
+    assert early.status is CriticalStatus.MISSED and not early.check.holds
+    assert early.search.patience == 4 * 3 * (len(early) + 2) and not early.search.settled
 
 
 def test_a_non_abelian_symmetry_is_reported_unclassified():

@@ -8,13 +8,16 @@ SO(3), S^2 and R^3 factors) reproduces the full model's trajectory, with the mom
 its value; the Routh model's spectrum at the hanging equilibrium is the Lagrange-Poincare
 model's without its zero mode; relative equilibria found as Routh equilibria are critical
 points of the amended potential and steady rotations of the full model; inputs that break
-the symmetry are named; bad requests are refused. Off the manifold: every reduced field
+the symmetry are named; bad requests are refused, a momentum too large for double
+precision with its bound (linear in the inertia and in rtol). Off the manifold: every reduced field
 keeps |q|^2 and q . w of its S^1, S^2 and TS^2 parts as first integrals, the
 Lagrange-Poincare field of the 3D pendulum is paper 000's at |Gamma| != 1, and a spinning
 top keeps its phase over 100 s like the transcribed model.
 """
 
 from __future__ import annotations
+
+import re
 
 import casadi as ca
 import numpy as np
@@ -334,6 +337,43 @@ def test_refusals_name_what_is_wrong(pendulum):
     s.momentum("h", rotate=s.parameter("axis", [0.0, 0.0, 1.0]))
     with pytest.raises(ModelError, match="depends on parameters"):
         mechanics.reduce(s, "h", kind="lagrange_poincare")
+
+
+def _momentum_bound(full, momentum, **kw):
+    """The bound quoted by the refusal of ``momentum`` (which must be refused)."""
+    with pytest.raises(ModelError, match=r"momentum = \S+ is too large for the Routh lift in "
+                                         r"double precision") as err:
+        mechanics.reduce(full, "h", momentum=momentum, **kw)
+    return float(re.search(r"must be at most \(rtol / eps\) min\(I / \|eta\|\) = (\S+) here",
+                           str(err.value)).group(1))
+
+
+def test_a_momentum_beyond_double_precision_is_refused_with_its_scale():
+    """Beyond (rtol / eps) min(I / |eta|) the lift's group velocity drowns the reduced
+    velocities: refused up front (was an 'internal' quotient error), with the bound. For the
+    3D pendulum turning about the vertical, I(Gamma) = Gamma^T J Gamma and eta = Gamma (the
+    body rates of the rotation), so I / |eta|_inf lies in [lambda_min(J), sqrt(3) lambda_max(J)];
+    the bound is linear in the inertia and in rtol; below it the lift and quotient are
+    inverse to rtol."""
+    eps = np.finfo(float).eps
+    full = p3.full(**BODY)
+    bound = _momentum_bound(full, 1e300)
+    lam = np.linalg.eigvalsh(BODY["J"])
+    assert 1e-8 / eps * lam[0] <= bound <= 1e-8 / eps * np.sqrt(3) * lam[-1]
+    assert _momentum_bound(full, -2 * bound) == bound  # the sign does not matter
+    heavy = p3.full(**{**BODY, "J": 1e3 * BODY["J"]})
+    assert _momentum_bound(heavy, 1e300) == pytest.approx(1e3 * bound, rel=1e-12)
+    assert _momentum_bound(full, 1e300, rtol=1e-6) == pytest.approx(100 * bound, rel=1e-12)
+    ro = mechanics.reduce(full, "h", momentum=0.9 * bound, breaking_inputs="hold_zero")
+    rng = np.random.default_rng(9)
+    for _ in range(3):
+        r = ro.model.manifold.random_point(rng)
+        x = ro.full_state(r)
+        assert abs(ro.momentum_of(x) / (0.9 * bound) - 1) <= 1e-8
+        assert np.max(np.abs(ro.state_from_full(x) - r)) <= 1e-8 * np.max(np.abs(r))
+    with pytest.raises(ModelError, match=r"mu = 1e\+300 is too large.* must be at most"):
+        ro.model.with_parameters(mu=1e300)
+    assert ro.model.with_parameters(mu=-0.5 * bound).values["mu"] == -0.5 * bound
 
 
 def test_the_problem_runs_quick():

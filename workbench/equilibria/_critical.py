@@ -3,22 +3,33 @@
 For a model made by :mod:`workbench.mechanics` the equilibria at rest with zero input are the
 critical points of the potential ``V`` on the configuration manifold ``Q`` (a product of
 S^1, S^2, SO(3) and R^k), and the relative equilibria are the critical points of the
-amended potential of a Routh reduction. :func:`critical_points` finds every critical set of
-any such function (:class:`ConfigurationFunction`); :func:`find_all_equilibria` applies it
-to a model's potential and returns full states at rest, usable by ``linearize``.
+amended potential of a Routh reduction. :func:`critical_points` searches for every critical
+set of any such function (:class:`ConfigurationFunction`); :func:`find_all_equilibria`
+applies it to a model's potential and returns full states at rest, usable by ``linearize``.
 
 The method (details in :mod:`._critical_search`): the symmetries of ``V`` among the
 rotations, shifts and translations of the factors are found first
 (:mod:`._critical_symmetry`); a start function with known, isolated critical points (the
 "sign patterns" of the gravity height functions: each link up or down) is deformed into
 ``V`` by continuation, the last correction fixing a gauge on the symmetry orbits; deflated
-Newton from seeded starts looks for sets the paths missed. Each distinct critical set is
+Newton from seeded random starts looks for sets the paths missed, until a run of starts
+that grows with the sets found and the dimension finds nothing new
+(:mod:`._critical_deflation`). Each distinct critical set is
 classified by the Riemannian Hessian at a point of it: its index (negative eigenvalues),
 its nullity, and the dimension of the symmetry orbit through it. When the nullity equals
 the orbit's dimension the set is nondegenerate in the normal directions (Morse-Bott) and,
 for an abelian symmetry, it *is* the orbit: a torus ``T^d``, times ``R^j`` for free
 translations. The sets are then checked against the Morse-Bott inequalities
 (:mod:`._critical_topology`).
+
+**What the result vouches for.** Nothing here proves that every critical set was found.
+The Morse-Bott inequalities are necessary for completeness, not sufficient: a missing pair
+of sets whose indices differ by one (a saddle and a minimum born together, say) adds
+``t^k (1 + t)`` to the critical sets' polynomial and leaves the inequalities holding. The
+status CONSISTENT says that they hold (with equality for a perfect function, such as
+gravity's height on the chains) *and* that the deflation stopped because new sets stopped
+appearing, with a bound on the chance that one more random start would find a new set
+(:class:`SearchEnd`), not because its budget ran out.
 
 Free translations (the chain's cart: ``V`` does not depend on its position) are handled as a
 quotient: the gauge fixes the free coordinates at 0, each critical set is
@@ -30,7 +41,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
@@ -39,12 +49,19 @@ import numpy as np
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, ParameterError
 from workbench.core.manifolds import ProductManifold
-from workbench.core.status import StatusEnum, StatusResult, raise_if
+from workbench.core.status import raise_if
 from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import count as check_count
 from workbench.core.validate import tolerance as check_tolerance
+from workbench.equilibria._critical_deflation import deflation_stage
 from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
-from workbench.equilibria._critical_search import Homotopy, PathEnd, deflate, start_function, track
+from workbench.equilibria._critical_result import (
+    CriticalPoints,
+    CriticalSet,
+    CriticalStatus,
+)
+from workbench.equilibria._critical_result import status as critical_status
+from workbench.equilibria._critical_search import Homotopy, start_function, track
 from workbench.equilibria._critical_symmetry import Symmetry, candidates, detect_symmetry
 from workbench.equilibria._critical_topology import (
     MorseBottCheck,
@@ -66,170 +83,6 @@ deflation starts, solves per start and Newton iterations per solve."""
 SCALE_RANGE = (1e-150, 1e150)
 """The function's scale (largest ``|dV|`` at the samples) must lie in this range: beyond
 it the squares formed by Newton's least squares over- or underflow in double precision."""
-
-
-class CriticalStatus(StatusEnum):
-    """How a search for all critical sets ended; the value is a readable message.
-
-    Attributes
-    ----------
-    CONSISTENT
-        Every set is Morse-Bott with a known topology and the Morse-Bott inequalities hold.
-    UNCLASSIFIED
-        Some set is degenerate (nullity above its orbit's dimension) or its orbit's
-        topology is not known (a non-abelian or screw symmetry): no Morse-Bott check.
-    MISSED
-        The Morse-Bott inequalities fail: sets were missed (or an index is wrong).
-    NOT_EQUILIBRIA
-        A critical set of the potential is not an equilibrium of the model (a load at rest
-        that is not in the potential).
-    """
-
-    CONSISTENT = ("every critical set is Morse-Bott with a known topology and the Morse-Bott "
-                  "inequalities hold")
-    UNCLASSIFIED = ("some critical set is degenerate or of unknown topology: the Morse-Bott "
-                    "check could not be made")
-    MISSED = "the Morse-Bott inequalities fail: critical sets were missed"
-    NOT_EQUILIBRIA = "a critical point of the potential is not an equilibrium of the model"
-
-    @classmethod
-    def successes(cls) -> frozenset[str]:  # noqa: D102
-        return frozenset({"CONSISTENT"})
-
-
-@dataclass
-class CriticalSet:
-    """One connected critical set, represented by a point of it.
-
-    Attributes
-    ----------
-    point : ndarray, shape=(config_ambient_dim,)
-        A configuration on the set (the gauge point found first).
-    state : ndarray
-        The state it stands for (a model state at rest for :func:`find_all_equilibria`).
-    value : float
-        ``V`` on the set.
-    index : int
-        Negative eigenvalues of the Riemannian Hessian (on the normal space).
-    nullity : int
-        Its zero eigenvalues.
-    dimension : int
-        The set's dimension: the orbit's when Morse-Bott, else the nullity (an upper bound).
-    orbit_dimension, compact_dimension, translation_dimension : int
-        Of the symmetry orbit through the point (compact: rotations and shifts).
-    orbit : list of str
-        The symmetry generators that move the point.
-    morse_bott : bool
-        ``nullity == orbit_dimension``: the set is the orbit, nondegenerate normally.
-    topology : str
-        ``"point"``, ``"circle"``, ``"2-torus"``, ``"point x R^2"``..., or ``"unknown"``.
-    betti : tuple of int or None
-        Its mod-2 Poincare polynomial (None when the topology is unknown).
-    hessian_eigenvalues : ndarray
-        Of the Riemannian Hessian in the manifold's tangent coordinates.
-    residual : float
-        ``max |K^T dV|`` at the point.
-    field_residual : float or None
-        ``max |f(state, 0)|`` of the model (None without a model: a function alone has no
-        field to evaluate).
-    points : list of ndarray
-        Every gauge point found on the set.
-    found_by : list of str
-        How each point was found.
-    """
-
-    point: Vector
-    state: Vector
-    value: float
-    index: int
-    nullity: int
-    dimension: int
-    orbit_dimension: int
-    compact_dimension: int
-    translation_dimension: int
-    orbit: list[str]
-    morse_bott: bool
-    topology: str
-    betti: tuple[int, ...] | None
-    hessian_eigenvalues: Vector
-    residual: float
-    field_residual: float | None = None
-    points: list[Vector] = field(default_factory=list)
-    found_by: list[str] = field(default_factory=list)
-
-    def summary(self) -> dict[str, Any]:
-        """Plain data (no arrays but the point and state)."""
-        return {"value": self.value, "index": self.index, "nullity": self.nullity,
-                "dimension": self.dimension, "topology": self.topology,
-                "betti": list(self.betti) if self.betti else None,
-                "morse_bott": self.morse_bott, "orbit": self.orbit,
-                "residual": self.residual, "field_residual": self.field_residual,
-                "found_by": self.found_by, "point": self.point.tolist(),
-                "state": self.state.tolist()}
-
-
-@dataclass
-class CriticalPoints(StatusResult):
-    """Every critical set found, with the Morse-Bott check and how each set was found.
-
-    Attributes
-    ----------
-    function : str
-    manifold : ProductManifold
-        The configuration space.
-    sets : list of CriticalSet
-        By increasing value.
-    check : MorseBottCheck or None
-        None when some set is unclassified.
-    status : CriticalStatus
-    message : str
-    symmetry : list of str
-        The generators of the symmetry found (compact first, then translations).
-    symmetry_notes : list of str
-    paths : list of PathEnd
-        One per start of the homotopy.
-    deflation : dict
-        ``starts``, ``solves`` and ``found`` of the deflation stage.
-    evaluations : int
-        Evaluations of the homotopy graph.
-    wall_time : float
-        Seconds.
-    """
-
-    function: str
-    manifold: ProductManifold
-    sets: list[CriticalSet]
-    check: MorseBottCheck | None
-    status: CriticalStatus
-    message: str
-    symmetry: list[str]
-    symmetry_notes: list[str]
-    paths: list[PathEnd]
-    deflation: dict[str, int]
-    evaluations: int
-    wall_time: float
-
-    def __len__(self) -> int:
-        return len(self.sets)
-
-    @property
-    def indices(self) -> list[int]:
-        """The sets' indices, in the order of :attr:`sets`."""
-        return [s.index for s in self.sets]
-
-    @property
-    def states(self) -> list[Vector]:
-        """The sets' representative states."""
-        return [s.state for s in self.sets]
-
-    def summary(self) -> dict[str, Any]:
-        """Plain data."""
-        return {"function": self.function, "status": self.status.code,
-                "message": self.message, "sets": [s.summary() for s in self.sets],
-                "check": self.check.summary() if self.check else None,
-                "symmetry": self.symmetry, "paths_reached": sum(p.reached for p in self.paths),
-                "paths": len(self.paths), "deflation": dict(self.deflation),
-                "evaluations": self.evaluations, "wall_time": self.wall_time}
 
 
 def _as_function(target: Any, manifold: ProductManifold | None,
@@ -308,33 +161,10 @@ def _morse_bott(man: ProductManifold, sets: list[CriticalSet]) -> MorseBottCheck
     return morse_bott_check(manifold_polynomial(man), [(s.index, s.betti) for s in sets])
 
 
-def _status(sets: list[CriticalSet], check: MorseBottCheck | None, paths: list[PathEnd],
-            defl: dict[str, int], field_tol: float | None) -> tuple[CriticalStatus, str]:
-    reached = sum(p.reached for p in paths)
-    how = (f"{len(sets)} critical sets; {reached} of {len(paths)} homotopy paths reached t = 1"
-           f", deflation found {defl['found']} more from {defl['starts']} seeded starts")
-    if not sets:
-        return CriticalStatus.MISSED, (f"{how}: none found (on an R^k factor the function may "
-                                       "have no critical point: not bounded below, not proper)")
-    odd = [] if field_tol is None else [i for i, s in enumerate(sets)
-                                        if not float(s.field_residual) <= field_tol]
-    if odd:
-        return CriticalStatus.NOT_EQUILIBRIA, (
-            f"{how}; sets {odd} are critical points of the potential but max |f(x, 0)| = "
-            f"{max(float(sets[i].field_residual) for i in odd):.3g}: the model has loads at "
-            "rest that the potential does not contain (a spring written as a force?)")
-    if check is None:
-        degenerate = [i for i, s in enumerate(sets) if not s.morse_bott]
-        unknown = [i for i, s in enumerate(sets) if s.morse_bott and s.betti is None]
-        words = ([f"sets {degenerate} are degenerate (Hessian nullity above the dimension of "
-                  "the symmetry orbit)"] if degenerate else []) + (
-            [f"sets {unknown} are orbits of a non-abelian or screw symmetry, of unknown "
-             "topology"] if unknown else [])
-        return CriticalStatus.UNCLASSIFIED, (
-            f"{how}; {'; '.join(words)}: the Morse-Bott inequalities were not checked")
-    if not check.holds:
-        return CriticalStatus.MISSED, f"{how}; {check.message}"
-    return CriticalStatus.CONSISTENT, f"{how}; {check.message}"
+def _failing(man: ProductManifold, sets: list[CriticalSet]) -> bool:
+    """Whether the Morse-Bott inequalities fail for classified sets (False if unchecked)."""
+    check = _morse_bott(man, sets)
+    return check is not None and not check.holds
 
 
 def _flag(name: str, value: Any) -> bool:
@@ -370,14 +200,15 @@ def critical_points(
     max_starts: int = 4096,
     deflation_starts: int = 8,
     deflation_rounds: int = 8,
-    max_deflation_starts: int = 64,
+    max_deflation_starts: int = 2048,
     max_iterations: int = 50,
     seed: int = 0,
     raise_on_failure: bool = True,
 ) -> CriticalPoints:
-    """Every critical set of a smooth function on a product of S^1, S^2, SO(3) and R^k.
+    """Search for every critical set of a smooth function on a product of S^1, S^2, SO(3), R^k.
 
-    No guess is needed: see the module docstring for the method.
+    No guess is needed: see the module docstring for the method, and for what the result
+    vouches for (CONSISTENT is necessary for completeness, not a proof of it).
 
     Parameters
     ----------
@@ -401,13 +232,18 @@ def critical_points(
         Refuse a start function with more critical points than this (``2^n`` for ``n``
         links); at most ``LIMITS["max_starts"]`` (65536), as the other counts are bounded
         by :data:`LIMITS`.
-    deflation_starts, deflation_rounds : int
-        Seeded random starts of the deflated Newton, and solutions sought from each (the
-        solves from one start stop at its first failure); 0 starts turns deflation off.
+    deflation_starts : int
+        The least patience of the deflation: it ends once this many seeded random starts
+        in a row, and at least ``3 (n_sets + dim)`` (:mod:`._critical_deflation`), found
+        no new set; 0 turns deflation off (the status is then at best UNSETTLED).
+    deflation_rounds : int
+        Solutions sought from each start (the solves from one start stop at its first
+        failure or known point).
     max_deflation_starts : int
-        While the Morse-Bott inequalities fail after ``deflation_starts`` (sets are
-        missing), deflation goes on from further seeded starts, up to this many in all
-        (reported in ``deflation["starts"]``); at least ``deflation_starts``.
+        The budget: at most this many starts in all (``deflation["starts"]``), at least
+        ``deflation_starts``. While the Morse-Bott inequalities fail the patience is 4 times
+        longer; a budget spent before the patience is reached gives UNSETTLED (or MISSED)
+        and says so in ``search``.
     max_iterations : int
         Newton iterations per solve.
     seed : int
@@ -418,7 +254,10 @@ def critical_points(
     Returns
     -------
     CriticalPoints
-        The sets by increasing value, the Morse-Bott check, the status.
+        The sets by increasing value, the Morse-Bott check, the status, and ``search``:
+        how the search ended (the start of the last new set, of how many). CONSISTENT means
+        the inequalities hold and the search settled: necessary for completeness, not
+        sufficient (see :class:`CriticalStatus`).
 
     Raises
     ------
@@ -447,11 +286,13 @@ def find_all_equilibria(
     raise_on_failure: bool = True,
     **options: Any,
 ) -> CriticalPoints:
-    """All equilibria at rest (zero input) of a mechanics model, without guesses.
+    """Search for all equilibria at rest (zero input) of a mechanics model, without guesses.
 
     They are the critical sets of the potential on the configuration manifold
     (:func:`critical_points`); each set's ``state`` is a full model state with zero
-    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there.
+    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there. The status
+    CONSISTENT says the Morse-Bott inequalities hold and the search settled (``search``):
+    necessary for having found them all, not sufficient.
 
     Parameters
     ----------
@@ -470,6 +311,7 @@ def find_all_equilibria(
     Returns
     -------
     CriticalPoints
+        As :func:`critical_points`, with ``search`` saying how the search ended.
     """
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
@@ -492,7 +334,7 @@ def find_all_equilibria(
 def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float | None,
             raise_on_failure: bool, tol: float = 1e-11, hessian_rtol: float = 1e-6,
             symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 8,
-            deflation_rounds: int = 8, max_deflation_starts: int = 64,
+            deflation_rounds: int = 8, max_deflation_starts: int = 2048,
             max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
     t0 = time.perf_counter()
     _flag("raise_on_failure", raise_on_failure)
@@ -550,23 +392,12 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         paths.append(end)
         if end.reached:
             add(end.point, f"continuation from start {k} ({label})")
-    defl = {"starts": 0, "solves": 0, "found": 0}
-    drng = np.random.default_rng([seed, 1])
-    while defl["starts"] < max_deflation_starts:
-        if defl["starts"] >= deflation_starts:
-            check = _morse_bott(man, sets)
-            if check is None or check.holds:
-                break  # extend the deflation only while the inequalities fail
-        k, c0 = defl["starts"], man.random_point(drng)
-        defl["starts"] += 1
-        for _ in range(deflation_rounds):
-            root = deflate(hom, known, c0, tol=abs_tol, max_iterations=max_iterations)
-            defl["solves"] += 1
-            if not root.ok or any(float(np.max(np.abs(root.x - q))) <= point_tol
-                                  for q in known):
-                break
-            if add(root.x, f"deflation from seeded start {k}"):
-                defl["found"] += 1
+    defl, ended = deflation_stage(
+        hom, known, add, n_sets=lambda: len(sets),
+        failing=lambda: _failing(man, sets), seed=seed,
+        deflation_starts=deflation_starts, deflation_rounds=deflation_rounds,
+        budget=max_deflation_starts, tol=abs_tol, max_iterations=max_iterations,
+        point_tol=point_tol)
     sets.sort(key=lambda s: s.value)
     if model is not None:
         f = model.function("f")
@@ -574,8 +405,8 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         for s in sets:
             s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
     check = _morse_bott(man, sets)
-    status, message = _status(sets, check, paths, defl, field_tol)
+    status, message = critical_status(sets, check, paths, defl, ended, field_tol)
     result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),
                             sym.notes, paths, defl, hom.evaluations,
-                            time.perf_counter() - t0)
+                            time.perf_counter() - t0, ended)
     return raise_if(result, raise_on_failure)

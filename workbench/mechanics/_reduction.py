@@ -44,6 +44,7 @@ from workbench.mechanics._reduction_geometry import (
     split_state,
     split_velocity,
 )
+from workbench.mechanics._reduction_momentum import check_momentum, momentum_scale
 from workbench.mechanics._reduction_reconstruct import Reconstructed, ReconstructionMixin
 
 __all__ = ["reduce", "Reduction", "ReductionKind", "BreakingInputs", "Reconstructed",
@@ -121,6 +122,7 @@ class Reduction(ReconstructionMixin):
                                          ["J"])
         self._functions()
         self.held_inputs: tuple[int, ...] = ()
+        self.rtol, self.seed = INVARIANCE_RTOL, 0  # reduce's, for with_parameters' checks
         self._model: Model | None = None
 
     # the symbolic pieces ---------------------------------------------------------------
@@ -199,7 +201,12 @@ class Reduction(ReconstructionMixin):
             values[self.momentum_parameter] = mu
 
         def value_check(model: Model) -> None:
-            full.with_parameters(**{k: model.values[k] for k in full.values})
+            values = full.with_parameters(**{k: model.values[k] for k in full.values})
+            if routh:
+                mu_new = validate.real(self.momentum_parameter,
+                                       model.values[self.momentum_parameter], error=ModelError)
+                check_momentum(self.momentum_parameter, mu_new,
+                               momentum_scale(self, values.p, self.rtol, seed=self.seed))
 
         what = ("Routh model at the momentum value "
                 f"{self.momentum_parameter}" if routh else "Lagrange-Poincare reduced model")
@@ -472,7 +479,11 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     momentum : float, optional
         Routh (required): the momentum value, the reduced model's parameter ``mu``
         (``mu_<symmetry>`` if the full model already has a ``mu``); continuation and
-        ``with_parameters`` change it. Lagrange-Poincare: must be omitted.
+        ``with_parameters`` change it. Lagrange-Poincare: must be omitted. Its size is
+        bounded by what the lift can carry in double precision,
+        ``|mu| <= (rtol / eps) min(I / |eta|)`` over the shape space (``I`` the locked
+        inertia, ``eta`` the generator; :mod:`._reduction_momentum`), checked here and by
+        ``with_parameters``.
     breaking_inputs : BreakingInputs or {"refuse", "hold_zero"}
         Inputs whose effect is not invariant under the symmetry, or (Routh) that change
         the momentum (a motor on the symmetry's own coordinate), are refused with their
@@ -497,8 +508,9 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     Raises
     ------
     ModelError
-        Not a mechanics model, an unknown momentum, a symmetry of another kind, a field
-        that is not invariant, or inputs that break the symmetry (named).
+        Not a mechanics model, an unknown momentum, a momentum value too large for double
+        precision (with the bound), a symmetry of another kind, a field that is not
+        invariant, or inputs that break the symmetry (named).
     """
     from workbench.mechanics._system import System
 
@@ -546,6 +558,9 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     quotient = classify(list(der.ing.factors), der.ing.momenta[symmetry],
                         _evaluator(der, full.p), states, symmetry)
     red = Reduction(full, symmetry, kind, quotient, mu_name)
+    red.rtol, red.seed = rtol, seed
+    if kind is Kind.ROUTH:  # a momentum the lift cannot carry is refused before the checks
+        check_momentum("momentum", mu, momentum_scale(red, full.p, rtol, seed=seed))
     broken = _check(red, mu, rng, n_states, rtol)
     if broken and breaking is BreakingInputs.REFUSE:
         named = "; ".join(f"u[{k}]: {red._broken[k]}" for k in broken)
