@@ -482,3 +482,16 @@ def test_a_marker_without_digests_replaces_only_identical_files(tmp_path):
     new = json.loads((folder / MARKER).read_text())["sha256"]
     assert sorted(new) == sorted(old["sha256"])
     assert new["hostile/A.csv"] == old["sha256"]["hostile/A.csv"]
+
+
+def test_a_read_only_report_file_stops_the_report_before_any_problem_runs(tmp_path):
+    from workbench.core.errors import OutputError
+
+    solved, out = tmp_path / "solved.txt", tmp_path / "out"
+    report(out, "hostile", solved)
+    os.chmod(out / "report.html", 0o444)
+    before = snapshot(out)
+    with pytest.raises(OutputError, match=r"report\.html' is read-only \(mode 0444\)"):
+        report(out, "other", solved)
+    assert solved.read_text().split() == ["hostile"], "refused before any problem ran"
+    assert snapshot(out) == before  # the tables too: nothing was written

@@ -23,6 +23,7 @@ from workbench.equilibria._critical import (
     critical_points,
     find_all_equilibria,
 )
+from workbench.equilibria._critical_deflation import SearchEnd
 from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
 from workbench.equilibria._critical_topology import MorseBottCheck
 from workbench.equilibria._equilibria import (
@@ -52,6 +53,7 @@ __all__ = [
     "PointKind",
     "Root",
     "RootStatus",
+    "SearchEnd",
     "SpecialPoint",
     "StepControl",
     "ZeroProblem",

@@ -167,6 +167,13 @@ def _catalogue() -> ModuleType:
     return registry
 
 
+def _check_outputs(out: Path, stem: str, formats: Sequence[Format]) -> None:
+    """Refuse, before anything runs or is written, an HTML or PDF file that cannot be replaced."""
+    for fmt, suffix in ((Format.HTML, "html"), (Format.PDF, "pdf")):
+        if fmt in formats:
+            files.writable_file(out / f"{stem}.{suffix}", name="--out")
+
+
 def _write(doc: Document, out: Path, stem: str, formats: Sequence[Format],
            seconds: dict[str, float]) -> tuple[dict[Format, Path], list[Path]]:
     """Write the CSV tables (first: the HTML links to them), then the HTML and the PDF."""
@@ -283,6 +290,7 @@ def build_report(
     if cache_dir is not None:
         report_cache.check_foreign(_not_a_file("--cache", cache_dir), default=DEFAULT_CACHE)
     out = check_out_dir(out_dir)
+    _check_outputs(out, stem, formats)  # a read-only report.html stops it before any run
     cache = None
     if cache_dir is not None:
         cache = check_out_dir(cache_dir, option="--cache")
@@ -313,4 +321,5 @@ def rebuild(doc: Document, *, formats: Sequence[Format], out_dir: str | Path,
     """Write an already assembled document (no problem is run), and its CSV tables."""
     out = check_out_dir(out_dir)
     check_tables_dir(tables_dir(out, stem))
+    _check_outputs(out, stem, [Format(f) for f in formats])
     return _write(doc, out, stem, [Format(f) for f in formats], {})[0]
