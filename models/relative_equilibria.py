@@ -437,7 +437,8 @@ def stability_label(model: Model, x: ArrayLike, *, tol: float | None = None) -> 
         An equilibrium.
     tol : float, optional
         Real-part tolerance (default :func:`workbench.linear._eigen.default_tol`,
-        ``1e-7 max(1, |A|_2)``, the convention of :func:`workbench.linear._eigen.eigenstructure`;
+        ``1e-7 max(1, |D^-1 A D|_2)`` of the balanced matrix, the convention of
+        :func:`workbench.linear._eigen.eigenstructure`;
         only the eigenvalues are computed here, since the classification is evaluated at
         every point of a branch and near the changes, where eigenvalues sit at the
         tolerance).

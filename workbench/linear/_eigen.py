@@ -2,15 +2,21 @@
 
 Eigenvalues are split by the sign of their real part with a stated tolerance ``tol``:
 stable if ``Re(lambda) < -tol``, unstable if ``Re(lambda) > tol``, centre otherwise. The
-default ``tol = 1e-7 max(1, |A|_2)`` covers the ``O(sqrt(eps))`` spread of the computed
-eigenvalues of a Jordan block (the double zero eigenvalue of a rotation about the vertical,
-paper 000 (3.24)), and is reported with the result.
+default ``tol = 1e-7 max(1, |D^-1 A D|_2)``, where ``D^-1 A D`` is ``A`` balanced by a
+diagonal scaling of powers of 2 (``scipy.linalg.matrix_balance``, the same as LAPACK's
+eigenvalue drivers apply), covers the ``O(sqrt(eps))`` spread of the computed eigenvalues
+of a Jordan block (the double zero eigenvalue of a rotation about the vertical, paper 000
+(3.24)), and is reported with the result. The balanced norm is the scale of the computed
+eigenvalues' errors: for a stiff system (a spring of stiffness ``k`` beside a pendulum)
+``|A|_2`` grows like ``k`` while the eigenvalues grow like ``sqrt(k)``, so a tolerance
+from ``|A|_2`` would call a saddle's ``+-3`` a centre once ``k`` is about ``1e8``.
 
 Bases of the three invariant subspaces are computed from an ordered real Schur
-decomposition (``scipy.linalg.schur`` with ``sort``), which is reliable with repeated and
-defective eigenvalues where eigenvector matrices are not; they are orthonormal in tangent
-coordinates and mapped to ambient directions by the linearisation's basis ``N`` (the
-stable-manifold computations start from them).
+decomposition (``scipy.linalg.schur`` with ``sort``) of the balanced matrix, which is
+reliable with repeated and defective eigenvalues where eigenvector matrices are not; they
+are mapped back by ``D``, orthonormal in tangent coordinates, and mapped to ambient
+directions by the linearisation's basis ``N`` (the stable-manifold computations start
+from them).
 """
 
 from __future__ import annotations
@@ -68,8 +74,33 @@ class Subspace(Enum):
 
 
 def default_tol(A: ArrayLike) -> float:
-    """Return the default real-part tolerance ``1e-7 max(1, |A|_2)``."""
-    return 1e-7 * max(1.0, float(np.linalg.norm(np.asarray(A, dtype=float), 2)))
+    """Return the default real-part tolerance ``1e-7 max(1, |D^-1 A D|_2)``.
+
+    Parameters
+    ----------
+    A : array_like, shape=(n, n)
+        A finite square matrix.
+
+    Returns
+    -------
+    float
+        The tolerance, from the norm of ``A`` balanced by :func:`_balance` (see the module
+        docstring).
+    """
+    return _tol_of_balanced(_balance(np.asarray(A, dtype=float))[0])
+
+
+def _tol_of_balanced(B: Matrix) -> float:
+    """``1e-7 max(1, |B|_2)`` for a balanced ``B``."""
+    return 1e-7 * max(1.0, float(np.linalg.norm(B, 2)) if B.size else 0.0)
+
+
+def _balance(A: Matrix) -> tuple[Matrix, np.ndarray]:
+    """``(D^-1 A D, diag(D))``: ``A`` scaled by powers of 2 (exact), no permutation."""
+    if A.size == 0:
+        return A, np.ones(A.shape[0])
+    B, (scale, _) = sla.matrix_balance(A, permute=False, separate=True)
+    return B, scale
 
 
 @dataclass(frozen=True)
@@ -201,12 +232,20 @@ def _classify(ev: np.ndarray, tol: float) -> Stability:
     return Stability.SADDLE
 
 
-def _invariant_basis(A: Matrix, select: Any) -> Matrix:
-    """Orthonormal basis of the invariant subspace of the eigenvalues ``select`` picks."""
-    if A.shape[0] == 0:
+def _invariant_basis(B: Matrix, scale: np.ndarray, select: Any) -> Matrix:
+    """Orthonormal basis of the invariant subspace of ``A = D B D^-1`` that ``select`` picks.
+
+    ``B`` is ``A`` balanced (:func:`_balance`) and ``scale`` the diagonal of ``D``: the
+    ordered Schur form of ``B`` gives its subspace ``Z``, and ``A``'s is ``D Z``,
+    orthonormalised.
+    """
+    if B.shape[0] == 0:
         return np.zeros((0, 0))
-    _, Z, sdim = sla.schur(A, output="real", sort=select)
-    return Z[:, :sdim]
+    _, Z, sdim = sla.schur(B, output="real", sort=select)
+    if sdim == 0:
+        return Z[:, :0]
+    q, _ = np.linalg.qr(scale[:, None] * Z[:, :sdim])
+    return q
 
 
 @validate.arguments(error=ModelError, tol=validate.optional(validate.tolerance))
@@ -252,7 +291,8 @@ def eigenstructure(
             f"basis must have {A.shape[0]} columns (one per tangent coordinate); got shape "
             f"{N.shape}"
         )
-    t = default_tol(A) if tol is None else float(tol)
+    Bal, dscale = _balance(A)
+    t = _tol_of_balanced(Bal) if tol is None else float(tol)
     if not (np.isfinite(t) and t > 0):
         raise ModelError(f"tol must be positive and finite; got {tol!r}")
     ev, V = np.linalg.eig(A)
@@ -261,9 +301,9 @@ def eigenstructure(
     scale = max(1.0, float(np.linalg.norm(A, 2))) if A.size else 1.0
     resid = float(np.max(np.abs(A @ V - V * ev))) / scale if A.size else 0.0
     cond = float(np.linalg.cond(V)) if A.size else 1.0
-    stable = _invariant_basis(A, lambda re, im: re < -t)
-    unstable = _invariant_basis(A, lambda re, im: re > t)
-    centre = _invariant_basis(A, lambda re, im: abs(re) <= t)
+    stable = _invariant_basis(Bal, dscale, lambda re, im: re < -t)
+    unstable = _invariant_basis(Bal, dscale, lambda re, im: re > t)
+    centre = _invariant_basis(Bal, dscale, lambda re, im: abs(re) <= t)
     counts = (int(np.sum(ev.real < -t)), int(np.sum(ev.real > t)))
     if (stable.shape[1], unstable.shape[1]) != counts:  # pragma: no cover - defensive
         raise ModelError(
