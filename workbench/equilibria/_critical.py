@@ -55,6 +55,7 @@ from workbench.core.validate import count as check_count
 from workbench.core.validate import tolerance as check_tolerance
 from workbench.equilibria._critical_deflation import deflation_stage
 from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
+from workbench.equilibria._critical_loads import RestForces
 from workbench.equilibria._critical_result import (
     CriticalPoints,
     CriticalSet,
@@ -327,15 +328,18 @@ def find_all_equilibria(
                               "max_deflation_starts", "seed"}
     if unknown:
         raise ParameterError(f"unknown options {sorted(unknown)} for find_all_equilibria")
-    return _search(potential_function(model), model=model, field_tol=field_tol,
+    rest = RestForces(model)
+    rest.refuse()
+    return _search(rest.function, model=model, field_tol=field_tol, rest=rest,
                    raise_on_failure=raise_on_failure, **options)
 
 
 def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float | None,
-            raise_on_failure: bool, tol: float = 1e-11, hessian_rtol: float = 1e-6,
-            symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 8,
-            deflation_rounds: int = 8, max_deflation_starts: int = 2048,
-            max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
+            raise_on_failure: bool, rest: RestForces | None = None, tol: float = 1e-11,
+            hessian_rtol: float = 1e-6, symmetry_rtol: float = 1e-9, max_starts: int = 4096,
+            deflation_starts: int = 8, deflation_rounds: int = 8,
+            max_deflation_starts: int = 2048, max_iterations: int = 50,
+            seed: int = 0) -> CriticalPoints:
     t0 = time.perf_counter()
     _flag("raise_on_failure", raise_on_failure)
     tol = _relative("tol", tol)
@@ -372,10 +376,17 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
             f"outside [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] where Newton's least squares "
             f"over- or underflow; rescale it (V / {scale:.3g} has the same critical points; "
             f"p = {fn.p.tolist()!r:.120})")
+    abs_tol = tol * scale
+
+    def at_start(c: Vector, where: str) -> None:
+        if rest is not None:  # a force at rest outside the potential refuses the search
+            rest.check(c, where, abs_tol)
+
+    for k, c in enumerate(samples):
+        at_start(c, f"random sample {k + 1} (of the scale and symmetry)")
     sym = detect_symmetry(man, fn.gradient, samples, rtol=symmetry_rtol)
     start = start_function(fn, scale, max_starts=max_starts)
     hom = Homotopy(fn, start, sym)
-    abs_tol = tol * scale
     sets: list[CriticalSet] = []
     known: list[Vector] = []
     value_tol = 1e-7 * scale
@@ -388,6 +399,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
 
     paths = []
     for k, (c0, label) in enumerate(zip(start.points, start.labels)):
+        at_start(c0, f"homotopy start {k} ({label})")
         end = track(hom, c0, label, tol=abs_tol, max_iterations=max_iterations)
         paths.append(end)
         if end.reached:
@@ -397,7 +409,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         failing=lambda: _failing(man, sets), seed=seed,
         deflation_starts=deflation_starts, deflation_rounds=deflation_rounds,
         budget=max_deflation_starts, tol=abs_tol, max_iterations=max_iterations,
-        point_tol=point_tol)
+        point_tol=point_tol, at_start=at_start)
     sets.sort(key=lambda s: s.value)
     if model is not None:
         f = model.function("f")
