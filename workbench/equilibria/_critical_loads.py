@@ -153,7 +153,9 @@ class RestForces:
         if not inertial.is_zero():
             self.offending.append(RestForce(
                 "kinetic energy (its terms of degree 0 in the velocities, T at rest = "
-                f"{_short(at_rest(der.T), 80)})", _short(inertial)))
+                f"{_short(at_rest(der.T), 80)}: a rotating frame? its equilibria at rest are "
+                "the critical points of V - T0, critical_points(ConfigurationFunction."
+                "from_state(model, V - T0)))", _short(inertial)))
         V = der.V - work
         name = f"potential of {model.name}"
         if self.folded:
@@ -188,7 +190,7 @@ class RestForces:
             "declared as System.potential(U); otherwise find the equilibria with "
             "find_equilibrium (Newton from a guess) or enumerate_equilibria (from many "
             "guesses). Only loads whose value at rest does not depend on the configuration "
-            "(a constant force at a point) are taken into the potential, as their work")
+            "(a constant force at a point) are taken into the potential, as their work.")
 
     def residual(self, c: Any) -> Vector:
         """``b(c, 0, 0) + K^T dV_eff/dc``: the force at rest outside ``V_eff``, per factor.
