@@ -256,7 +256,7 @@ class _Recording:
     """A model's RestForces whose check records where it was made."""
 
     def __init__(self, rest: RestForces) -> None:
-        self.rest, self.where = rest, []
+        self.rest, self.where, self.notes = rest, [], rest.notes
 
     def check(self, c, where, tol) -> None:
         self.where.append(where)
@@ -275,3 +275,34 @@ def test_the_sampled_check_is_made_at_every_start_of_the_search():
     assert starts == res.deflation["starts"] == res.search.starts >= res.search.patience == 9
     assert kinds.count("random sample") >= 6
     assert set(kinds) == {"random sample", "homotopy start", "seeded deflation start"}
+
+
+@pytest.mark.parametrize("Om", [0.0, 3.0])
+def test_the_index_is_the_unstable_count_of_a_natural_system_only(Om):
+    # V = cos a + cos b on T^2 and T = (a'^2 + b'^2) / 2 + Om sin(a) b': the term linear in
+    # the velocities does nothing at rest (the same 4 equilibria) but its gyroscopic force
+    # Om cos(a) acts on the linearisation; at the maximum (index 2) z = a + i b obeys
+    # z'' + i Om z' - z = 0, lambda = (-i Om +- sqrt(4 - Om^2)) / 2: stable for Om > 2
+    s = mechanics.System("gyro_torus")
+    a, b = s.s1("a"), s.s1("b")
+    s.kinetic(0.5 * (a.rate**2 + b.rate**2) + Om * a.sin * b.rate)
+    s.potential(a.cos + b.cos)
+    model = s.model()
+    res = find_all_equilibria(model)
+    assert res.indices == [0, 1, 1, 2] and res.check.perfect
+    assert ("gyroscopically stable" in res.message) == (Om != 0)
+    for st in res.sets:
+        assert st.field_residual <= 1e-12
+        unstable = _unstable(model, st.state)
+        if Om == 0 or st.index != 2:
+            assert unstable == st.index
+    top = res.sets[-1]
+    lam = eigenstructure(linearize(model, top.state)).eigenvalues
+    root = np.sqrt(complex(4 - Om**2))
+    expected = [(-1j * Om + sg * root) / 2 for sg in (1, -1)]
+    expected += [np.conj(e) for e in expected]
+    def order(v):
+        return sorted(v, key=lambda z: (round(z.imag, 9), round(z.real, 9)))
+
+    assert np.array(order(lam)) == pytest.approx(np.array(order(expected)), abs=1e-12)
+    assert _unstable(model, top.state) == (2 if Om < 2 else 0)

@@ -1,11 +1,16 @@
 """All critical sets of a function on a configuration space, without guesses.
 
-For a model made by :mod:`workbench.mechanics` the equilibria at rest with zero input are the
-critical points of the potential ``V`` on the configuration manifold ``Q`` (a product of
-S^1, S^2, SO(3) and R^k), and the relative equilibria are the critical points of the
-amended potential of a Routh reduction. :func:`critical_points` searches for every critical
-set of any such function (:class:`ConfigurationFunction`); :func:`find_all_equilibria`
-applies it to a model's potential and returns full states at rest, usable by ``linearize``.
+For a model made by :mod:`workbench.mechanics` whose forces at rest (velocities and inputs
+0) all derive from its potential ``V``, the equilibria at rest with zero input are the
+critical points of ``V`` on the configuration manifold ``Q`` (a product of S^1, S^2, SO(3)
+and R^k), and the relative equilibria are the critical points of the amended potential of a
+Routh reduction. Other forces at rest (a configuration-dependent torque that is not an input,
+a spring written as a force) make the equilibria zeros of the whole force instead:
+:func:`find_all_equilibria` refuses such a model (:mod:`._critical_loads`), but for loads of
+configuration-independent weight, exact gradients of their work, which it adds to ``V``.
+:func:`critical_points` searches for every critical set of any such function
+(:class:`ConfigurationFunction`); :func:`find_all_equilibria` applies it to a model's
+potential and returns full states at rest, usable by ``linearize``.
 
 The method (details in :mod:`._critical_search`): the symmetries of ``V`` among the
 rotations, shifts and translations of the factors are found first
@@ -290,10 +295,26 @@ def find_all_equilibria(
     """Search for all equilibria at rest (zero input) of a mechanics model, without guesses.
 
     They are the critical sets of the potential on the configuration manifold
-    (:func:`critical_points`); each set's ``state`` is a full model state with zero
-    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there. The status
-    CONSISTENT says the Morse-Bott inequalities hold and the search settled (``search``):
-    necessary for having found them all, not sufficient.
+    (:func:`critical_points`) when every force at rest (velocities and inputs 0) derives from
+    it. That is checked first, exactly, on the derivation's graph (:mod:`._critical_loads`):
+    loads that vanish at rest (inputs, velocity-proportional ones), a Rayleigh dissipation
+    and a kinetic energy without terms of degree 0 in the velocities pass; a load whose value
+    at rest does not depend on the configuration (a constant force at a point, parameters
+    allowed) is the gradient of its work ``-w . y(c)``, which is added to the potential
+    (the sets' ``value`` is then that sum); anything else is refused with a
+    :class:`ModelError` naming it, even a configuration-dependent load that happens to be a
+    gradient (declare its energy with ``System.potential``). At every configuration the
+    search starts from, the force at rest outside the potential is measured as well, from
+    the model's own equations (a second line). Each set's ``state`` is a full model state
+    with zero velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there.
+    The status CONSISTENT says the Morse-Bott inequalities hold and the search settled
+    (``search``): necessary for having found them all, not sufficient.
+
+    A set's ``index`` counts the negative eigenvalues of the potential's Hessian; for a
+    kinetic energy quadratic in the velocities (with or without dissipation) it is the
+    number of unstable modes of the linearisation. Terms linear in the velocities add
+    gyroscopic forces to the linearisation: an odd index is still unstable, an even one
+    may be stabilised (the message says so).
 
     Parameters
     ----------
@@ -303,7 +324,7 @@ def find_all_equilibria(
         Parameter values overriding the model's.
     field_tol : float
         Largest accepted ``max |f(x, 0)|`` at a representative (status NOT_EQUILIBRIA
-        above: a load at rest the potential does not contain).
+        above: a third line, after the structural and sampled checks of the forces at rest).
     raise_on_failure : bool
         Raise unless CONSISTENT.
     **options
@@ -313,6 +334,17 @@ def find_all_equilibria(
     -------
     CriticalPoints
         As :func:`critical_points`, with ``search`` saying how the search ended.
+
+    Raises
+    ------
+    ModelError
+        Whatever ``raise_on_failure``: a model not made by :mod:`workbench.mechanics`, or one
+        with forces at rest its potential does not contain (named; find its equilibria with
+        :func:`find_equilibrium` or :func:`enumerate_equilibria`).
+    ParameterError
+        Bad options.
+    SolverError
+        When not CONSISTENT and ``raise_on_failure``.
     """
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
@@ -418,6 +450,8 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
             s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
     check = _morse_bott(man, sets)
     status, message = critical_status(sets, check, paths, defl, ended, field_tol)
+    if rest is not None and rest.notes:
+        message = "; ".join([message, *rest.notes])
     result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),
                             sym.notes, paths, defl, hom.evaluations,
                             time.perf_counter() - t0, ended)

@@ -102,6 +102,10 @@ class RestForces:
     function : ConfigurationFunction
         ``V_eff``: the potential plus the work potentials of ``folded``, on the configuration;
         its ``state(c)`` is the model state at rest.
+    notes : list of str
+        What the result's message should say: a kinetic energy with terms linear in the
+        velocities makes the index a count of the Hessian only (gyroscopic forces can
+        stabilise an even index), not the linearisation's unstable count.
 
     Raises
     ------
@@ -156,6 +160,12 @@ class RestForces:
                 f"{_short(at_rest(der.T), 80)}: a rotating frame? its equilibria at rest are "
                 "the critical points of V - T0, critical_points(ConfigurationFunction."
                 "from_state(model, V - T0)))", _short(inertial)))
+        self.notes: list[str] = []
+        if not getattr(der, "quadratic", True):
+            self.notes.append(
+                "the kinetic energy has terms linear in the velocities: their gyroscopic forces "
+                "act on the linearisation, so an index is the potential's (an odd one is "
+                "unstable) but an even one may be gyroscopically stable")
         V = der.V - work
         name = f"potential of {model.name}"
         if self.folded:
