@@ -306,3 +306,24 @@ def test_the_index_is_the_unstable_count_of_a_natural_system_only(Om):
 
     assert np.array(order(lam)) == pytest.approx(np.array(order(expected)), abs=1e-12)
     assert _unstable(model, top.state) == (2 if Om < 2 else 0)
+
+
+def test_a_constant_force_on_a_spherical_link_tilts_its_two_equilibria():
+    # V_eff = -(m g e3 + F) . l q on S^2: critical at q = +-a/|a|, a = m g e3 + F (index 0
+    # and 2); the sampled check on S^2 compares the derivation's projected force with q x dV
+    F = np.array([1.5, -2.0, 0.0])
+    s = mechanics.System("link_wind")
+    q = s.s2("q")
+    s.point_mass(M, L * q.q)
+    s.gravity(G)
+    s.force_at(L * q.q, ca.DM(F))
+    model = s.model()
+    res = find_all_equilibria(model)
+    assert res.status is CriticalStatus.CONSISTENT and res.indices == [0, 2]
+    a = M * G * np.array([0.0, 0.0, 1.0]) + F
+    for st, sign in zip(res.sets, (1.0, -1.0)):
+        qv = model.manifold.split(st.state)["q"][:3]
+        assert np.allclose(qv, sign * a / np.linalg.norm(a), atol=1e-12)
+        assert st.value == pytest.approx(-sign * L * np.linalg.norm(a), rel=1e-12)
+        assert st.field_residual <= 1e-12
+        assert _unstable(model, st.state) == st.index
