@@ -361,16 +361,18 @@ def test_a_non_abelian_symmetry_is_reported_unclassified():
         assert abs(abs(s.point[:3] @ s.point[3:]) - 1) <= 1e-12
 
 
-def test_a_load_at_rest_outside_the_potential_is_reported():
-    # a constant torque at the joint: the potential's critical points are not equilibria
+def test_a_load_at_rest_outside_the_potential_is_refused():
+    # a constant torque at the joint does work around the circle: no potential has its
+    # equilibria (sin a = 0.5 / 9.81) as critical points, so the search is refused up front,
+    # whatever raise_on_failure, naming the load (tests/extremes/test_critical_loads.py)
     s = mechanics.System("biased_pendulum")
     a = s.s1("a")
     s.point_mass(1.0, ca.vertcat(a.sin, 0, a.cos))
     s.gravity(9.81)
     s.moment(a, ca.SX(0.5))
-    res = find_all_equilibria(s.model(), raise_on_failure=False)
-    assert res.status is CriticalStatus.NOT_EQUILIBRIA and len(res) == 2
-    assert all(st.field_residual == pytest.approx(0.5, rel=1e-12) for st in res.sets)
+    for flag in (True, False):
+        with pytest.raises(ModelError, match=r"torque on a \(load 1 of 1\)"):
+            find_all_equilibria(s.model(), raise_on_failure=flag)
 
 
 def test_bad_targets_and_options_are_refused():

@@ -1,11 +1,16 @@
 """All critical sets of a function on a configuration space, without guesses.
 
-For a model made by :mod:`workbench.mechanics` the equilibria at rest with zero input are the
-critical points of the potential ``V`` on the configuration manifold ``Q`` (a product of
-S^1, S^2, SO(3) and R^k), and the relative equilibria are the critical points of the
-amended potential of a Routh reduction. :func:`critical_points` searches for every critical
-set of any such function (:class:`ConfigurationFunction`); :func:`find_all_equilibria`
-applies it to a model's potential and returns full states at rest, usable by ``linearize``.
+For a model made by :mod:`workbench.mechanics` whose forces at rest (velocities and inputs
+0) all derive from its potential ``V``, the equilibria at rest with zero input are the
+critical points of ``V`` on the configuration manifold ``Q`` (a product of S^1, S^2, SO(3)
+and R^k), and the relative equilibria are the critical points of the amended potential of a
+Routh reduction. Other forces at rest (a configuration-dependent torque that is not an input,
+a spring written as a force) make the equilibria zeros of the whole force instead:
+:func:`find_all_equilibria` refuses such a model (:mod:`._critical_loads`), but for loads of
+configuration-independent weight, exact gradients of their work, which it adds to ``V``.
+:func:`critical_points` searches for every critical set of any such function
+(:class:`ConfigurationFunction`); :func:`find_all_equilibria` applies it to a model's
+potential and returns full states at rest, usable by ``linearize``.
 
 The method (details in :mod:`._critical_search`): the symmetries of ``V`` among the
 rotations, shifts and translations of the factors are found first
@@ -55,6 +60,7 @@ from workbench.core.validate import count as check_count
 from workbench.core.validate import tolerance as check_tolerance
 from workbench.equilibria._critical_deflation import deflation_stage
 from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
+from workbench.equilibria._critical_loads import RestForces
 from workbench.equilibria._critical_result import (
     CriticalPoints,
     CriticalSet,
@@ -289,10 +295,26 @@ def find_all_equilibria(
     """Search for all equilibria at rest (zero input) of a mechanics model, without guesses.
 
     They are the critical sets of the potential on the configuration manifold
-    (:func:`critical_points`); each set's ``state`` is a full model state with zero
-    velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there. The status
-    CONSISTENT says the Morse-Bott inequalities hold and the search settled (``search``):
-    necessary for having found them all, not sufficient.
+    (:func:`critical_points`) when every force at rest (velocities and inputs 0) derives from
+    it. That is checked first, exactly, on the derivation's graph (:mod:`._critical_loads`):
+    loads that vanish at rest (inputs, velocity-proportional ones), a Rayleigh dissipation
+    and a kinetic energy without terms of degree 0 in the velocities pass; a load whose value
+    at rest does not depend on the configuration (a constant force at a point, parameters
+    allowed) is the gradient of its work ``-w . y(c)``, which is added to the potential
+    (the sets' ``value`` is then that sum); anything else is refused with a
+    :class:`ModelError` naming it, even a configuration-dependent load that happens to be a
+    gradient (declare its energy with ``System.potential``). At every configuration the
+    search starts from, the force at rest outside the potential is measured as well, from
+    the model's own equations (a second line). Each set's ``state`` is a full model state
+    with zero velocities, and its ``field_residual`` the model's ``max |f(x, 0)|`` there.
+    The status CONSISTENT says the Morse-Bott inequalities hold and the search settled
+    (``search``): necessary for having found them all, not sufficient.
+
+    A set's ``index`` counts the negative eigenvalues of the potential's Hessian; for a
+    kinetic energy quadratic in the velocities (with or without dissipation) it is the
+    number of unstable modes of the linearisation. Terms linear in the velocities add
+    gyroscopic forces to the linearisation: an odd index is still unstable, an even one
+    may be stabilised (the message says so).
 
     Parameters
     ----------
@@ -302,7 +324,7 @@ def find_all_equilibria(
         Parameter values overriding the model's.
     field_tol : float
         Largest accepted ``max |f(x, 0)|`` at a representative (status NOT_EQUILIBRIA
-        above: a load at rest the potential does not contain).
+        above: a third line, after the structural and sampled checks of the forces at rest).
     raise_on_failure : bool
         Raise unless CONSISTENT.
     **options
@@ -312,6 +334,17 @@ def find_all_equilibria(
     -------
     CriticalPoints
         As :func:`critical_points`, with ``search`` saying how the search ended.
+
+    Raises
+    ------
+    ModelError
+        Whatever ``raise_on_failure``: a model not made by :mod:`workbench.mechanics`, or one
+        with forces at rest its potential does not contain (named; find its equilibria with
+        :func:`find_equilibrium` or :func:`enumerate_equilibria`).
+    ParameterError
+        Bad options.
+    SolverError
+        When not CONSISTENT and ``raise_on_failure``.
     """
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
@@ -327,15 +360,18 @@ def find_all_equilibria(
                               "max_deflation_starts", "seed"}
     if unknown:
         raise ParameterError(f"unknown options {sorted(unknown)} for find_all_equilibria")
-    return _search(potential_function(model), model=model, field_tol=field_tol,
+    rest = RestForces(model)
+    rest.refuse()
+    return _search(rest.function, model=model, field_tol=field_tol, rest=rest,
                    raise_on_failure=raise_on_failure, **options)
 
 
 def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float | None,
-            raise_on_failure: bool, tol: float = 1e-11, hessian_rtol: float = 1e-6,
-            symmetry_rtol: float = 1e-9, max_starts: int = 4096, deflation_starts: int = 8,
-            deflation_rounds: int = 8, max_deflation_starts: int = 2048,
-            max_iterations: int = 50, seed: int = 0) -> CriticalPoints:
+            raise_on_failure: bool, rest: RestForces | None = None, tol: float = 1e-11,
+            hessian_rtol: float = 1e-6, symmetry_rtol: float = 1e-9, max_starts: int = 4096,
+            deflation_starts: int = 8, deflation_rounds: int = 8,
+            max_deflation_starts: int = 2048, max_iterations: int = 50,
+            seed: int = 0) -> CriticalPoints:
     t0 = time.perf_counter()
     _flag("raise_on_failure", raise_on_failure)
     tol = _relative("tol", tol)
@@ -372,10 +408,17 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
             f"outside [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] where Newton's least squares "
             f"over- or underflow; rescale it (V / {scale:.3g} has the same critical points; "
             f"p = {fn.p.tolist()!r:.120})")
+    abs_tol = tol * scale
+
+    def at_start(c: Vector, where: str) -> None:
+        if rest is not None:  # a force at rest outside the potential refuses the search
+            rest.check(c, where, abs_tol)
+
+    for k, c in enumerate(samples):
+        at_start(c, f"random sample {k + 1} (of the scale and symmetry)")
     sym = detect_symmetry(man, fn.gradient, samples, rtol=symmetry_rtol)
     start = start_function(fn, scale, max_starts=max_starts)
     hom = Homotopy(fn, start, sym)
-    abs_tol = tol * scale
     sets: list[CriticalSet] = []
     known: list[Vector] = []
     value_tol = 1e-7 * scale
@@ -388,6 +431,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
 
     paths = []
     for k, (c0, label) in enumerate(zip(start.points, start.labels)):
+        at_start(c0, f"homotopy start {k} ({label})")
         end = track(hom, c0, label, tol=abs_tol, max_iterations=max_iterations)
         paths.append(end)
         if end.reached:
@@ -397,7 +441,7 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
         failing=lambda: _failing(man, sets), seed=seed,
         deflation_starts=deflation_starts, deflation_rounds=deflation_rounds,
         budget=max_deflation_starts, tol=abs_tol, max_iterations=max_iterations,
-        point_tol=point_tol)
+        point_tol=point_tol, at_start=at_start)
     sets.sort(key=lambda s: s.value)
     if model is not None:
         f = model.function("f")
@@ -406,6 +450,8 @@ def _search(fn: ConfigurationFunction, *, model: Model | None, field_tol: float 
             s.field_residual = float(np.max(np.abs(np.asarray(f(s.state, u0, model.p)))))
     check = _morse_bott(man, sets)
     status, message = critical_status(sets, check, paths, defl, ended, field_tol)
+    if rest is not None and rest.notes:
+        message = "; ".join([message, *rest.notes])
     result = CriticalPoints(fn.name, man, sets, check, status, message, sym.describe(),
                             sym.notes, paths, defl, hom.evaluations,
                             time.perf_counter() - t0, ended)

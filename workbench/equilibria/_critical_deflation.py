@@ -151,7 +151,9 @@ def _end(starts: int, budget: int, last_new: int, pat: int, longer: bool) -> Sea
 def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, str], bool],
                     *, n_sets: Callable[[], int], failing: Callable[[], bool], seed: int,
                     deflation_starts: int, deflation_rounds: int, budget: int, tol: float,
-                    max_iterations: int, point_tol: float) -> tuple[dict[str, int], SearchEnd]:
+                    max_iterations: int, point_tol: float,
+                    at_start: Callable[[Vector, str], None] | None = None,
+                    ) -> tuple[dict[str, int], SearchEnd]:
     """Deflated Newton from random starts until new sets stop appearing (module docstring).
 
     Parameters
@@ -177,6 +179,9 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
         Newton iterations per solve.
     point_tol : float
         Max-norm distance under which a solution is a known one.
+    at_start : callable, optional
+        ``at_start(c0, where)``, called at each start before its solves (it may raise: the
+        check that the forces at rest are the potential's).
 
     Returns
     -------
@@ -199,6 +204,8 @@ def deflation_stage(hom: Homotopy, known: list[Vector], add: Callable[[Vector, s
             break
         c0 = man.random_point(rng)
         starts += 1
+        if at_start is not None:
+            at_start(c0, f"seeded deflation start {starts}")
         for _ in range(deflation_rounds):
             root = deflate(hom, known, c0, tol=tol, max_iterations=max_iterations)
             solves += 1
