@@ -61,7 +61,7 @@ from workbench.core.errors import OutputError, WorkbenchError
 from workbench.core.validate import output_path
 
 __all__ = ["write_atomic", "writable_file", "writable_dir", "make_dir", "temp_dir", "umask",
-           "apply_umask", "descriptor_step"]
+           "apply_umask", "descriptor_step", "refuse_descriptor"]
 
 
 def umask() -> int:
@@ -179,10 +179,32 @@ def descriptor_step(path: Any) -> str | None:
     return None
 
 
-def _refuse_descriptor(
-    p: Path, *, name: str, error: type[WorkbenchError], hint: str = "", folder: bool = False
+def refuse_descriptor(
+    path: Any, *, name: str, error: type[WorkbenchError] = OutputError, hint: str = "",
+    folder: bool = False,
 ) -> None:
-    """Raise ``error`` if a step of ``p``'s resolution names an open file descriptor."""
+    """Refuse a path named through an open file descriptor (see :func:`descriptor_step`).
+
+    Parameters
+    ----------
+    path : path-like
+        The output path (a file, or a folder if ``folder``).
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if a step of the path's resolution names a descriptor.
+    hint : str
+        Added to the message: what to do instead.
+    folder : bool
+        Whether ``path`` is to be a folder (for the message).
+
+    Raises
+    ------
+    WorkbenchError
+        Of class ``error``, naming the path, the descriptor, the process and what the
+        descriptor is open on.
+    """
+    p = Path(os.fspath(path))
     step = descriptor_step(p)
     if step is None:
         return
@@ -193,8 +215,10 @@ def _refuse_descriptor(
         on = f", open on {os.readlink(step)!r}"
     except OSError:
         on = ""
-    via = "" if step == str(p) else f" (through {step!r}{on})"
-    why = ("an open stream's name, not a folder's" if folder else
+    via = f"{on[2:]}" if step == str(p) else f"through {step!r}{on}"
+    via = f" ({via})" if via else ""
+    on_folder = folder or os.path.isdir(step)
+    why = ("the name of an open descriptor, not a folder's path" if on_folder else
            "a stream, not a file: replacing the file behind it would discard what was "
            "written to it and what is still written to the descriptor")
     raise error(f"{name}: {str(p)!r} names {who}{via}, {why}; nothing was written (expected "
@@ -226,7 +250,7 @@ def writable_dir(
         an open file descriptor (``/dev/fd/N``, ``/proc/PID/fd/N``).
     """
     p = output_path(name, path, error=error)
-    _refuse_descriptor(p, name=name, error=error, folder=True)
+    refuse_descriptor(p, name=name, error=error, folder=True)
     if p.exists() and not p.is_dir():
         raise error(f"{name}: {str(p)!r} exists and is not a directory")
     if not p.is_dir():
@@ -255,7 +279,7 @@ def make_dir(
     pathlib.Path
     """
     p = output_path(name, path, error=error)
-    _refuse_descriptor(p, name=name, error=error, folder=True)
+    refuse_descriptor(p, name=name, error=error, folder=True)
     if p.exists() and not p.is_dir():
         raise error(f"{name}: {str(p)!r} exists and is not a directory")
     try:
@@ -371,7 +395,7 @@ def writable_file(
         owner or group its replacement could not keep (see the module's description).
     """
     p = output_path(name, path, error=error)
-    _refuse_descriptor(p, name=name, error=error, hint=hint)
+    refuse_descriptor(p, name=name, error=error, hint=hint)
     target, what = p, f"{str(p)!r}"
     if p.is_symlink():
         target = Path(os.path.realpath(p))
