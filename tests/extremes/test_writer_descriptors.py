@@ -3,8 +3,9 @@
 ``/dev/stdout`` is a link to ``/proc/self/fd/1``, whose own link names whatever the shell
 opened: with ``>> log.txt`` that is the log, a regular file. Following the links and
 renaming a temporary file over their end replaced the log (its earlier lines lost, and the
-command's printed results sent to the unlinked old file). Every writer goes through
-:func:`workbench.core.files.writable_file`, which now refuses a path that names a
+command's printed results sent to the unlinked old file). Every file writer goes through
+:func:`workbench.core.files.writable_file` (and the C export checks its ``--out`` with
+:func:`~workbench.core.files.refuse_descriptor`), which refuses a path that names a
 descriptor at any step of its resolution; the command line writes ``--json -`` to
 standard output through descriptor 1, as the shell opened it.
 
