@@ -1,7 +1,8 @@
 """The ``workbench`` command line.
 
 ``workbench list`` names the problems; ``workbench run NAME [--quick] [--json PATH]`` runs
-one (or ``all``) and prints its results; ``workbench report [NAMES...] [--quick] [--html]
+one (or ``all``) and prints its results (``--json -``: the JSON on standard output, the
+printed results on stderr); ``workbench report [NAMES...] [--quick] [--html]
 [--pdf] [--out DIR]`` writes the HTML and/or PDF report; ``workbench bench [NAMES...]
 [--list]`` runs the scripts in ``benchmarks/``; ``workbench export-c NAME --out DIR``
 exports a controller as C99 (:mod:`workbench.app.export_cli`). Errors are one clear line on
@@ -53,14 +54,58 @@ def _problems():  # imported lazily: the engine does not depend on the problem c
     return problems
 
 
-def _writable_json(path: str) -> Path:
-    """``--json PATH`` checked before any problem runs, without writing anything."""
+STDOUT = "-"
+"""``--json -``: the JSON goes to standard output (and the printed results to stderr)."""
+
+
+def _writable_json(path: str) -> Path | None:
+    """``--json PATH`` checked before any problem runs, without writing anything.
+
+    Returns None for ``-`` (standard output, written as a stream, never replaced).
+    """
+    if path == STDOUT:
+        return None
     p = output_path("--json", path, error=CLIError)
-    # a directory, FIFO, socket or device (or a link to one) is refused; a link is
-    # written through, so its target's folder is the one that must be writable
-    target = writable_file(p, name="--json", error=CLIError)
+    # a directory, FIFO, socket or device (or a link to one) is refused, and so is a name
+    # of an open descriptor (/dev/stdout, /dev/fd/N, /proc/PID/fd/N): behind it may be the
+    # shell's redirect target (>> log), which a replacement would wipe; a link is written
+    # through, so its target's folder is the one that must be writable
+    target = writable_file(p, name="--json", error=CLIError,
+                           hint=f"for standard output use '--json {STDOUT}'")
     writable_dir(target.parent, name="--json", error=CLIError)
     return p
+
+
+def _write_stdout(text: str) -> None:
+    """Write ``text`` to file descriptor 1 as a stream: appended, nothing truncated.
+
+    Whatever the shell opened (a terminal, a pipe, ``> file``, ``>> log``) is written
+    to through the descriptor, so ``>>``'s appending is kept.
+    """
+    sys.stdout.flush()
+    view = memoryview(text.encode("utf-8"))
+    while view:
+        view = view[os.write(1, view):]
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """While problems run for ``--json -``, whatever they print goes to stderr.
+
+    Both Python's ``sys.stdout`` and file descriptor 1 (where compiled solvers print)
+    point at stderr, so standard output carries the JSON alone.
+    """
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        with contextlib.suppress(OSError, ValueError):
+            sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def _positive_int(text: str) -> int:
@@ -116,8 +161,10 @@ def _run(args: argparse.Namespace) -> int:
             f"{', '.join(problems.names())})"
         )
     out = _writable_json(args.json) if args.json is not None else None
+    to_stdout = args.json == STDOUT
     results: list[Result] = []
-    with _progress_to_stderr():
+    with _progress_to_stderr(), \
+            (_stdout_to_stderr() if to_stdout else contextlib.nullcontext()):
         for i, name in enumerate(targets):
             if len(targets) > 1:
                 print(f"[{i + 1}/{len(targets)}] {name} ...", file=sys.stderr, flush=True)
@@ -126,13 +173,16 @@ def _run(args: argparse.Namespace) -> int:
             result.timings.setdefault("total", time.perf_counter() - t0)
             print(format_result(result), flush=True)
             results.append(result)
-    if out is not None:
+    if args.json is not None:
         data = results[0].as_dict() if len(results) == 1 and args.name != "all" else {
             r.name: r.as_dict() for r in results
         }
-        write_atomic(out, json.dumps(to_jsonable(data), indent=2, allow_nan=False),
-                     name="--json")
-        print(f"wrote {out}", file=sys.stderr)
+        text = json.dumps(to_jsonable(data), indent=2, allow_nan=False)
+        if out is None:
+            _write_stdout(text + "\n")
+        else:
+            write_atomic(out, text, name="--json")
+            print(f"wrote {out}", file=sys.stderr)
     bad = [r.name for r in results if not r.ok]
     if bad:
         print(f"error: comparisons out of tolerance in: {', '.join(bad)}", file=sys.stderr)
@@ -253,7 +303,11 @@ def build_parser() -> argparse.ArgumentParser:
     p_run = sub.add_parser("run", help="run one problem (or 'all') and print its results")
     p_run.add_argument("name", help="problem name (see 'workbench list'), or 'all'")
     p_run.add_argument("--quick", action="store_true", help="smaller sizes, for a fast check")
-    p_run.add_argument("--json", metavar="PATH", help="also write the values as JSON")
+    p_run.add_argument("--json", metavar="PATH",
+                       help="also write the values as JSON to the file PATH (replaced "
+                       "whole); '-' writes them to standard output, and the printed "
+                       "results to stderr. A name of an open descriptor (/dev/stdout, "
+                       "/dev/fd/N) is refused")
     p_run.set_defaults(func=_run)
     p_rep = sub.add_parser(
         "report", help="run problems and write their HTML and/or PDF report",

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 
 from workbench.codegen.spec import MAX_SAMPLES
 from workbench.core.errors import ParameterError, WorkbenchError
+from workbench.core.files import refuse_descriptor
 from workbench.core.validate import count
 
 __all__ = ["add_export_c_parser", "main", "run_export_c"]
@@ -102,6 +103,10 @@ def run_export_c(args: argparse.Namespace) -> int:
         count("--verify", args.verify, minimum=0, maximum=MAX_SAMPLES, error=ParameterError)
     except ParameterError as exc:
         return _fail(f"{exc} (seeded states compared with casadi; 0 skips the check)", 2)
+    try:  # /dev/fd/N, /proc/PID/fd/N: a descriptor's name, not a folder (as every writer)
+        refuse_descriptor(args.out, name="--out", error=ParameterError, folder=True)
+    except ParameterError as exc:
+        return _fail(str(exc), 2)
     try:
         controller = exports.build(args.name)
         binding = codegen.Binding(args.binding)

@@ -36,11 +36,21 @@ report) goes through :func:`write_atomic`:
   with a regular file would destroy what another program owns, and writing into it would
   not be atomic. (Checked before the rename: an entry swapped in between by another
   process is replaced.)
+- a path that names an open file descriptor of a process, at any step of its resolution
+  (``/dev/stdout``, ``/dev/stderr``, ``/dev/stdin``, ``/dev/fd/N``, ``/proc/PID/fd/N``,
+  ``/proc/PID/task/TID/fd/N``, or a link whose chain passes through one), is refused
+  before anything is written (:func:`descriptor_step`). Such a name is a stream, not a
+  file: when the shell redirected it to a file (``>> log.txt``), following it leads to
+  that file, and replacing the file would discard its earlier content and everything
+  written to the descriptor (the shell's log keeps writing to the replaced, unlinked
+  file). The same holds for a folder named through a descriptor. Write to standard
+  output by the writer's own means (the command line's ``--json -``), or name the file.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import stat
 import tempfile
 from pathlib import Path
@@ -51,7 +61,7 @@ from workbench.core.errors import OutputError, WorkbenchError
 from workbench.core.validate import output_path
 
 __all__ = ["write_atomic", "writable_file", "writable_dir", "make_dir", "temp_dir", "umask",
-           "apply_umask"]
+           "apply_umask", "descriptor_step", "refuse_descriptor"]
 
 
 def umask() -> int:
@@ -88,6 +98,133 @@ def _reason(exc: OSError) -> str:
     return exc.strerror or type(exc).__name__
 
 
+_FD_DIR = re.compile(r"/proc/(?P<pid>\d+|self|thread-self)(?:/task/\d+)?/fd")
+"""A process's (or thread's) table of open file descriptors in Linux's procfs."""
+
+_STD_NAMES = frozenset({"/dev/stdin", "/dev/stdout", "/dev/stderr"})
+"""The standard streams' names (links into ``/dev/fd`` on Linux, devices elsewhere)."""
+
+_MAX_LINKS = 40
+"""Links followed while resolving a path (Linux's own bound); more is a loop."""
+
+
+def _in_fd_table(step: str) -> bool:
+    """Whether ``step`` (a path whose folder is resolved) is an entry of a descriptor table."""
+    folder = os.path.dirname(step)
+    if folder == "/dev/fd" or _FD_DIR.fullmatch(folder):
+        return True
+    if os.path.basename(folder) != "fd":
+        return False
+    try:  # a procfs mounted elsewhere than /proc (its entries share one device)
+        return os.stat(folder).st_dev == os.stat("/proc/self/fd").st_dev
+    except OSError:
+        return False
+
+
+def descriptor_step(path: Any) -> str | None:
+    """The step of ``path``'s resolution that names an open file descriptor, or None.
+
+    ``path`` is resolved one component at a time, as the kernel does, following every
+    symbolic link (in the last component or in a folder on the way). The first entry met
+    in a process's table of open descriptors (``/proc/PID/fd/N``, ``/proc/PID/task/TID/fd/N``,
+    ``/dev/fd/N`` where that is a folder of its own) or a standard stream's name
+    (``/dev/stdout``, ``/dev/stderr``, ``/dev/stdin``) is returned. Nothing is written.
+
+    Parameters
+    ----------
+    path : path-like
+        The path (relative to the current directory if not absolute).
+
+    Returns
+    -------
+    str or None
+        That entry's path (``/proc/1234/fd/1`` for ``/dev/stdout``), or None if no step of
+        the resolution names a descriptor (a missing component ends the resolution; a loop
+        of links ends it after 40 links).
+    """
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    if not os.path.isabs(text):
+        try:
+            text = os.path.join(os.getcwd(), text)
+        except OSError:  # the current folder was removed: nothing can be written in it
+            return None
+    todo = text.split("/")[::-1]
+    here, links = "/", 0
+    while todo:
+        part = todo.pop()
+        if part in ("", "."):
+            continue
+        if part == "..":  # ``here`` holds no links: its parent is the kernel's ``..``
+            here = os.path.dirname(here)
+            continue
+        step = os.path.join(here, part)
+        if _in_fd_table(step):
+            return step
+        try:
+            is_link = stat.S_ISLNK(os.lstat(step).st_mode)
+            target = os.readlink(step) if is_link else ""
+        except OSError:  # missing or not searchable: nothing further to follow
+            is_link = False
+        if step in _STD_NAMES and not is_link:  # a device of its own (not Linux)
+            return step
+        links += is_link
+        if not is_link or links > _MAX_LINKS:
+            here = step
+            continue
+        if target.startswith("/"):
+            here = "/"
+        todo.extend(reversed(target.split("/")))
+    return None
+
+
+def refuse_descriptor(
+    path: Any, *, name: str, error: type[WorkbenchError] = OutputError, hint: str = "",
+    folder: bool = False,
+) -> None:
+    """Refuse a path named through an open file descriptor (see :func:`descriptor_step`).
+
+    Parameters
+    ----------
+    path : path-like
+        The output path (a file, or a folder if ``folder``).
+    name : str
+        The argument's name, for the message.
+    error : type of WorkbenchError
+        Raised if a step of the path's resolution names a descriptor.
+    hint : str
+        Added to the message: what to do instead.
+    folder : bool
+        Whether ``path`` is to be a folder (for the message).
+
+    Raises
+    ------
+    WorkbenchError
+        Of class ``error``, naming the path, the descriptor, the process and what the
+        descriptor is open on.
+    """
+    p = Path(os.fspath(path))
+    step = descriptor_step(p)
+    if step is None:
+        return
+    found = _FD_DIR.fullmatch(os.path.dirname(step))
+    fd = os.path.basename(step)
+    who = f"file descriptor {fd} of process {found['pid']}" if found else "a file descriptor"
+    try:
+        on = f", open on {os.readlink(step)!r}"
+    except OSError:
+        on = ""
+    via = f"{on[2:]}" if step == str(p) else f"through {step!r}{on}"
+    via = f" ({via})" if via else ""
+    on_folder = folder or os.path.isdir(step)
+    why = ("the name of an open descriptor, not a folder's path" if on_folder else
+           "a stream, not a file: replacing the file behind it would discard what was "
+           "written to it and what is still written to the descriptor")
+    raise error(f"{name}: {str(p)!r} names {who}{via}, {why}; nothing was written (expected "
+                f"the path of a {'folder' if folder else 'file'}{'; ' + hint if hint else ''})")
+
+
 def writable_dir(
     path: Any, *, name: str = "out_dir", error: type[WorkbenchError] = OutputError
 ) -> Path:
@@ -109,9 +246,11 @@ def writable_dir(
     Raises
     ------
     WorkbenchError
-        Of class ``error``: missing, a file, or without write permission.
+        Of class ``error``: missing, a file, without write permission, or named through
+        an open file descriptor (``/dev/fd/N``, ``/proc/PID/fd/N``).
     """
     p = output_path(name, path, error=error)
+    refuse_descriptor(p, name=name, error=error, folder=True)
     if p.exists() and not p.is_dir():
         raise error(f"{name}: {str(p)!r} exists and is not a directory")
     if not p.is_dir():
@@ -140,6 +279,7 @@ def make_dir(
     pathlib.Path
     """
     p = output_path(name, path, error=error)
+    refuse_descriptor(p, name=name, error=error, folder=True)
     if p.exists() and not p.is_dir():
         raise error(f"{name}: {str(p)!r} exists and is not a directory")
     try:
@@ -218,7 +358,8 @@ def _check_replaceable(
 
 
 def writable_file(
-    path: Any, *, name: str = "path", error: type[WorkbenchError] = OutputError
+    path: Any, *, name: str = "path", error: type[WorkbenchError] = OutputError,
+    hint: str = "",
 ) -> Path:
     """The regular file a write to ``path`` replaces: ``path``, or the file its link names.
 
@@ -234,6 +375,9 @@ def writable_file(
         The argument's name, for the message.
     error : type of WorkbenchError
         Raised if ``path`` cannot be written as a regular file.
+    hint : str
+        Added to the message refusing a path named through a file descriptor (what to do
+        instead, e.g. the writer's own way to standard output).
 
     Returns
     -------
@@ -243,12 +387,15 @@ def writable_file(
     Raises
     ------
     WorkbenchError
-        Of class ``error``: an empty path; ``path`` or its link's target is a directory,
+        Of class ``error``: an empty path; a step of its resolution names an open file
+        descriptor (``/dev/stdout``, ``/dev/fd/N``, ``/proc/PID/fd/N``, see
+        :func:`descriptor_step`); ``path`` or its link's target is a directory,
         a FIFO, a socket or a device; a loop of links; the folder of the file to write
         does not exist; the file is read-only, has more than one hard link, or has an
         owner or group its replacement could not keep (see the module's description).
     """
     p = output_path(name, path, error=error)
+    refuse_descriptor(p, name=name, error=error, hint=hint)
     target, what = p, f"{str(p)!r}"
     if p.is_symlink():
         target = Path(os.path.realpath(p))
@@ -319,10 +466,11 @@ def write_atomic(
     Raises
     ------
     WorkbenchError
-        Of class ``error``: an empty path; a directory, FIFO, socket or device (at the
-        path or at its link's target); a missing or read-only folder; a read-only file,
-        one with more than one hard link, or one whose owner or group cannot be kept; a
-        full disk. Nothing is left behind; the target is unchanged.
+        Of class ``error``: an empty path; a path named through an open file descriptor
+        (``/dev/stdout``, ``/dev/fd/N``, ``/proc/PID/fd/N``); a directory, FIFO, socket or
+        device (at the path or at its link's target); a missing or read-only folder; a
+        read-only file, one with more than one hard link, or one whose owner or group
+        cannot be kept; a full disk. Nothing is left behind; the target is unchanged.
     """
     p = output_path(name, path, error=error)
     target = writable_file(p, name=name, error=error)
