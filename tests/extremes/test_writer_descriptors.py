@@ -253,3 +253,20 @@ def test_export_c_refuses_a_folder_named_through_a_descriptor(tmp_path, capsys):
     assert err.startswith(f"error: --out: '/dev/fd/{fd}/sub' names file descriptor {fd}")
     assert err.endswith("(expected the path of a folder)")
     assert list(tmp_path.iterdir()) == [], "refused before anything was built or written"
+
+
+@pytest.mark.parametrize("path", ["/dev/stdout", "/dev/fd/1"])
+def test_a_problem_script_refuses_a_descriptor_before_it_runs(path, capsys):
+    from workbench.study._script import run_script
+
+    ran = []
+
+    def solve(*, quick=False):  # never reached: the path is refused first
+        ran.append(quick)
+        raise AssertionError("the problem ran")
+
+    with pytest.raises(SystemExit) as stop:
+        run_script(solve, ["--quick", "--json", path])
+    assert stop.value.code == 2 and ran == []
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--json" in err and "descriptor" in err
