@@ -26,7 +26,12 @@ from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError
 from workbench.core.status import StatusEnum, StatusResult
 
-__all__ = ["OCPStatus", "OCPSolution"]
+__all__ = ["OCPStatus", "OCPSolution", "MAX_RESIM_SAMPLES"]
+
+MAX_RESIM_SAMPLES = 1_000_000
+"""Largest ``N * substeps`` of :meth:`OCPSolution.resimulate` (one CVODES call each, about
+125 us on a pendulum: two minutes), as for :func:`~workbench.control.tvlqr_along`'s grid.
+``substeps`` alone was bounded by 10^5, times up to 10^5 intervals."""
 
 
 class OCPStatus(StatusEnum):
@@ -229,10 +234,13 @@ class OCPSolution(StatusResult):
 
         Parameters
         ----------
-        rtol, atol : float
-            CVODES tolerances.
+        rtol : float
+            CVODES' relative tolerance, in ``(0, 1)``.
+        atol : float
+            CVODES' absolute tolerance (positive, finite).
         substeps : int
-            Output samples per interval (for figures).
+            Output samples per interval (for figures); ``N * substeps`` at most
+            :data:`MAX_RESIM_SAMPLES`.
 
         Returns
         -------
@@ -246,6 +254,15 @@ class OCPSolution(StatusResult):
         from workbench.control.ocp.stepper import Stepper
 
         substeps = validate.count("substeps", substeps, maximum=validate.MAX_DIM)
+        n = len(self.x) - 1
+        if n * substeps > MAX_RESIM_SAMPLES:
+            raise ParameterError(
+                f"substeps = {substeps} on {n} intervals gives {n * substeps} samples; at "
+                f"most {MAX_RESIM_SAMPLES} (one CVODES call each): fewer substeps")
+        rtol = validate.tolerance("rtol", rtol)
+        if not rtol < 1:
+            raise ParameterError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r}")
+        atol = validate.tolerance("atol", atol)
         stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
         t0 = time.perf_counter()
         h = self.T / (len(self.x) - 1)

@@ -100,6 +100,12 @@ MAX_INTERVALS = 100_000
 MAX_STEPS = 1_000
 """RK4 steps per shooting interval: each is unrolled into the interval's graph."""
 
+MAX_SHOOTING_STEPS = 100_000
+"""RK4 steps of one NLP evaluation (``N * steps``), which its time grows with: a 3-state
+pendulum took 0.95 s per Ipopt iteration at 40 x 1000, so this bound keeps it near 2.5 s
+(``N = 99999, steps = 1000`` was accepted, ~40 min per iteration). The problems and tests
+use at most 40 x 2; a fine grid within it: ``N = 50000`` with the default 2 steps."""
+
 MAX_NLP_VARIABLES = 400_000
 """Decision variables of one NLP (intervals x (state + collocation states + input)):
 checked with the model's sizes before anything is built (a 10^5-interval, degree-9
@@ -147,7 +153,8 @@ class MultipleShooting:
         ``Integrator.RK4`` (fixed step, expanded into the NLP's graph) or
         ``Integrator.CVODES`` (adaptive; a black-box node with sensitivities).
     steps : int
-        RK4 steps per interval (at most :data:`MAX_STEPS`: each is unrolled).
+        RK4 steps per interval (at most :data:`MAX_STEPS`: each is unrolled; with RK4,
+        ``N * steps`` at most :data:`MAX_SHOOTING_STEPS`).
     rtol : float
         CVODES' tolerances (relative and absolute).
     """
@@ -163,6 +170,11 @@ class MultipleShooting:
         object.__setattr__(self, "rtol", validate.tolerance("rtol", self.rtol))
         if not isinstance(self.integrator, Integrator):
             raise ParameterError(f"integrator must be an Integrator; got {self.integrator!r}")
+        if self.integrator is Integrator.RK4 and self.N * self.steps > MAX_SHOOTING_STEPS:
+            raise ParameterError(
+                f"N * steps must be at most {MAX_SHOOTING_STEPS} (RK4 steps of one NLP "
+                f"evaluation, which each Ipopt iteration's time grows with); got N = {self.N} "
+                f"x steps = {self.steps} = {self.N * self.steps}: fewer intervals or steps")
 
     def describe(self) -> str:
         """E.g. ``"shooting rk x2 N=40"``."""
