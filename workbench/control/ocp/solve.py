@@ -121,7 +121,8 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
         except TypeError as exc:
             raise ParameterError(f"ipopt_options values must be numbers or strings; got "
                                  f"{extra!r}") from exc
-    if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
+    if isinstance(print_level, (bool, np.bool_)) or not isinstance(
+            print_level, (int, np.integer)) or not 0 <= print_level <= 12:
         raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
     opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
             "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": MUMPS_ORDERING,
@@ -314,6 +315,9 @@ def solve(
     if handling is not None and not isinstance(handling, ManifoldHandling):
         raise ParameterError(f"handling must be a ManifoldHandling or None; got {handling!r}")
     check_guess(guess, ocp, OCPSolution)  # an array, or a guess of another problem
+    if not isinstance(raise_on_failure, (bool, np.bool_)):  # "no" would be truthy
+        raise ParameterError(f"raise_on_failure must be True or False; got "
+                             f"{raise_on_failure!r}")
     strategy = Auto() if strategy is None else strategy
     if not isinstance(strategy, (Auto, Direct)):
         raise ParameterError(f"strategy must be Auto(...) or Direct(); got {strategy!r}")
