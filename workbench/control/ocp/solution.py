@@ -47,6 +47,10 @@ class OCPStatus(StatusEnum):
                   "dynamics to defect_tol (local defect against CVODES on each interval)")
     OFF_MANIFOLD = ("Ipopt converged, but the nodes are off the manifold by more than "
                     "manifold_tol")
+    CONSTRAINTS_VIOLATED = ("Ipopt reported convergence, but its point violates the NLP's "
+                            "constraints (dynamics, terminal condition, path constraints) by "
+                            "more than solve's tol allows (Ipopt's own tolerances, from "
+                            "ipopt_options, were looser)")
     NOT_SOLVED = ("the strategy's attempts ran out before the problem itself (its bounds, "
                   "terminal condition, transcription and handling) was solved: the solution "
                   "returned is an intermediate step's (a relaxation or a continuation step)")
@@ -176,6 +180,11 @@ class OCPSolution(StatusResult):
         c = self.cost
         defect = (f", local defect {self.error['local_defect']:.1e}"
                   if "local_defect" in self.error else "")
+        if self.status is OCPStatus.CONSTRAINTS_VIOLATED:
+            e = self.error
+            defect = (f", constraint violation {e['constraint_violation']:.3g} (allowed "
+                      f"{e.get('constraint_limit', float('nan')):.3g} at the worst row), target "
+                      f"residual {e['target_residual']:.3g}")
         text = (
             f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
             f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
