@@ -101,10 +101,8 @@ MAX_STEPS = 1_000
 """RK4 steps per shooting interval: each is unrolled into the interval's graph."""
 
 MAX_SHOOTING_STEPS = 100_000
-"""RK4 steps of one NLP evaluation (``N * steps``), which its time grows with: a 3-state
-pendulum took 0.95 s per Ipopt iteration at 40 x 1000, so this bound keeps it near 2.5 s
-(``N = 99999, steps = 1000`` was accepted, ~40 min per iteration). The problems and tests
-use at most 40 x 2; a fine grid within it: ``N = 50000`` with the default 2 steps."""
+"""RK4 steps per NLP evaluation (``N * steps``): a pendulum takes ~1 s per Ipopt iteration at
+40 x 1000 (at 99999 x 1000, ~40 min). The problems use 40 x 1; N = 50000 x 2 steps fits."""
 
 MAX_NLP_VARIABLES = 400_000
 """Decision variables of one NLP (intervals x (state + collocation states + input)):
@@ -171,10 +169,9 @@ class MultipleShooting:
         if not isinstance(self.integrator, Integrator):
             raise ParameterError(f"integrator must be an Integrator; got {self.integrator!r}")
         if self.integrator is Integrator.RK4 and self.N * self.steps > MAX_SHOOTING_STEPS:
-            raise ParameterError(
-                f"N * steps must be at most {MAX_SHOOTING_STEPS} (RK4 steps of one NLP "
-                f"evaluation, which each Ipopt iteration's time grows with); got N = {self.N} "
-                f"x steps = {self.steps} = {self.N * self.steps}: fewer intervals or steps")
+            raise ParameterError(f"N * steps must be at most {MAX_SHOOTING_STEPS} (RK4 steps of "
+                                 f"one NLP evaluation); got N = {self.N} x steps = {self.steps}"
+                                 f" = {self.N * self.steps}: fewer intervals or steps")
 
     def describe(self) -> str:
         """E.g. ``"shooting rk x2 N=40"``."""
