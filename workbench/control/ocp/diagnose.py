@@ -18,7 +18,11 @@ import numpy as np
 
 from workbench.control.ocp.transcription import ManifoldHandling, Transcription
 
-__all__ = ["diagnose", "describe_diagnosis"]
+__all__ = ["diagnose", "describe_diagnosis", "judge_constraints", "BOUND_RELAX"]
+
+BOUND_RELAX = 1e-8
+"""Ipopt's default ``bound_relax_factor``: it relaxes every bound by ``1e-8 max(1, |b|)``,
+so a converged control may exceed its bound by that much (5.00000005 for a bound of 5)."""
 
 FAR_OFF_MANIFOLD = 1e-3
 """A node residual above this reads as "the iterates left the manifold"."""
@@ -84,6 +88,58 @@ def diagnose(sol: Any, tr: Transcription, args: dict[str, Any], *,
             "manifold_residual": res, "worst_constraint": worst, "advice": advice}
 
 
+def judge_constraints(sol: Any, args: dict[str, Any], *, tol: float, relax: float) -> float:
+    """Hold a converged solve's constraints to ``tol``, not to Ipopt's word alone.
+
+    Ipopt declares convergence by its own tolerances, which ``ipopt_options`` may loosen at
+    will (``constr_viol_tol = 1e300`` returned SUCCESS 0.9 from the target). Each NLP row's
+    violation (unscaled, against its bounds: the terminal slack of a continuation step
+    included) is allowed ``tol max(1, |bound|, max |x|)``; an inequality and a variable's
+    bound also Ipopt's bound relaxation ``relax max(1, |bound|)`` (Ipopt keeps its iterates
+    inside the relaxed bounds). Above it the status becomes CONSTRAINTS_VIOLATED.
+
+    Parameters
+    ----------
+    sol : OCPSolution
+        A converged solve (``g``, ``w``, ``x``); its ``status`` and
+        ``error["constraint_limit"]`` (the allowance of the worst entry) are set here.
+    args : dict
+        The solver's arguments (``lbg``, ``ubg``, ``lbx``, ``ubx``).
+    tol : float
+        :func:`~workbench.control.ocp.solve`'s ``tol``.
+    relax : float
+        Ipopt's ``bound_relax_factor`` in force, at most :data:`BOUND_RELAX`.
+
+    Returns
+    -------
+    float
+        The allowance of the worst entry (violation over allowance largest).
+    """
+    from workbench.control.ocp.solution import OCPStatus
+
+    xmax = float(np.max(np.abs(sol.x)))
+
+    def allowance(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, *, rows: bool
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        viol = np.maximum(np.maximum(lo - v, v - hi), 0.0)
+        b = np.where(lo - v > v - hi, lo, hi)  # the bound each entry is nearest to break
+        scale = np.maximum(1.0, np.abs(np.where(np.isfinite(b), b, 0.0)))
+        own = tol * (np.maximum(scale, xmax) if rows else scale)
+        return viol, own + np.where(lo < hi, relax * scale, 0.0)
+
+    vg, ag = allowance(np.zeros(0) if sol.g is None else sol.g, args["lbg"], args["ubg"],
+                       rows=True)
+    vw, aw = allowance(sol.w, args["lbx"], args["ubx"], rows=False)
+    viol, allowed = np.r_[vg, vw], np.r_[ag, aw]
+    if not viol.size:
+        return tol
+    worst = int(np.argmax(viol / allowed))
+    sol.error["constraint_limit"] = float(allowed[worst])
+    if not viol[worst] <= allowed[worst]:
+        sol.status = OCPStatus.CONSTRAINTS_VIOLATED
+    return float(allowed[worst])
+
+
 def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | None,
             res: float) -> list[str]:
     name = sol.status.name
@@ -104,6 +160,10 @@ def _advice(sol: Any, tr: Transcription, worst: dict[str, Any], inf_du: float | 
                    f"continuity constraints' final violation ({res:.1e}), which a re-solve "
                    f"with constr_viol_tol = manifold_tol / 10 did not remove: a manifold_tol "
                    f"above it")
+    if name == "CONSTRAINTS_VIOLATED":
+        out.append("Ipopt stopped by tolerances looser than solve's tol (ipopt_options "
+                   "'tol', 'constr_viol_tol', 'acceptable_*'): leave them to solve's tol, or "
+                   "pass the tol you accept")
     if name == "INACCURATE":
         out.append("the transcription does not follow the dynamics: more intervals N or a "
                    "higher collocation degree")

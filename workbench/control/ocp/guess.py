@@ -119,9 +119,10 @@ class Guess:
             Final time of the guess (default: the middle of the allowed range).
         end : array-like, optional
             End state (default: the target's witness point).
-        axes : dict of str to array-like, optional
-            Rotation axis for a factor whose end point is antipodal to its start (a great
-            circle is not unique there); by factor name.
+        axes : dict of str to array-like, shape=(3,)
+            Rotation axis for an S^2 or TS^2 factor whose end point is antipodal to its
+            start (a great circle is not unique there); by factor name. Each a finite,
+            non-zero 3-vector (only its direction counts); other factor kinds have no axis.
         rng : numpy.random.Generator, optional
             With ``rng``, antipodal factors without an axis get a random great circle.
         noise : float
@@ -138,7 +139,8 @@ class Guess:
         ------
         ParameterError
             ``T`` not a positive finite number, ``noise`` negative or not finite,
-            ``samples`` not an integer >= 2, or an ``axes`` name that is not a factor.
+            ``samples`` not an integer >= 2, an ``axes`` name that is not an S^2 or TS^2
+            factor, or an axis that is not a finite non-zero 3-vector.
         """
         man = ocp.model.manifold
         if T is not None:
@@ -151,10 +153,20 @@ class Guess:
         if unknown:
             raise ParameterError(f"axes names factors of the state; got {unknown}, factors "
                                  f"{list(man.names)}")
+        ax = {}
+        for k, v in (axes or {}).items():
+            if not isinstance(man.factor(k), (S2, TS2)):
+                raise ParameterError(
+                    f"axes[{k!r}]: factor {k!r} is {man.factor(k).kind}; an axis picks the "
+                    f"great circle of an S^2 or TS^2 factor between antipodes (factors "
+                    f"with one: {[n for n, f in man.factors if isinstance(f, (S2, TS2))]})")
+            ax[k] = validate.array(f"axes[{k!r}]", v, shape=(3,))
+            if not np.any(ax[k]):
+                raise ParameterError(f"axes[{k!r}] must be a non-zero 3-vector (a rotation "
+                                     f"axis); got {ax[k].tolist()}")
         local = ProductLocal(man)
         x0 = ocp.x0
         xf = ocp.target.witness if end is None else man.check(end, name="end")
-        ax = {k: np.asarray(v, float) for k, v in (axes or {}).items()}
         for name, f in man.factors:
             if name in ax or not isinstance(f, (S2, TS2)):
                 continue
@@ -281,11 +293,12 @@ def check_guess(guess: object, ocp: OCP, *also: type) -> None:
     Raises
     ------
     ParameterError
-        Naming what was given and how to make a guess.
+        Naming what was given and how to make a guess; a guess or a solution whose states
+        or controls have another problem's sizes.
     """
-    if guess is None or isinstance(guess, also):
+    if guess is None:
         return
-    if not isinstance(guess, Guess):
+    if not isinstance(guess, (Guess, *also)):
         shape = f" of shape {np.shape(guess)}" if isinstance(guess, np.ndarray) else ""
         raise ParameterError(
             f"guess must be a Guess or an OCPSolution; got {type(guess).__name__}{shape}. "
@@ -294,9 +307,12 @@ def check_guess(guess: object, ocp: OCP, *also: type) -> None:
     if not isinstance(ocp, OCP):  # the caller's own check names a bad problem
         return
     man, m = ocp.model.manifold, ocp.model.n_inputs
-    if guess.x.ndim != 2 or guess.x.shape[1] != man.ambient_dim or guess.u.ndim != 2 \
-            or guess.u.shape[1] != m:
+    x, u = np.asarray(guess.x), np.asarray(guess.u)
+    if x.ndim != 2 or x.shape[1] != man.ambient_dim or u.ndim != 2 or u.shape[1] != m:
+        other = getattr(guess, "ocp", None)
+        what = "guess" if not isinstance(other, OCP) else (
+            f"guess (a solution of problem {other.name!r}, model {other.model.name!r})")
         raise ParameterError(
-            f"guess is for another problem: its states have shape {guess.x.shape} and its "
-            f"controls {guess.u.shape}; problem {ocp.name!r} has {man.ambient_dim} state "
-            f"entries and {m} inputs")
+            f"{what} is for another problem: its states have shape {x.shape} and its "
+            f"controls {u.shape}; problem {ocp.name!r} (model {ocp.model.name!r}) has "
+            f"{man.ambient_dim} state entries and {m} inputs")

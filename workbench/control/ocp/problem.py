@@ -22,7 +22,7 @@ inactive at a solution.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import FrozenInstanceError, dataclass, field, fields
 from typing import Any
 
 import casadi as ca
@@ -69,6 +69,13 @@ def chart_domain(manifold: ProductManifold, centre: Vector, x: Expr) -> list[Exp
         elif isinstance(f, SO3):
             out.append(ca.trace(SO3.matrix(c).T @ SO3.matrix(xs)) - 1)
     return out
+
+
+def _frozen(value: ArrayLike) -> np.ndarray:
+    """A read-only float copy of ``value`` (a problem's data cannot change under its builds)."""
+    arr = np.array(value, dtype=float)
+    arr.setflags(write=False)
+    return arr
 
 
 def _last_line(exc: BaseException) -> str:
@@ -162,8 +169,8 @@ class TargetPoint(Target):
     description: str = "terminal point"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "point",
-                           self.manifold.check(self.point, name="terminal state x_f"))
+        object.__setattr__(self, "point", _frozen(
+            self.manifold.check(self.point, name="terminal state x_f")))
 
     @property
     def value(self) -> Vector:  # type: ignore[override]
@@ -204,8 +211,9 @@ class TargetSet(Target):
     description: str = "terminal set"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "value", validate.array("value", self.value).ravel())
-        object.__setattr__(self, "witness", validate.array("witness", self.witness).ravel())
+        object.__setattr__(self, "value", _frozen(validate.array("value", self.value).ravel()))
+        object.__setattr__(self, "witness",
+                           _frozen(validate.array("witness", self.witness).ravel()))
         n = self.witness.size  # a state of the model: the map's input has its size
         try:
             m = int(ca.vec(self.map(ca.SX.sym("x", n))).numel())
@@ -325,14 +333,22 @@ class PathConstraint:
                 or (self.nodes == "last" and k == N))
 
 
-@dataclass
+@dataclass(eq=False)
 class OCP:
-    """An optimal control problem on a model's manifold.
+    """An optimal control problem on a model's manifold (immutable once made).
 
     Minimise ``integral_0^T L(x, u) dt + Phi(x(T), T)`` subject to the model's dynamics
     ``x' = f(x, u, p)`` (from ``model.function("f")``), ``x(0) = x0``, ``x(T)`` in the
     target set, ``u_lower <= u <= u_upper``, path constraints, and ``T`` fixed or free in
     a range. Controls are piecewise constant on the transcription's intervals.
+
+    A problem cannot be changed after it is made: its transcriptions (built from its
+    costs, target and constraints) and its horizon are derived once and cached on it, so an
+    assignment such as ``ocp.T = 3.0`` raises :class:`dataclasses.FrozenInstanceError` (an
+    ``AttributeError``) and its arrays (``x0``, the bounds, a target's point) are
+    read-only. ``dataclasses.replace(ocp, T=3.0)`` makes the changed problem: validated
+    again, with its own (empty) cache. Two problems are equal only if they are the same
+    object.
 
     Parameters
     ----------
@@ -388,11 +404,28 @@ class OCP:
     gauge: bool = True
     _cache: dict = field(default_factory=dict, init=False, repr=False)
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        """Refuse any assignment once the problem is made (see the class docstring)."""
+        if self.__dict__.get("_made", False):
+            fix = (f"Make the changed problem with dataclasses.replace(ocp, {name}=...), "
+                   f"which validates it again" if name in _OCP_FIELDS else
+                   f"{name!r} is none of its fields {sorted(_OCP_FIELDS)}")
+            raise FrozenInstanceError(
+                f"OCP {self.name!r} cannot be changed after it is made (its transcriptions "
+                f"and horizon are derived from it and cached); got an assignment to "
+                f"{name!r}. {fix}")
+        object.__setattr__(self, name, value)
+
+    def __delattr__(self, name: str) -> None:
+        """Refuse to delete a field (see the class docstring)."""
+        raise FrozenInstanceError(f"OCP {self.name!r} cannot be changed after it is made; "
+                                  f"got a deletion of {name!r}")
+
     def __post_init__(self) -> None:
         m = validate.instance(Model, "a workbench Model")("model", self.model, error=ModelError)
         self.name = validate.text("name", self.name)
         self.tol = validate.tolerance("tol", self.tol)
-        self.x0 = m.check_state(self.x0, name="x0", tol=self.tol)
+        self.x0 = _frozen(m.check_state(self.x0, name="x0", tol=self.tol))
         self.check_states(self.x0, what="x0")
         if not isinstance(self.target, Target):
             raise ModelError(
@@ -405,14 +438,16 @@ class OCP:
                     f"is on {m.manifold.describe()}"
                 )
         self.target.validate(m, tol=self.tol)
-        self.u_lower = self._bound(self.u_lower, "u_lower")
-        self.u_upper = self._bound(self.u_upper, "u_upper")
+        self.u_lower = _frozen(self._bound(self.u_lower, "u_lower"))
+        self.u_upper = _frozen(self._bound(self.u_upper, "u_upper"))
         if np.any(self.u_lower > self.u_upper):
             raise ParameterError(
                 f"u_lower must not exceed u_upper; got {self.u_lower.tolist()} > "
                 f"{self.u_upper.tolist()}"
             )
         self.T_range = self._horizon(self.T)
+        # a list or array T would stay mutable under the range derived from it
+        self.T = self.T_range[0] if np.ndim(self.T) == 0 else self.T_range
         self._check_costs()
         if not isinstance(self.gauge, (bool, np.bool_)):
             raise ParameterError(f"gauge must be True or False; got {self.gauge!r}")
@@ -426,6 +461,8 @@ class OCP:
                     f"path_constraints must hold PathConstraint objects; got {type(c).__name__}"
                 )
             c.check(m)
+        self.path_constraints = tuple(self.path_constraints)  # a list would stay mutable
+        self._made = True
 
     def _check_costs(self) -> None:
         """Each cost must be a scalar expression of the symbolic state and input."""
@@ -553,5 +590,9 @@ class OCP:
             terminal_cost=self.terminal_cost, path_constraints=self.path_constraints,
             tol=self.tol, name=self.name, gauge=self.gauge if gauge is None else gauge,
         )
-        new._cache = self._cache
+        object.__setattr__(new, "_cache", self._cache)
         return new
+
+
+_OCP_FIELDS = frozenset(f.name for f in fields(OCP) if f.init)
+"""The fields :func:`dataclasses.replace` can change (re-validated by the new problem)."""

@@ -26,7 +26,12 @@ from workbench.core._model import Symbolic
 from workbench.core.errors import ParameterError
 from workbench.core.status import StatusEnum, StatusResult
 
-__all__ = ["OCPStatus", "OCPSolution"]
+__all__ = ["OCPStatus", "OCPSolution", "MAX_RESIM_SAMPLES"]
+
+MAX_RESIM_SAMPLES = 1_000_000
+"""Largest ``N * substeps`` of :meth:`OCPSolution.resimulate` (one CVODES call each, about
+125 us on a pendulum: two minutes), as for :func:`~workbench.control.tvlqr_along`'s grid.
+``substeps`` alone was bounded by 10^5, times up to 10^5 intervals."""
 
 
 class OCPStatus(StatusEnum):
@@ -42,6 +47,10 @@ class OCPStatus(StatusEnum):
                   "dynamics to defect_tol (local defect against CVODES on each interval)")
     OFF_MANIFOLD = ("Ipopt converged, but the nodes are off the manifold by more than "
                     "manifold_tol")
+    CONSTRAINTS_VIOLATED = ("Ipopt reported convergence, but its point violates the NLP's "
+                            "constraints (dynamics, terminal condition, path constraints) by "
+                            "more than solve's tol allows (Ipopt's own tolerances, from "
+                            "ipopt_options, were looser)")
     NOT_SOLVED = ("the strategy's attempts ran out before the problem itself (its bounds, "
                   "terminal condition, transcription and handling) was solved: the solution "
                   "returned is an intermediate step's (a relaxation or a continuation step)")
@@ -171,6 +180,11 @@ class OCPSolution(StatusResult):
         c = self.cost
         defect = (f", local defect {self.error['local_defect']:.1e}"
                   if "local_defect" in self.error else "")
+        if self.status is OCPStatus.CONSTRAINTS_VIOLATED:
+            e = self.error
+            defect = (f", constraint violation {e['constraint_violation']:.3g} (allowed "
+                      f"{e.get('constraint_limit', float('nan')):.3g} at the worst row), target "
+                      f"residual {e['target_residual']:.3g}")
         text = (
             f"{self.status.name}: {self.status.value}; Ipopt returned {self.ipopt_status} "
             f"after {c['iterations']} iterations (solve {c['solve_seconds']:.3f} s, build "
@@ -229,10 +243,13 @@ class OCPSolution(StatusResult):
 
         Parameters
         ----------
-        rtol, atol : float
-            CVODES tolerances.
+        rtol : float
+            CVODES' relative tolerance, in ``(0, 1)``.
+        atol : float
+            CVODES' absolute tolerance (positive, finite).
         substeps : int
-            Output samples per interval (for figures).
+            Output samples per interval (for figures); ``N * substeps`` at most
+            :data:`MAX_RESIM_SAMPLES`.
 
         Returns
         -------
@@ -246,6 +263,15 @@ class OCPSolution(StatusResult):
         from workbench.control.ocp.stepper import Stepper
 
         substeps = validate.count("substeps", substeps, maximum=validate.MAX_DIM)
+        n = len(self.x) - 1
+        if n * substeps > MAX_RESIM_SAMPLES:
+            raise ParameterError(
+                f"substeps = {substeps} on {n} intervals gives {n * substeps} samples; at "
+                f"most {MAX_RESIM_SAMPLES} (one CVODES call each): fewer substeps")
+        rtol = validate.tolerance("rtol", rtol)
+        if not rtol < 1:
+            raise ParameterError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r}")
+        atol = validate.tolerance("atol", atol)
         stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
         t0 = time.perf_counter()
         h = self.T / (len(self.x) - 1)

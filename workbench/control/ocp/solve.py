@@ -25,7 +25,12 @@ import casadi as ca
 import numpy as np
 
 from workbench.control.ocp.compiled import Compiled
-from workbench.control.ocp.diagnose import POLISH_RESIDUAL, diagnose
+from workbench.control.ocp.diagnose import (
+    BOUND_RELAX,
+    POLISH_RESIDUAL,
+    diagnose,
+    judge_constraints,
+)
 from workbench.control.ocp.guess import Guess, check_guess
 from workbench.control.ocp.problem import OCP
 from workbench.control.ocp.solution import OCPSolution, OCPStatus
@@ -97,6 +102,12 @@ _IPOPT_INTEGER_OPTIONS = frozenset({
 """Integer options of Ipopt that casadi would truncate a float or a bool into."""
 
 
+_IPOPT_TOLERANCES = frozenset({
+    "tol", "constr_viol_tol", "dual_inf_tol", "compl_inf_tol", "acceptable_tol",
+    "acceptable_constr_viol_tol", "acceptable_dual_inf_tol", "acceptable_compl_inf_tol",
+})
+"""Ipopt's termination tolerances: positive finite numbers (Ipopt takes NaN and 1e300)."""
+
 def _check_ipopt_values(extra: dict[str, Any]) -> None:
     for k, v in extra.items():
         if v is None or isinstance(v, bool) or not isinstance(v, (str, int, float, np.integer,
@@ -105,6 +116,10 @@ def _check_ipopt_values(extra: dict[str, Any]) -> None:
                                  f"has no booleans: 'yes'/'no'); got {v!r}")
         if k in _IPOPT_INTEGER_OPTIONS:  # a C int in Ipopt: a float would be truncated
             validate.count(f"ipopt_options[{k!r}]", v, minimum=0, maximum=_IPOPT_INT_MAX)
+        elif k in _IPOPT_TOLERANCES:
+            validate.tolerance(f"ipopt_options[{k!r}]", v)
+        elif not isinstance(v, str) and np.isnan(v):  # no Ipopt option means anything by it
+            raise ParameterError(f"ipopt_options[{k!r}] must be a number, not NaN; got {v!r}")
 
 
 def _ipopt_options(tol: float, max_iter: int, print_level: int,
@@ -121,7 +136,8 @@ def _ipopt_options(tol: float, max_iter: int, print_level: int,
         except TypeError as exc:
             raise ParameterError(f"ipopt_options values must be numbers or strings; got "
                                  f"{extra!r}") from exc
-    if not isinstance(print_level, (int, np.integer)) or not 0 <= print_level <= 12:
+    if isinstance(print_level, (bool, np.bool_)) or not isinstance(
+            print_level, (int, np.integer)) or not 0 <= print_level <= 12:
         raise ParameterError(f"print_level must be an integer in [0, 12]; got {print_level!r}")
     opts = {"tol": tol, "max_iter": int(max_iter), "print_level": int(print_level),
             "sb": "yes", "mu_strategy": "adaptive", "mumps_pivot_order": MUMPS_ORDERING,
@@ -181,6 +197,9 @@ class Settings:
         See :func:`solve`.
     compiled : Compiled or None
         See :func:`solve`.
+    tol : float
+        :func:`solve`'s ``tol``: Ipopt's tolerance unless ``ipopt_options`` names another,
+        and the largest accepted constraint violation of a converged solve either way.
     """
 
     ipopt: dict[str, Any]
@@ -188,6 +207,7 @@ class Settings:
     defect_tol: float | None
     manifold_tol: float | None
     compiled: Compiled | None
+    tol: float
 
     def replace(self, **changes: Any) -> Settings:
         """A copy with some fields changed (``max_iter=`` changes Ipopt's limit)."""
@@ -215,7 +235,8 @@ def settings(*, tol: float = 1e-8, max_iter: int = 1000, print_level: int = 0,
                 f"a few 1e-16); got {manifold_tol!r}")
     if compiled is not None and not isinstance(compiled, Compiled):
         raise ParameterError(f"compiled must be a Compiled(...) or None; got {compiled!r}")
-    return Settings(opts, ipopt_options is not None, defect_tol, manifold_tol, compiled)
+    return Settings(opts, ipopt_options is not None, defect_tol, manifold_tol, compiled,
+                    validate.tolerance("tol", tol))
 
 
 @validate.arguments(ocp=validate.instance(OCP, "an OCP"))
@@ -270,7 +291,16 @@ def solve(
     strategy : Auto or Direct, optional
         How to solve: ``Auto()`` (default) or ``Direct()`` (one Ipopt solve from the guess).
     tol : float
-        Ipopt's tolerance.
+        Ipopt's tolerance (unless ``ipopt_options`` names another ``"tol"``), and the
+        largest accepted constraint violation of a converged solve whatever Ipopt's own
+        tolerances are: a solve that Ipopt reports converged (SUCCESS or ACCEPTABLE) whose
+        point violates an NLP constraint (dynamics, terminal condition, path constraint,
+        measured unscaled against its bounds) by more than ``tol max(1, |bound|, max |x|)``
+        (inequalities and the variables' bounds: also by Ipopt's bound relaxation
+        ``r max(1, |bound|)``, ``r`` its ``bound_relax_factor`` up to its default
+        :data:`BOUND_RELAX`, 1e-8: a control may exceed its bound by that much, reported in
+        ``error["bound_violation"]``) is CONSTRAINTS_VIOLATED, with the numbers in its
+        message.
     max_iter : int
         Ipopt's iteration limit of each attempt (the default strategy's own limits,
         ``Auto(attempt_max_iter=300, relax_max_iter=300)``, apply where smaller).
@@ -314,6 +344,9 @@ def solve(
     if handling is not None and not isinstance(handling, ManifoldHandling):
         raise ParameterError(f"handling must be a ManifoldHandling or None; got {handling!r}")
     check_guess(guess, ocp, OCPSolution)  # an array, or a guess of another problem
+    if not isinstance(raise_on_failure, (bool, np.bool_)):  # "no" would be truthy
+        raise ParameterError(f"raise_on_failure must be True or False; got "
+                             f"{raise_on_failure!r}")
     strategy = Auto() if strategy is None else strategy
     if not isinstance(strategy, (Auto, Direct)):
         raise ParameterError(f"strategy must be Auto(...) or Direct(); got {strategy!r}")
@@ -349,6 +382,10 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
     if out.status.ok and conf.manifold_tol is not None and \
             not out.error["manifold_residual"] <= conf.manifold_tol:
         out = _polish(out, tr, args, opts, conf)
+    limit = None
+    if out.status.ok:  # Ipopt's word, held to solve's tol (ipopt_options may loosen Ipopt's)
+        relax = min(float(opts.get("bound_relax_factor", BOUND_RELAX)), BOUND_RELAX)
+        limit = judge_constraints(out, args, tol=conf.tol, relax=relax)
     if out.status.ok:
         ocp.check_states(out.x, out.t, what="the solution's nodes")  # mechanics: T definite
         out.error["local_defect"] = _local_defect(out)
@@ -359,7 +396,8 @@ def solve_direct(ocp: OCP, method: TranscriptionMethod, handling: ManifoldHandli
             if not out.error["local_defect"] <= limit:
                 out.status = OCPStatus.INACCURATE
     if not out.status.ok:
-        out.diagnosis = diagnose(out, tr, args, tol=float(opts["tol"]))
+        out.diagnosis = diagnose(out, tr, args, tol=float(opts["tol"]) if limit is None
+                                 else min(float(opts["tol"]), limit))
     return out
 
 
@@ -470,8 +508,11 @@ def _run(tr: Transcription, ocp: OCP, built: bool, args: dict[str, Any],
     for key in ("inf_pr", "inf_du"):  # the last iterate's infeasibilities (for diagnoses)
         cost[f"last_{key}"] = float(trace[key][-1]) if trace.get(key) else None
     residuals = [max(man.residual_norms(r).values()) for r in X]
+    bounds = np.maximum(np.maximum(args["lbx"] - w, w - args["ubx"]), 0.0)
     error = {
         "constraint_violation": float(viol.max(initial=0.0)),
+        # Ipopt relaxes bounds (bound_relax_factor): u may exceed its bound by 1e-8 |bound|
+        "bound_violation": float(bounds.max(initial=0.0)),
         # the nodes the solve chose (node 0 is x0, fixed: its residual is the caller's)
         "manifold_residual": float(max(residuals[1:])),
         "x0_manifold_residual": float(residuals[0]),

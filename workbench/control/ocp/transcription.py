@@ -100,6 +100,10 @@ MAX_INTERVALS = 100_000
 MAX_STEPS = 1_000
 """RK4 steps per shooting interval: each is unrolled into the interval's graph."""
 
+MAX_SHOOTING_STEPS = 100_000
+"""RK4 steps per NLP evaluation (``N * steps``): a pendulum takes ~1 s per Ipopt iteration at
+40 x 1000 (at 99999 x 1000, ~40 min). The problems use 40 x 1; N = 50000 x 2 steps fits."""
+
 MAX_NLP_VARIABLES = 400_000
 """Decision variables of one NLP (intervals x (state + collocation states + input)):
 checked with the model's sizes before anything is built (a 10^5-interval, degree-9
@@ -147,7 +151,8 @@ class MultipleShooting:
         ``Integrator.RK4`` (fixed step, expanded into the NLP's graph) or
         ``Integrator.CVODES`` (adaptive; a black-box node with sensitivities).
     steps : int
-        RK4 steps per interval (at most :data:`MAX_STEPS`: each is unrolled).
+        RK4 steps per interval (at most :data:`MAX_STEPS`: each is unrolled; with RK4,
+        ``N * steps`` at most :data:`MAX_SHOOTING_STEPS`).
     rtol : float
         CVODES' tolerances (relative and absolute).
     """
@@ -163,6 +168,10 @@ class MultipleShooting:
         object.__setattr__(self, "rtol", validate.tolerance("rtol", self.rtol))
         if not isinstance(self.integrator, Integrator):
             raise ParameterError(f"integrator must be an Integrator; got {self.integrator!r}")
+        if self.integrator is Integrator.RK4 and self.N * self.steps > MAX_SHOOTING_STEPS:
+            raise ParameterError(f"N * steps must be at most {MAX_SHOOTING_STEPS} (RK4 steps of "
+                                 f"one NLP evaluation); got N = {self.N} x steps = {self.steps}"
+                                 f" = {self.N * self.steps}: fewer intervals or steps")
 
     def describe(self) -> str:
         """E.g. ``"shooting rk x2 N=40"``."""
