@@ -39,12 +39,19 @@ from workbench.mechanics._engine import ModelError
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
 
-__all__ = ["Candidate", "detect", "configuration_action", "MAX_ROTATING_CHOICES"]
+__all__ = ["Candidate", "detect", "configuration_action", "input_momentum_rates",
+           "MAX_ROTATING_CHOICES", "INPUT_MOMENTUM_TOL"]
 
 MAX_ROTATING_CHOICES = 6
 """Up to ``2**MAX_ROTATING_CHOICES`` combinations of the R^2/R^3 factors' turn-or-stay and
 the angles' +1/-1/stay are tried; above, only "all turn" (+1), "all turn" (-1) and "all
 stay"."""
+
+INPUT_MOMENTUM_TOL = 1e-10
+"""An input changes a momentum when ``|dJ/du|`` exceeds this fraction of its absolute
+evaluation (:func:`input_momentum_rates`): rounding leaves ~1e-16 of it, a real change is of
+the order of it (a motor on the symmetry's own coordinate gives 1). A structural decision,
+not a tolerance of the user's."""
 
 AXES = (("e1", (1.0, 0.0, 0.0)), ("e2", (0.0, 1.0, 0.0)), ("e3", (0.0, 0.0, 1.0)))
 
@@ -258,3 +265,52 @@ def configuration_action(der: Derivation, name: str, generators: dict) -> ca.Fun
             parts.append(ca.vertcat(dc, ca.SX.zeros(f.velocity_sym.shape[0], 1)))
     return ca.Function(f"action_{name}", [der.x, der.ing.p], [ca.vertcat(*parts)],
                        ["x", "p"], ["dx"])
+
+
+def input_momentum_rates(der: Derivation, generators: dict) -> tuple[ca.Function, list[bool]]:
+    """How fast each input changes a momentum: ``dJ/du``, without the equations' solve.
+
+    ``J = Pi . eta`` changes with the input only through the accelerations, ``dJ/du =
+    eta^T M d(nu-dot)/du = eta^T db/du`` (S^2 rows: on the sphere), and the input enters
+    ``b`` only through the loads' weights ``w_l(c, nu, u)`` (Noether with forcing):
+
+        dJ/du_k = sum_l (dy_l/dc K eta) . dw_l/du_k,
+
+    the virtual power of each load along the group's motion of its target ``y_l``. Its
+    absolute evaluation ``sum_l (|dy_l/dc| |K eta|) . |dw_l/du_k|`` is the scale rounding
+    works at: a column whose rate stays within :data:`INPUT_MOMENTUM_TOL` of it keeps the
+    momentum, whatever tolerance the caller's other checks use.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    generators : dict of int to casadi.SX
+        The symmetry's generator on each moved factor, keyed by ``id(factor)``.
+
+    Returns
+    -------
+    rates : casadi.Function
+        ``(x, u, p) -> (rate, scale)``, each shape=(1, n_u).
+    structural : list of bool
+        Per input column: its rate is zero in the graph itself (no load both driven by
+        the column and moved by the group), so the column keeps the momentum at every
+        state.
+    """
+    ing, c = der.ing, der.c
+    n_u = ing.u.shape[0]
+    moved = ca.vertcat(*[
+        ca.vec(f.kinematics(generators[id(f)])) if id(f) in generators
+        else ca.SX.zeros(f.config_sym.shape[0], 1) for f in ing.factors])
+    rate, scale = ca.SX.zeros(1, n_u), ca.SX.zeros(1, n_u)
+    for load in ing.loads:
+        w_u = ca.jacobian(load.weight, ing.u)
+        if w_u.nnz() == 0:
+            continue
+        jac = ca.jacobian(load.target, c)
+        rate = rate + ca.mtimes(ca.mtimes(jac, moved).T, w_u)
+        scale = scale + ca.mtimes(ca.mtimes(ca.fabs(jac), ca.fabs(moved)).T, ca.fabs(w_u))
+    structural = [bool(ca.SX(rate[0, k]).is_zero()) for k in range(n_u)]
+    fn = ca.Function("input_momentum_rates", [der.x, ing.u, ing.p], [rate, scale],
+                     ["x", "u", "p"], ["rate", "scale"])
+    return fn, structural
