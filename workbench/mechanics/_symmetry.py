@@ -37,10 +37,13 @@ import numpy as np
 
 from workbench.mechanics._engine import ModelError
 from workbench.mechanics._equations import Derivation
+from workbench.mechanics._exact import Verdict, identically_zero, unfolded
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
+from workbench.mechanics._forces import load_covector
 
 __all__ = ["Candidate", "detect", "configuration_action", "input_momentum_rates",
-           "MAX_ROTATING_CHOICES", "INPUT_MOMENTUM_TOL"]
+           "momentum_rate", "conservation_evidence", "MAX_ROTATING_CHOICES",
+           "INPUT_MOMENTUM_TOL"]
 
 MAX_ROTATING_CHOICES = 6
 """Up to ``2**MAX_ROTATING_CHOICES`` combinations of the R^2/R^3 factors' turn-or-stay and
@@ -68,11 +71,17 @@ class Candidate:
         What the group does, in words.
     generators : dict of int to casadi.SX
         The velocity of each moved factor (keyed by ``id(factor)``).
+    exact : bool
+        Its conservation is established exactly (:func:`conservation_evidence`).
+    evidence : str
+        The evidence, in words.
     """
 
     name: str
     description: str
     generators: dict
+    exact: bool = False
+    evidence: str = ""
 
 
 def _rotation_generator(f: Any, axis: np.ndarray) -> ca.SX | None:
@@ -167,8 +176,102 @@ def _generator_matrix(der: Derivation, cands: list, x: np.ndarray, p: np.ndarray
     return np.asarray(fn(x, p), dtype=float)
 
 
+def momentum_rate(der: Derivation, generators: dict) -> ca.SX:
+    """``dJ/dt`` at zero input as a graph without the equations' solve (Noether's identity).
+
+    With ``J = Pi . eta(c)``: ``dJ/dt = eta^T M nu-dot + eta . (dPi/dc) c-dot + Pi .
+    (d eta/dc) c-dot`` and ``M nu-dot = b`` along ``eta`` (the S^2 gauge rows drop out), so
+    on an R^k or S^1 factor (``b = -(dPi/dc) c-dot + K^T (dL/dc + Q) - dD/dnu``) the
+    factor's share is ``eta . (K^T (dL/dc + Q) - dD/dnu)``: the Lie derivative of the
+    Lagrangian along the group plus the loads' virtual power. Nothing the group moves in
+    the Lagrangian or the loads, nothing in the graph: zero structurally.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    generators : dict of int to casadi.SX
+        The symmetry's generator on each moved factor, keyed by ``id(factor)``.
+
+    Returns
+    -------
+    casadi.SX, shape=(1, 1)
+        An expression of ``der.x`` and ``der.ing.p``.
+    """
+    ing = der.ing
+    u0 = ca.SX.zeros(ing.u.shape[0])
+    cov = ca.gradient(der.T - der.V, der.c) + ca.substitute(
+        load_covector(ing.loads, der.c), ing.u, u0)
+    q_nu = -ca.gradient(der.D, der.nu)
+    general = None
+    rate, kc, etas = ca.SX(0), 0, []
+    for f, sl in zip(ing.factors, der.slices):
+        cs = slice(kc, kc + f.config_sym.shape[0])
+        kc = cs.stop
+        eta = generators.get(id(f))
+        etas.append(ca.SX.zeros(sl.stop - sl.start, 1) if eta is None else eta)
+        if eta is None:
+            continue
+        if isinstance(f, (RnFactor, S1Factor)):
+            rate = rate + ca.dot(eta, f.kt(cov[cs]) + q_nu[sl])
+        else:  # S^2 (its projection) and SO(3) (the gyroscopic term): b as derived
+            if general is None:
+                general = ca.substitute(der.b, ing.u, u0) + ca.jtimes(der.Pi, der.c, der.cdot)
+            rate = rate + ca.dot(eta, general[sl])
+    moving = ca.jtimes(ca.vertcat(*etas), der.c, der.cdot)
+    return rate + ca.dot(der.Pi, moving) if moving.nnz() else rate
+
+
+def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
+                          seed: int = 0) -> list[tuple[bool, str]]:
+    """Whether each candidate's ``dJ/dt`` vanishes identically on the state manifold.
+
+    Zero in the graph (:func:`momentum_rate`), or an identity of the graph's exact
+    evaluation at random points of the manifold (:mod:`._exact`): the momentum is
+    conserved, proved. Otherwise the evidence is the caller's samples, stated.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    candidates : list of Candidate
+        Their generators.
+    p : ndarray
+        Parameter values.
+    seed : int
+        Seed of the exact test's points.
+
+    Returns
+    -------
+    list of (bool, str)
+        Per candidate: exact or not, and the evidence in words.
+    """
+    rates = [momentum_rate(der, c.generators) for c in candidates]
+    out: list[tuple[bool, str] | None] = [
+        (True, "exact: dJ/dt is zero in the derived graph (what the group moves does not "
+               "enter the Lagrangian or the loads)") if ca.SX(r).is_zero() else None
+        for r in rates]
+    left = [k for k, o in enumerate(out) if o is None]
+    if left:
+        exact_der, k = unfolded(der)  # the declaration's constants exact, none folded
+        fn = ca.Function("momentum_rates", [exact_der.x, exact_der.ing.p], [ca.vertcat(*[
+            momentum_rate(exact_der, candidates[j].generators) for j in left])])
+        verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
+        for j, v in zip(left, verdicts):
+            out[j] = (True, "exact: dJ/dt vanishes identically on the state manifold (its "
+                            "graph evaluated exactly, modulo a prime, at random points of "
+                            "the manifold)") if v is Verdict.ZERO else (
+                False, "sampled: dJ/dt is not identically zero (nonzero at a point of the "
+                       "manifold), only small at the sampled states") \
+                if v is Verdict.NONZERO else (
+                False, f"sampled: whether dJ/dt vanishes everywhere is not decided exactly "
+                       f"({why or 'a stand-in value kept it nonzero'})")
+    return [o for o in out if o is not None]
+
+
 def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
-           states: list[np.ndarray], xdots: list[np.ndarray]) -> list[Candidate]:
+           states: list[np.ndarray], xdots: list[np.ndarray],
+           accept_sampled: bool = False) -> list[Candidate]:
     """The verified, independent symmetries of ``system`` not already declared.
 
     Parameters
@@ -186,11 +289,15 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
         the system's scales).
     xdots : list of ndarray, shape=(n_x,)
         The field ``f(x, 0)`` at each state.
+    accept_sampled : bool
+        Also accept candidates whose conservation is not established exactly
+        (:func:`conservation_evidence`), on the samples' evidence.
 
     Returns
     -------
     list of Candidate
-        Accepted candidates, in order of preference; names not yet used.
+        Accepted candidates, in order of preference, with their evidence; names not yet
+        used.
     """
     factors = list(system.factors)
     cands = _translations(factors) + _shifts(factors) + _rotations(factors)
@@ -204,6 +311,11 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
         rate = np.abs(G @ xdot)
         scale = np.linalg.norm(G, axis=1) * np.linalg.norm(xdot)
         verified &= (rate <= rtol * scale) & (np.linalg.norm(G, axis=1) > 0)
+    passed = [k for k, ok in enumerate(verified) if ok]
+    for k, (exact, evidence) in zip(passed, conservation_evidence(
+            der, [cands[k] for k in passed], p)):
+        cands[k].exact, cands[k].evidence = exact, evidence
+        verified[k] = exact or accept_sampled
     declared = [Candidate(n, "declared", g) for n, g in system.momenta.items()]
     basis = _generator_matrix(der, declared, states[0], p)
     rank = np.linalg.matrix_rank(basis) if basis.size else 0
@@ -219,7 +331,8 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
             while name in used:
                 name, k = f"{c.name}_{k}", k + 1
             used.add(name)
-            accepted.append(Candidate(name, c.description, c.generators))
+            accepted.append(Candidate(name, c.description, c.generators, c.exact,
+                                      c.evidence))
     return accepted
 
 
