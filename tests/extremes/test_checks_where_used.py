@@ -149,8 +149,8 @@ def test_a_symmetry_broken_only_far_out_is_not_declared():
     with pytest.warns(UserWarning, match="declared on sampled evidence only"):
         found = walled(5.0).detect_momenta(scales=(0.1, 1.0), accept_sampled=True)
     assert list(found) == ["linear_momentum_x_1"]
-    assert "[sampled: whether dJ/dt vanishes everywhere is not decided exactly (its graph " \
-           "holds fmax" in found["linear_momentum_x_1"]
+    assert "[sampled evidence only: whether dJ/dt vanishes everywhere is not decided " \
+           "exactly (its graph holds fmax" in found["linear_momentum_x_1"]
 
 
 def test_a_candidate_that_drifts_along_the_flow_is_refused():

@@ -235,7 +235,7 @@ class Momenta:
             if not c.exact:
                 where = (f"|dJ/dt| <= {rtol:g} |grad J| |f| at {len(states)} states"
                          + (" and J constant along 3 simulations" if confirm else ""))
-                out[c.name] = f"{c.description} [{c.evidence}; {where}]"
+                out[c.name] = f"{c.description} [sampled evidence only: {c.evidence}; {where}]"
                 warnings.warn(f"detect_momenta: {c.name!r} ({c.description}) is declared on "
                               f"sampled evidence only: {c.evidence}; {where}",
                               UserWarning, stacklevel=2)

@@ -46,7 +46,7 @@ from workbench.mechanics._reduction_geometry import (
 )
 from workbench.mechanics._reduction_momentum import check_momentum, momentum_scale
 from workbench.mechanics._reduction_reconstruct import Reconstructed, ReconstructionMixin
-from workbench.mechanics._symmetry import INPUT_MOMENTUM_TOL, input_momentum_rates
+from workbench.mechanics._symmetry import INPUT_MOMENTUM_TOL, established, input_momentum_rates
 
 __all__ = ["reduce", "Reduction", "ReductionKind", "BreakingInputs", "Reconstructed",
            "INVARIANCE_RTOL", "MAX_CHECK_STATES"]
@@ -86,6 +86,9 @@ class Reduction(ReconstructionMixin):
         model's inputs, in order.
     momentum_parameter : str or None
         Name of the Routh model's momentum parameter.
+    evidence : str
+        Why the symmetry holds: exactly (``"exact: ..."``), or what kept it from being
+        established when reduced with ``accept_sampled=True``.
     lift : casadi.Function
         ``(r, p, mu) -> x``: the full state over a reduced one, on the section (``p`` the
         full model's parameters; ``mu`` ignored by Lagrange-Poincare).
@@ -126,6 +129,7 @@ class Reduction(ReconstructionMixin):
         self.held_inputs: tuple[int, ...] = ()
         self.rtol, self.seed = INVARIANCE_RTOL, 0  # reduce's, for with_parameters' checks
         self._model: Model | None = None
+        self.evidence = ""  # reduce's: why the symmetry holds
 
     # the symbolic pieces ---------------------------------------------------------------
     def _functions(self) -> None:
@@ -459,7 +463,7 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
            momentum: float | None = None,
            breaking_inputs: BreakingInputs | str = BreakingInputs.REFUSE,
            name: str | None = None, n_states: int = 3, seed: int = 0,
-           rtol: float = INVARIANCE_RTOL) -> Reduction:
+           rtol: float = INVARIANCE_RTOL, accept_sampled: bool = False) -> Reduction:
     """Reduce a mechanics model by one of its symmetries: Routh or Lagrange-Poincare.
 
     Parameters
@@ -499,6 +503,15 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     rtol : float
         Relative tolerance of the invariance checks (the reduced field, and each input's
         effect, from two lifts), in (0, 1).
+    accept_sampled : bool
+        The symmetry must be *established*: the momentum conserved and the field at zero
+        input invariant, each zero in the graph or an identity of its exact evaluation
+        on the manifold (:func:`~workbench.mechanics._symmetry.symmetry_evidence`), as
+        for every momentum :meth:`System.detect_momenta` declares by default. Random
+        states alone miss a symmetry broken between them (a narrow bump), so a symmetry
+        whose graph the exact test cannot decide (``exp``, ``fmax``...) or that it finds
+        broken is refused, unless ``accept_sampled=True``: then reduced on the checks'
+        evidence with a UserWarning (:attr:`Reduction.evidence` says which).
 
     Returns
     -------
@@ -534,6 +547,8 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
     if not rtol < 1:
         raise ModelError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r} (1 or more "
                          "would accept a field that is not invariant)")
+    if not isinstance(accept_sampled, bool):
+        raise ModelError(f"accept_sampled must be True or False; got {accept_sampled!r}")
     mu_name = None
     if kind is Kind.ROUTH:
         if momentum is None:
@@ -561,6 +576,8 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
                         _evaluator(der, full.p), states, symmetry)
     red = Reduction(full, symmetry, kind, quotient, mu_name)
     red.rtol, red.seed = rtol, seed
+    red.evidence = established(der, symmetry, red.act, full, seed=seed, n_states=n_states,
+                               accept_sampled=accept_sampled)
     if kind is Kind.ROUTH:  # a momentum the lift cannot carry is refused before the checks
         check_momentum("momentum", mu, momentum_scale(red, full.p, rtol, seed=seed))
     broken = _check(red, mu, rng, n_states, rtol)

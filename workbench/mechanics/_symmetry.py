@@ -29,20 +29,23 @@ combination of them.
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._engine import ModelError
+from workbench.mechanics._engine import ModelError, solve_spd
 from workbench.mechanics._equations import Derivation
 from workbench.mechanics._exact import Verdict, identically_zero, unfolded
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
 from workbench.mechanics._forces import load_covector
 
 __all__ = ["Candidate", "detect", "configuration_action", "input_momentum_rates",
-           "momentum_rate", "conservation_evidence", "MAX_ROTATING_CHOICES",
+           "momentum_rate", "conservation_evidence", "invariance_evidence",
+           "symmetry_evidence", "established",
+           "MAX_ROTATING_CHOICES",
            "INPUT_MOMENTUM_TOL"]
 
 MAX_ROTATING_CHOICES = 6
@@ -248,8 +251,8 @@ def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
     """
     rates = [momentum_rate(der, c.generators) for c in candidates]
     out: list[tuple[bool, str] | None] = [
-        (True, "exact: dJ/dt is zero in the derived graph (what the group moves does not "
-               "enter the Lagrangian or the loads)") if ca.SX(r).is_zero() else None
+        (True, "dJ/dt is zero in the derived graph (what the group moves does not enter "
+               "the Lagrangian or the loads)") if ca.SX(r).is_zero() else None
         for r in rates]
     left = [k for k, o in enumerate(out) if o is None]
     if left:
@@ -258,15 +261,114 @@ def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
             momentum_rate(exact_der, candidates[j].generators) for j in left])])
         verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
         for j, v in zip(left, verdicts):
-            out[j] = (True, "exact: dJ/dt vanishes identically on the state manifold (its "
+            out[j] = (True, "dJ/dt vanishes identically on the state manifold (its "
                             "graph evaluated exactly, modulo a prime, at random points of "
                             "the manifold)") if v is Verdict.ZERO else (
-                False, "sampled: dJ/dt is not identically zero (nonzero at a point of the "
+                False, "dJ/dt is not identically zero (nonzero at a point of the "
                        "manifold), only small at the sampled states") \
                 if v is Verdict.NONZERO else (
-                False, f"sampled: whether dJ/dt vanishes everywhere is not decided exactly "
+                False, f"whether dJ/dt vanishes everywhere is not decided exactly "
                        f"({why or 'a stand-in value kept it nonzero'})")
     return [o for o in out if o is not None]
+
+
+def invariance_evidence(der: Derivation, act: ca.Function, p: np.ndarray, *,
+                        seed: int = 0) -> tuple[bool, str]:
+    """Whether the field at zero input is invariant under a group, established exactly.
+
+    Invariance, ``f(g x) = g_* f(x)``, is the vanishing of the bracket ``[X, f] = Df X -
+    DX f`` with the group's generator ``X = d/dtheta act(x, theta)`` at ``theta = 0``:
+    zero in the graph, or an identity of its exact evaluation at random points of the
+    manifold (:mod:`._exact`; the field written with the symbolic L D L^T solve, a
+    rational graph, from the equations derived with the declaration's constants
+    unfolded). Conservation of the momentum does not imply it (a load across the
+    symmetry that depends on the group coordinate does no work along it).
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    act : casadi.Function
+        ``(x, theta) -> g_theta x`` on full states (SX).
+    p : ndarray
+        Parameter values.
+    seed : int
+        Seed of the exact test's points.
+
+    Returns
+    -------
+    (bool, str)
+        Established or not, and the evidence in words.
+    """
+    exact_der, k = unfolded(der)
+    x, ing = exact_der.x, exact_der.ing
+    b = ca.substitute(exact_der.b, ing.u, ca.SX.zeros(ing.u.shape[0]))
+    f = exact_der.rates()(x, solve_spd(exact_der.A, b))
+    theta = ca.SX.sym("theta")
+    X = ca.substitute(ca.jacobian(act(x, theta), theta), theta, ca.SX(0))
+    bracket = ca.jtimes(f, x, X) - ca.jtimes(X, x, f)
+    if ca.SX(bracket).is_zero():
+        return True, "the bracket [X, f] is zero in the derived graph"
+    fn = ca.Function("bracket", [x, ing.p], [bracket])
+    verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
+    if all(v is Verdict.ZERO for v in verdicts):
+        return True, ("the bracket [X, f] of the generator with the field vanishes "
+                      "identically on the state manifold (evaluated exactly, modulo a "
+                      "prime, at random points of the manifold)")
+    if any(v is Verdict.NONZERO for v in verdicts):
+        return False, ("the bracket [X, f] of the generator with the field is not "
+                       "identically zero (nonzero at a point of the manifold)")
+    return False, (f"whether the bracket [X, f] of the generator with the field vanishes "
+                   f"everywhere is not decided exactly "
+                   f"({why or 'a stand-in value kept it nonzero'})")
+
+
+def symmetry_evidence(der: Derivation, generators: dict, act: ca.Function, p: np.ndarray,
+                      *, seed: int = 0) -> tuple[bool, str]:
+    """What a reduction relies on: ``J`` conserved and ``f`` invariant, exactly or not.
+
+    See :func:`conservation_evidence` and :func:`invariance_evidence`.
+
+    Returns
+    -------
+    (bool, str)
+        Both established, and the evidence in words.
+    """
+    (conserved, why_j), = conservation_evidence(der, [Candidate("", "", generators)], p,
+                                                seed=seed)
+    invariant, why_f = invariance_evidence(der, act, p, seed=seed)
+    if conserved and invariant:
+        return True, f"exact: {why_j}; {why_f}"
+    return False, "; ".join(w for ok, w in ((conserved, why_j), (invariant, why_f))
+                            if not ok)
+
+
+def established(der: Derivation, symmetry: str, act: ca.Function, model: Any, *, seed: int,
+                n_states: int, accept_sampled: bool) -> str:
+    """:func:`symmetry_evidence` for a reduction: refused unless exact or accepted.
+
+    Returns
+    -------
+    str
+        The evidence.
+
+    Raises
+    ------
+    ModelError
+        Not established exactly and ``accept_sampled`` false (a UserWarning when true).
+    """
+    exact, evidence = symmetry_evidence(der, der.ing.momenta[symmetry], act, model.p,
+                                        seed=seed)
+    if not exact:
+        what = (f"the symmetry {symmetry!r} of {model.name!r} is not established exactly: "
+                f"{evidence}")
+        if not accept_sampled:
+            raise ModelError(f"{what}; the checks at {n_states} random states cannot see a "
+                             "symmetry broken between them; pass accept_sampled=True to "
+                             "reduce on their evidence")
+        warnings.warn(f"reduce: {what}; reduced on the evidence of {n_states} random "
+                      "states", UserWarning, stacklevel=3)
+    return evidence
 
 
 def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
