@@ -18,10 +18,12 @@ eliminated through the momentum, ``J(lift(r, xi)) = mu``, affine in ``xi``:
 Nothing is transcribed: ``f`` is the model's own derived field, ``pi`` and the lift are
 kinematics, and the chain rule is automatic differentiation. The amended potential is
 ``V_mu = V + mu^2 / (2 I)`` on the section (its critical points are the relative
-equilibria). :func:`reduce` checks numerically, at seeded random states, that the reduced
-field does not depend on the lift (the invariance it relies on), that ``pi(lift(r)) = r``,
-and which inputs keep the symmetry: an input whose effect is not invariant, or (Routh)
-that changes the momentum, is named and refused unless ``breaking_inputs="hold_zero"``.
+equilibria). :func:`reduce` requires the symmetry established exactly (the momentum
+conserved and ``[X, f] = 0``: :func:`._symmetry.symmetry_evidence`), checks numerically, at
+seeded random states, that the reduced field does not depend on the lift, that
+``pi(lift(r)) = r``, and which inputs keep the symmetry: an input whose effect is not
+invariant, or (Routh) that changes the momentum (``dJ/du != 0`` beyond rounding), is named
+and refused unless ``breaking_inputs="hold_zero"``.
 """
 
 from __future__ import annotations

@@ -15,10 +15,14 @@ angles together).
 A candidate is accepted only when it is *verified*: ``dJ/dt = grad J . f(x, 0)`` vanishes,
 to ``rtol * |grad J| |f|``, at several seeded random states of the manifold (random
 configurations and velocities spread over several decades of size, the system's parameter
-values, zero input; sampled by :meth:`~workbench.mechanics.System.detect_momenta`, which
-also confirms an accepted momentum along short simulations). That is exactly
-the statement the user relies on (``J`` is an invariant of the unforced motion); loads that
-do not vanish at ``u = 0`` (springs written as forces, dissipation) are part of the test.
+values, zero input; sampled by :meth:`~workbench.mechanics.System.detect_momenta`), and
+*established*: ``dJ/dt``, written without the solve (:func:`momentum_rate`, Noether's
+identity), is zero in the graph or vanishes identically on the state manifold by an exact
+evaluation (:mod:`._exact`). Samples alone miss a symmetry broken between them (a narrow
+bump); a candidate with sampled evidence only is accepted on request, stated, and then
+confirmed along short simulations. That is exactly the statement the user relies on
+(``J`` is an invariant of the unforced motion); loads that do not vanish at ``u = 0``
+(springs written as forces, dissipation) are part of the test.
 Accepted generators are kept only while they are linearly independent of those declared
 or accepted before (translations of single factors first, then joint translations, then
 shifts of single angles, of all angles together, then rotations), so a cart's two
@@ -250,10 +254,10 @@ def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
         Per candidate: exact or not, and the evidence in words.
     """
     rates = [momentum_rate(der, c.generators) for c in candidates]
-    out: list[tuple[bool, str] | None] = [
-        (True, "dJ/dt is zero in the derived graph (what the group moves does not enter "
-               "the Lagrangian or the loads)") if ca.SX(r).is_zero() else None
-        for r in rates]
+    structural = (True, "dJ/dt is zero in the derived graph itself (what the group moves "
+                        "does not enter the Lagrangian or the loads, or cancels as written)")
+    out: list[tuple[bool, str] | None] = [structural if ca.SX(r).is_zero() else None
+                                          for r in rates]
     left = [k for k, o in enumerate(out) if o is None]
     if left:
         exact_der, k = unfolded(der)  # the declaration's constants exact, none folded
