@@ -15,10 +15,14 @@ angles together).
 A candidate is accepted only when it is *verified*: ``dJ/dt = grad J . f(x, 0)`` vanishes,
 to ``rtol * |grad J| |f|``, at several seeded random states of the manifold (random
 configurations and velocities spread over several decades of size, the system's parameter
-values, zero input; sampled by :meth:`~workbench.mechanics.System.detect_momenta`, which
-also confirms an accepted momentum along short simulations). That is exactly
-the statement the user relies on (``J`` is an invariant of the unforced motion); loads that
-do not vanish at ``u = 0`` (springs written as forces, dissipation) are part of the test.
+values, zero input; sampled by :meth:`~workbench.mechanics.System.detect_momenta`), and
+*established*: ``dJ/dt``, written without the solve (:func:`momentum_rate`, Noether's
+identity), is zero in the graph or vanishes identically on the state manifold by an exact
+evaluation (:mod:`._exact`). Samples alone miss a symmetry broken between them (a narrow
+bump); a candidate with sampled evidence only is accepted on request, stated, and then
+confirmed along short simulations. That is exactly the statement the user relies on
+(``J`` is an invariant of the unforced motion); loads that do not vanish at ``u = 0``
+(springs written as forces, dissipation) are part of the test.
 Accepted generators are kept only while they are linearly independent of those declared
 or accepted before (translations of single factors first, then joint translations, then
 shifts of single angles, of all angles together, then rotations), so a cart's two
@@ -29,22 +33,35 @@ combination of them.
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from workbench.mechanics._engine import ModelError
+from workbench.mechanics._engine import ModelError, solve_spd
 from workbench.mechanics._equations import Derivation
+from workbench.mechanics._exact import Verdict, identically_zero, unfolded
 from workbench.mechanics._factors import RnFactor, S1Factor, S2Factor, SO3Factor
+from workbench.mechanics._forces import load_covector
 
-__all__ = ["Candidate", "detect", "configuration_action", "MAX_ROTATING_CHOICES"]
+__all__ = ["Candidate", "detect", "configuration_action", "input_momentum_rates",
+           "momentum_rate", "conservation_evidence", "invariance_evidence",
+           "symmetry_evidence", "established",
+           "MAX_ROTATING_CHOICES",
+           "INPUT_MOMENTUM_TOL"]
 
 MAX_ROTATING_CHOICES = 6
 """Up to ``2**MAX_ROTATING_CHOICES`` combinations of the R^2/R^3 factors' turn-or-stay and
 the angles' +1/-1/stay are tried; above, only "all turn" (+1), "all turn" (-1) and "all
 stay"."""
+
+INPUT_MOMENTUM_TOL = 1e-10
+"""An input changes a momentum when ``|dJ/du|`` exceeds this fraction of its absolute
+evaluation (:func:`input_momentum_rates`): rounding leaves ~1e-16 of it, a real change is of
+the order of it (a motor on the symmetry's own coordinate gives 1). A structural decision,
+not a tolerance of the user's."""
 
 AXES = (("e1", (1.0, 0.0, 0.0)), ("e2", (0.0, 1.0, 0.0)), ("e3", (0.0, 0.0, 1.0)))
 
@@ -61,11 +78,17 @@ class Candidate:
         What the group does, in words.
     generators : dict of int to casadi.SX
         The velocity of each moved factor (keyed by ``id(factor)``).
+    exact : bool
+        Its conservation is established exactly (:func:`conservation_evidence`).
+    evidence : str
+        The evidence, in words.
     """
 
     name: str
     description: str
     generators: dict
+    exact: bool = False
+    evidence: str = ""
 
 
 def _rotation_generator(f: Any, axis: np.ndarray) -> ca.SX | None:
@@ -160,8 +183,201 @@ def _generator_matrix(der: Derivation, cands: list, x: np.ndarray, p: np.ndarray
     return np.asarray(fn(x, p), dtype=float)
 
 
+def momentum_rate(der: Derivation, generators: dict) -> ca.SX:
+    """``dJ/dt`` at zero input as a graph without the equations' solve (Noether's identity).
+
+    With ``J = Pi . eta(c)``: ``dJ/dt = eta^T M nu-dot + eta . (dPi/dc) c-dot + Pi .
+    (d eta/dc) c-dot`` and ``M nu-dot = b`` along ``eta`` (the S^2 gauge rows drop out), so
+    on an R^k or S^1 factor (``b = -(dPi/dc) c-dot + K^T (dL/dc + Q) - dD/dnu``) the
+    factor's share is ``eta . (K^T (dL/dc + Q) - dD/dnu)``: the Lie derivative of the
+    Lagrangian along the group plus the loads' virtual power. Nothing the group moves in
+    the Lagrangian or the loads, nothing in the graph: zero structurally.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    generators : dict of int to casadi.SX
+        The symmetry's generator on each moved factor, keyed by ``id(factor)``.
+
+    Returns
+    -------
+    casadi.SX, shape=(1, 1)
+        An expression of ``der.x`` and ``der.ing.p``.
+    """
+    ing = der.ing
+    u0 = ca.SX.zeros(ing.u.shape[0])
+    cov = ca.gradient(der.T - der.V, der.c) + ca.substitute(
+        load_covector(ing.loads, der.c), ing.u, u0)
+    q_nu = -ca.gradient(der.D, der.nu)
+    general = None
+    rate, kc, etas = ca.SX(0), 0, []
+    for f, sl in zip(ing.factors, der.slices):
+        cs = slice(kc, kc + f.config_sym.shape[0])
+        kc = cs.stop
+        eta = generators.get(id(f))
+        etas.append(ca.SX.zeros(sl.stop - sl.start, 1) if eta is None else eta)
+        if eta is None:
+            continue
+        if isinstance(f, (RnFactor, S1Factor)):
+            rate = rate + ca.dot(eta, f.kt(cov[cs]) + q_nu[sl])
+        else:  # S^2 (its projection) and SO(3) (the gyroscopic term): b as derived
+            if general is None:
+                general = ca.substitute(der.b, ing.u, u0) + ca.jtimes(der.Pi, der.c, der.cdot)
+            rate = rate + ca.dot(eta, general[sl])
+    moving = ca.jtimes(ca.vertcat(*etas), der.c, der.cdot)
+    return rate + ca.dot(der.Pi, moving) if moving.nnz() else rate
+
+
+def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
+                          seed: int = 0) -> list[tuple[bool, str]]:
+    """Whether each candidate's ``dJ/dt`` vanishes identically on the state manifold.
+
+    Zero in the graph (:func:`momentum_rate`), or an identity of the graph's exact
+    evaluation at random points of the manifold (:mod:`._exact`): the momentum is
+    conserved, proved. Otherwise the evidence is the caller's samples, stated.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    candidates : list of Candidate
+        Their generators.
+    p : ndarray
+        Parameter values.
+    seed : int
+        Seed of the exact test's points.
+
+    Returns
+    -------
+    list of (bool, str)
+        Per candidate: exact or not, and the evidence in words.
+    """
+    rates = [momentum_rate(der, c.generators) for c in candidates]
+    structural = (True, "dJ/dt is zero in the derived graph itself (what the group moves "
+                        "does not enter the Lagrangian or the loads, or cancels as written)")
+    out: list[tuple[bool, str] | None] = [structural if ca.SX(r).is_zero() else None
+                                          for r in rates]
+    left = [k for k, o in enumerate(out) if o is None]
+    if left:
+        exact_der, k = unfolded(der)  # the declaration's constants exact, none folded
+        fn = ca.Function("momentum_rates", [exact_der.x, exact_der.ing.p], [ca.vertcat(*[
+            momentum_rate(exact_der, candidates[j].generators) for j in left])])
+        verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
+        for j, v in zip(left, verdicts):
+            out[j] = (True, "dJ/dt vanishes identically on the state manifold (its "
+                            "graph evaluated exactly, modulo a prime, at random points of "
+                            "the manifold)") if v is Verdict.ZERO else (
+                False, "dJ/dt is not identically zero (nonzero at a point of the "
+                       "manifold), only small at the sampled states") \
+                if v is Verdict.NONZERO else (
+                False, f"whether dJ/dt vanishes everywhere is not decided exactly "
+                       f"({why or 'a stand-in value kept it nonzero'})")
+    return [o for o in out if o is not None]
+
+
+def invariance_evidence(der: Derivation, act: ca.Function, p: np.ndarray, *,
+                        seed: int = 0) -> tuple[bool, str]:
+    """Whether the field at zero input is invariant under a group, established exactly.
+
+    Invariance, ``f(g x) = g_* f(x)``, is the vanishing of the bracket ``[X, f] = Df X -
+    DX f`` with the group's generator ``X = d/dtheta act(x, theta)`` at ``theta = 0``:
+    zero in the graph, or an identity of its exact evaluation at random points of the
+    manifold (:mod:`._exact`; the field written with the symbolic L D L^T solve, a
+    rational graph, from the equations derived with the declaration's constants
+    unfolded). Conservation of the momentum does not imply it (a load across the
+    symmetry that depends on the group coordinate does no work along it).
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    act : casadi.Function
+        ``(x, theta) -> g_theta x`` on full states (SX).
+    p : ndarray
+        Parameter values.
+    seed : int
+        Seed of the exact test's points.
+
+    Returns
+    -------
+    (bool, str)
+        Established or not, and the evidence in words.
+    """
+    exact_der, k = unfolded(der)
+    x, ing = exact_der.x, exact_der.ing
+    b = ca.substitute(exact_der.b, ing.u, ca.SX.zeros(ing.u.shape[0]))
+    f = exact_der.rates()(x, solve_spd(exact_der.A, b))
+    theta = ca.SX.sym("theta")
+    X = ca.substitute(ca.jacobian(act(x, theta), theta), theta, ca.SX(0))
+    bracket = ca.jtimes(f, x, X) - ca.jtimes(X, x, f)
+    if ca.SX(bracket).is_zero():
+        return True, "the bracket [X, f] is zero in the derived graph"
+    fn = ca.Function("bracket", [x, ing.p], [bracket])
+    verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
+    if all(v is Verdict.ZERO for v in verdicts):
+        return True, ("the bracket [X, f] of the generator with the field vanishes "
+                      "identically on the state manifold (evaluated exactly, modulo a "
+                      "prime, at random points of the manifold)")
+    if any(v is Verdict.NONZERO for v in verdicts):
+        return False, ("the bracket [X, f] of the generator with the field is not "
+                       "identically zero (nonzero at a point of the manifold)")
+    return False, (f"whether the bracket [X, f] of the generator with the field vanishes "
+                   f"everywhere is not decided exactly "
+                   f"({why or 'a stand-in value kept it nonzero'})")
+
+
+def symmetry_evidence(der: Derivation, generators: dict, act: ca.Function, p: np.ndarray,
+                      *, seed: int = 0) -> tuple[bool, str]:
+    """What a reduction relies on: ``J`` conserved and ``f`` invariant, exactly or not.
+
+    See :func:`conservation_evidence` and :func:`invariance_evidence`.
+
+    Returns
+    -------
+    (bool, str)
+        Both established, and the evidence in words.
+    """
+    (conserved, why_j), = conservation_evidence(der, [Candidate("", "", generators)], p,
+                                                seed=seed)
+    invariant, why_f = invariance_evidence(der, act, p, seed=seed)
+    if conserved and invariant:
+        return True, f"exact: {why_j}; {why_f}"
+    return False, "; ".join(w for ok, w in ((conserved, why_j), (invariant, why_f))
+                            if not ok)
+
+
+def established(der: Derivation, symmetry: str, act: ca.Function, model: Any, *, seed: int,
+                n_states: int, accept_sampled: bool) -> str:
+    """:func:`symmetry_evidence` for a reduction: refused unless exact or accepted.
+
+    Returns
+    -------
+    str
+        The evidence.
+
+    Raises
+    ------
+    ModelError
+        Not established exactly and ``accept_sampled`` false (a UserWarning when true).
+    """
+    exact, evidence = symmetry_evidence(der, der.ing.momenta[symmetry], act, model.p,
+                                        seed=seed)
+    if not exact:
+        what = (f"the symmetry {symmetry!r} of {model.name!r} is not established exactly: "
+                f"{evidence}")
+        if not accept_sampled:
+            raise ModelError(f"{what}; the checks at {n_states} random states cannot see a "
+                             "symmetry broken between them; pass accept_sampled=True to "
+                             "reduce on their evidence")
+        warnings.warn(f"reduce: {what}; reduced on the evidence of {n_states} random "
+                      "states", UserWarning, stacklevel=3)
+    return evidence
+
+
 def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
-           states: list[np.ndarray], xdots: list[np.ndarray]) -> list[Candidate]:
+           states: list[np.ndarray], xdots: list[np.ndarray],
+           accept_sampled: bool = False) -> list[Candidate]:
     """The verified, independent symmetries of ``system`` not already declared.
 
     Parameters
@@ -179,11 +395,15 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
         the system's scales).
     xdots : list of ndarray, shape=(n_x,)
         The field ``f(x, 0)`` at each state.
+    accept_sampled : bool
+        Also accept candidates whose conservation is not established exactly
+        (:func:`conservation_evidence`), on the samples' evidence.
 
     Returns
     -------
     list of Candidate
-        Accepted candidates, in order of preference; names not yet used.
+        Accepted candidates, in order of preference, with their evidence; names not yet
+        used.
     """
     factors = list(system.factors)
     cands = _translations(factors) + _shifts(factors) + _rotations(factors)
@@ -197,6 +417,11 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
         rate = np.abs(G @ xdot)
         scale = np.linalg.norm(G, axis=1) * np.linalg.norm(xdot)
         verified &= (rate <= rtol * scale) & (np.linalg.norm(G, axis=1) > 0)
+    passed = [k for k, ok in enumerate(verified) if ok]
+    for k, (exact, evidence) in zip(passed, conservation_evidence(
+            der, [cands[k] for k in passed], p)):
+        cands[k].exact, cands[k].evidence = exact, evidence
+        verified[k] = exact or accept_sampled
     declared = [Candidate(n, "declared", g) for n, g in system.momenta.items()]
     basis = _generator_matrix(der, declared, states[0], p)
     rank = np.linalg.matrix_rank(basis) if basis.size else 0
@@ -212,7 +437,8 @@ def detect(system: Any, der: Derivation, p: np.ndarray, *, rtol: float,
             while name in used:
                 name, k = f"{c.name}_{k}", k + 1
             used.add(name)
-            accepted.append(Candidate(name, c.description, c.generators))
+            accepted.append(Candidate(name, c.description, c.generators, c.exact,
+                                      c.evidence))
     return accepted
 
 
@@ -258,3 +484,52 @@ def configuration_action(der: Derivation, name: str, generators: dict) -> ca.Fun
             parts.append(ca.vertcat(dc, ca.SX.zeros(f.velocity_sym.shape[0], 1)))
     return ca.Function(f"action_{name}", [der.x, der.ing.p], [ca.vertcat(*parts)],
                        ["x", "p"], ["dx"])
+
+
+def input_momentum_rates(der: Derivation, generators: dict) -> tuple[ca.Function, list[bool]]:
+    """How fast each input changes a momentum: ``dJ/du``, without the equations' solve.
+
+    ``J = Pi . eta`` changes with the input only through the accelerations, ``dJ/du =
+    eta^T M d(nu-dot)/du = eta^T db/du`` (S^2 rows: on the sphere), and the input enters
+    ``b`` only through the loads' weights ``w_l(c, nu, u)`` (Noether with forcing):
+
+        dJ/du_k = sum_l (dy_l/dc K eta) . dw_l/du_k,
+
+    the virtual power of each load along the group's motion of its target ``y_l``. Its
+    absolute evaluation ``sum_l (|dy_l/dc| |K eta|) . |dw_l/du_k|`` is the scale rounding
+    works at: a column whose rate stays within :data:`INPUT_MOMENTUM_TOL` of it keeps the
+    momentum, whatever tolerance the caller's other checks use.
+
+    Parameters
+    ----------
+    der : Derivation
+        The derived equations.
+    generators : dict of int to casadi.SX
+        The symmetry's generator on each moved factor, keyed by ``id(factor)``.
+
+    Returns
+    -------
+    rates : casadi.Function
+        ``(x, u, p) -> (rate, scale)``, each shape=(1, n_u).
+    structural : list of bool
+        Per input column: its rate is zero in the graph itself (no load both driven by
+        the column and moved by the group), so the column keeps the momentum at every
+        state.
+    """
+    ing, c = der.ing, der.c
+    n_u = ing.u.shape[0]
+    moved = ca.vertcat(*[
+        ca.vec(f.kinematics(generators[id(f)])) if id(f) in generators
+        else ca.SX.zeros(f.config_sym.shape[0], 1) for f in ing.factors])
+    rate, scale = ca.SX.zeros(1, n_u), ca.SX.zeros(1, n_u)
+    for load in ing.loads:
+        w_u = ca.jacobian(load.weight, ing.u)
+        if w_u.nnz() == 0:
+            continue
+        jac = ca.jacobian(load.target, c)
+        rate = rate + ca.mtimes(ca.mtimes(jac, moved).T, w_u)
+        scale = scale + ca.mtimes(ca.mtimes(ca.fabs(jac), ca.fabs(moved)).T, ca.fabs(w_u))
+    structural = [bool(ca.SX(rate[0, k]).is_zero()) for k in range(n_u)]
+    fn = ca.Function("input_momentum_rates", [der.x, ing.u, ing.p], [rate, scale],
+                     ["x", "u", "p"], ["rate", "scale"])
+    return fn, structural
