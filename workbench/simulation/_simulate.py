@@ -34,7 +34,9 @@ from workbench.simulation._cvodes import (
     MAX_STEPS,
     Corrector,
     Multistep,
+    check_max_step,
     check_max_steps,
+    check_rtol,
     cvodes_options,
 )
 from workbench.simulation._failure import (
@@ -188,6 +190,7 @@ def simulate(
     multistep: Multistep | str = Multistep.ADAMS,
     corrector: Corrector | str | None = None,
     max_steps: int = 1_000_000,
+    max_step: float | None = None,
     max_points: int = MAX_POINTS,
     tol: float = DEFAULT_TOL,
     newton_tol: float = NEWTON_TOL,
@@ -214,8 +217,12 @@ def simulate(
         ``"cvodes"``, ``"rk"``, ``"collocation"``, or a geometric method ``"lgvi"``,
         ``"s2_variational"``, ``"rkmk4"``, ``"mechanics_variational"`` (see
         :class:`Method`).
-    rtol, atol : float
-        Relative and absolute tolerances (CVODES only).
+    rtol : float
+        CVODES' relative tolerance (its local error per step, relative to the state), in
+        ``(0, 1e-3]`` (:data:`~workbench.simulation._cvodes.RTOL_MAX`: SUNDIALS advises
+        against more, and a relative tolerance of 1 or more accepts any answer).
+    atol : float
+        CVODES' absolute tolerance, positive and finite.
     step : float, optional
         Largest step for the fixed-step methods (required for them, refused for CVODES);
         each output interval is split into ``ceil(interval / step)`` equal steps.
@@ -232,6 +239,13 @@ def simulate(
         :data:`~workbench.simulation._cvodes.MAX_STEPS` (1e8: minutes for a small model);
         a long horizon between two output times may need more (the failure says so and
         names this knob).
+    max_step : float, optional
+        CVODES' largest internal step, positive and finite; None (default): unbounded. An
+        adaptive step sees the field only at its stages: a feature of the field narrower
+        than a step (a potential wall, a pulse of forcing) can be stepped over, with an
+        error estimate of zero where the field is flat on both sides of it. Pass
+        ``max_step`` below the feature's width. Refused when an output interval would need
+        more than ``max_steps`` steps of it.
     max_points : int
         Largest accepted number of output times (default :data:`MAX_POINTS`, 10^6: the
         states alone take ``8 * ambient_dim`` bytes each, and the diagnostics evaluate
@@ -286,11 +300,12 @@ def simulate(
     method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
-    for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
+    rtol = check_rtol(rtol, error=ModelError)
+    for name, val in (("atol", atol), ("tol", tol)):
         validate.tolerance(name, val, error=ModelError)
     max_steps = check_max_steps(max_steps, error=ModelError)  # bounded before anything runs
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
-    _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    _check_knobs_used(method, step=step, degree=degree, jit=jit, max_step=max_step)
     # unrolled into the step's graph: bounded before anything is built
     newton_tol, newton_max_iter = check_newton_options(newton_tol, newton_max_iter)
     compilation = choice(Compilation, compilation, "compilation", error=ModelError)
@@ -308,10 +323,13 @@ def simulate(
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
     if method is Method.CVODES:
+        # refused before anything runs when max_steps of it cannot cross an interval
+        max_step = check_max_step(max_step, interval=float(np.max(np.abs(np.diff(tv)))),
+                                  max_steps=max_steps, error=ModelError)
         opts.update(cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol,
-                                   atol=atol, max_steps=max_steps))
+                                   atol=atol, max_steps=max_steps, max_step=max_step))
         options_used.update(rtol=rtol, atol=atol, multistep=opts["linear_multistep_method"],
-                            corrector=opts["nonlinear_solver_iteration"])
+                            corrector=opts["nonlinear_solver_iteration"], max_step=max_step)
     else:
         if step is None:
             raise ModelError(f"step must be a positive number for method {method.value!r}; "
@@ -421,11 +439,16 @@ def simulate(
     return traj
 
 
-def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
+def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any,
+                      max_step: Any = None) -> None:
     """Refuse knobs that the method would silently ignore."""
     unused = []
     if step is not None and method is Method.CVODES:
-        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol)")
+        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol, and "
+                      f"max_step to bound them)")
+    if max_step is not None and method is not Method.CVODES:
+        unused.append(f"max_step={max_step!r} (cvodes' bound on its adaptive step; the "
+                      f"fixed-step methods take step=)")
     if degree is not None and method is not Method.COLLOCATION:
         unused.append(f"degree={degree!r} (the collocation degree)")
     if jit and method not in GEOMETRIC_METHODS:
