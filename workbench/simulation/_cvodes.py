@@ -12,16 +12,29 @@ cap: without ``max_step`` the step is unbounded.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
 import numpy as np
 
-from workbench.core.errors import ModelError, WorkbenchError
+from workbench.core.errors import ModelError, SolverError, WorkbenchError
+from workbench.core.status import StatusEnum
 from workbench.core.validate import choice, count, positive, relative_tolerance, tolerance
+from workbench.simulation._invariant_check import (
+    DRIFT_LIMIT,
+    TOLERANCE_SAFETY,
+    Watch,
+    classify,
+    confirm,
+    first_excess,
+    invariant_values,
+    tolerance_allowance,
+)
+from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
 
-__all__ = ["Multistep", "Corrector", "cvodes_options", "check_max_steps", "check_max_step",
-           "check_rtol", "MAX_STEPS", "RTOL_MAX"]
+__all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
+           "check_max_steps", "check_max_step", "check_rtol", "MAX_STEPS", "RTOL_MAX"]
 
 RTOL_MAX = 1e-3
 """Largest accepted CVODES ``rtol``. SUNDIALS' guide on tolerances: "we do not recommend
@@ -204,3 +217,211 @@ def check_max_steps(max_steps: object, *, error: type[WorkbenchError] = ModelErr
             f"a small model already take minutes. For a long horizon output at more times t "
             f"(the limit is per output interval), or shorten the horizon")
     return count("max_steps", max_steps, maximum=MAX_STEPS, error=error)
+
+
+class CvodesCheck(StatusEnum):
+    """Outcome of the checks of a finished CVODES run (the ``status`` of its SolverError)."""
+
+    PASSED = ("no state grew beyond the flow's bound or left the manifold, and no kept "
+              "invariant moved beyond what the tolerances allow")
+    EXPLODED = "a state grew by orders of magnitude beyond what the flow allows from x0"
+    LEFT_MANIFOLD = "a state left the manifold by more than the constraint's scale"
+    INVARIANT_DRIFT = ("an invariant the unforced field conserves (or dissipates) moved "
+                       "(or rose) beyond what the tolerances allow")
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:
+        """Only ``PASSED``."""
+        return frozenset({"PASSED"})
+
+
+def _text(x: np.ndarray) -> str:
+    return np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
+
+
+@dataclass(frozen=True)
+class RunCheck:
+    """The after-the-fact checks of one CVODES run (what applies of the fixed-step ones).
+
+    CVODES controls an *estimate* of its local error; where the estimate is wrong (a
+    feature of the field between two stages, tolerances too loose for the problem) the
+    run can be wrong with no error from CVODES. :meth:`run` refuses, in order:
+
+    * **growth**: a state larger than ``GROWTH_LIMIT`` (1e4) times what the flow allows
+      from ``x0`` (the fixed-step methods' bound,
+      :meth:`~workbench.simulation._stability.StepCheck._check_growth`);
+    * **the manifold**: a constraint residual that moved by more than ``DRIFT_LIMIT`` (1)
+      times the constraint's scale ``max(|h(x0)|, |dh(x0)| |x0|)`` (2 for a unit vector's
+      ``|q|^2 - 1``): the state is nowhere near the manifold;
+    * **invariants**, for unforced runs (no controller): one the field conserves at every
+      sampled state that moved, or one it does not increase that rose, by more than
+      :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
+      ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
+      its scale (the fixed-step bound). A run with a controller is not checked for its
+      invariants (the loop may feed them anywhere).
+
+    Only the output states are seen: a step across a narrow feature that lands where the
+    invariant has its old value (a potential wall passed between two outputs, at equal
+    energy on both sides) is not detectable here; ``max_step`` is the remedy.
+
+    Attributes
+    ----------
+    model : Model
+        The model.
+    probe : Probe
+        Its functions (:func:`~workbench.simulation._probe.probe_for`).
+    rtol, atol : float
+        The run's tolerances.
+    steps : int
+        CVODES' steps.
+    unforced : bool
+        No controller in the loop (the invariants are checked).
+    max_step : float or None
+        The run's bound on the step (for the message).
+    """
+
+    model: Any
+    probe: Any
+    rtol: float
+    atol: float
+    steps: int
+    unforced: bool
+    max_step: float | None
+
+    @property
+    def _advice(self) -> str:
+        bound = "unbounded" if self.max_step is None else f"{self.max_step:g}"
+        return (f"CVODES' error estimate missed the error of its steps. An adaptive step sees "
+                f"the field only at its stages: a feature of the field narrower than a step (a "
+                f"wall, a pulse) can be stepped over unseen. Pass max_step below that "
+                f"feature's width (now {bound}), or a tighter rtol (now {self.rtol:g}) and atol "
+                f"(now {self.atol:g})")
+
+    def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
+            drift: dict[str, Any] | None = None) -> dict[str, Any]:
+        """All the checks on a finished run; raise SolverError, or return the diagnostics.
+
+        Parameters
+        ----------
+        t : ndarray, shape=(n_times,)
+            Output times.
+        x : ndarray, shape=(n_times, ambient_dim)
+            States (finite).
+        xdot : ndarray, shape=(n_times, ambient_dim), optional
+            The field at the states, when already computed.
+        drift : dict, optional
+            The run's ``invariant_drift`` diagnostics, when already computed.
+
+        Returns
+        -------
+        dict
+            ``{"checks": {...}}``: ``status`` (``"passed"``), ``conserved_invariants`` and
+            ``non_increasing_invariants`` (those checked; empty with a controller) and
+            ``drift_allowance`` (per checked invariant, the drift it was allowed).
+
+        Raises
+        ------
+        SolverError
+            Status ``exploded``, ``left_manifold`` or ``invariant_drift``
+            (:class:`CvodesCheck`), naming the time and the state.
+        """
+        self._check_growth(t, x, xdot)
+        self._check_manifold(t, x)
+        watch, limits = self._check_invariants(t, x, drift) if self.unforced else (None, {})
+        return {"checks": {
+            "status": CvodesCheck.PASSED.code,
+            "conserved_invariants": [] if watch is None else watch.conserved,
+            "non_increasing_invariants": [] if watch is None else watch.non_increasing,
+            "drift_allowance": limits,
+        }}
+
+    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
+        """Refuse states grown beyond ``GROWTH_LIMIT`` times what the flow allows."""
+        step = StepCheck(self.model, self.probe, "cvodes", None, False, 0.0)
+        size = np.max(np.abs(x), axis=1)
+        allowed, alpha = step._growth_allowance(t, x, xdot, rate=False)
+        if np.all(size <= GROWTH_LIMIT * allowed):
+            return
+        allowed, alpha = step._growth_allowance(t, x, xdot, rate=True)
+        bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
+        if not bad.size:
+            return
+        k = int(bad[0])
+        raise SolverError(
+            f"cvodes integrating {self.model.name}: the state grew to max |x| = "
+            f"{size[k]:.3g} by t = {t[k]:.6g} (x = {_text(x[k])}), more than "
+            f"{GROWTH_LIMIT:.0e} times what the flow allows from x0, {allowed[k]:.3g} "
+            f"(max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) times the growth "
+            f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g}). "
+            f"{self._advice}", status=CvodesCheck.EXPLODED.code)
+
+    def _check_manifold(self, t: np.ndarray, x: np.ndarray) -> None:
+        """Refuse a constraint residual moved by more than ``DRIFT_LIMIT`` times its scale."""
+        man = self.model.manifold
+        for name, factor in man.factors:
+            fns = factor.constraint_functions()
+            if fns is None:
+                continue
+            block = x[:, man.slices[name]]
+            h = np.asarray(fns[0](block.T), dtype=float).reshape(-1, len(x))
+            jac = np.asarray(fns[1](block[0]), dtype=float).reshape(len(h), -1)
+            scale = np.maximum(np.maximum(np.abs(h[:, 0]), np.linalg.norm(jac, axis=1)
+                                          * np.linalg.norm(block[0])), np.finfo(float).tiny)
+            moved = np.abs(h - h[:, :1]) / scale[:, None]
+            bad = np.flatnonzero(~np.all(moved <= DRIFT_LIMIT, axis=0))
+            if not bad.size:
+                continue
+            k = int(bad[0])
+            j = int(np.argmax(np.where(np.isfinite(moved[:, k]), moved[:, k], np.inf)))
+            raise SolverError(
+                f"cvodes integrating {self.model.name}: the state left the manifold: the "
+                f"constraint residual of factor {name!r} (component {j}) is {h[j, k]:.3g} at t = "
+                f"{t[k]:.6g} (x = {_text(x[k])}) moved from {h[j, 0]:.3g} at t = {t[0]:g} by "
+                f"more than {DRIFT_LIMIT:g} times its scale {scale[j]:.3g} (max(|h(x0)|, "
+                f"|dh(x0)| |x0|)). {self._advice}", status=CvodesCheck.LEFT_MANIFOLD.code)
+
+    def _limits(self, watch: Watch, x: np.ndarray) -> dict[str, float]:
+        allow = tolerance_allowance(watch, x, rtol=self.rtol, atol=self.atol, steps=self.steps)
+        return {n: float(min(TOLERANCE_SAFETY * allow[n], DRIFT_LIMIT * watch.scale[n]))
+                for n in watch.names}
+
+    def _check_invariants(self, t: np.ndarray, x: np.ndarray, drift: dict[str, Any] | None
+                          ) -> tuple[Watch, dict[str, float]]:
+        """Refuse a kept invariant moved beyond its allowance; return the watch and limits."""
+        model = self.model
+        names = model.invariant_names
+        initial = None if drift is None else np.array(
+            [float(drift[n]["initial"]) for n in names])
+        watch = classify(self.probe, model, x, [0], initial)
+        limits = self._limits(watch, x)
+        known = drift or {}
+        if all(n in known and float(known[n]["max_abs"]) <= limits[n] for n in watch.names):
+            return watch, limits  # the common case: nothing moved beyond its allowance
+        watch = confirm(self.probe, model, x, watch)  # the rates at every output state
+        limits = self._limits(watch, x)
+        values = invariant_values(model, x)
+        hit = first_excess(watch, names, values, values[:, 0], limits)
+        if hit is None:
+            return watch, limits
+        name, j = hit
+        k = names.index(name)
+        rising = name in watch.non_increasing
+        change = values[k, j] - values[k, 0]
+        tol_bound = limits[name] < DRIFT_LIMIT * watch.scale[name]
+        bound = (f"{abs(change) / limits[name]:.3g} times what the tolerances allow, "
+                 f"{limits[name]:.3g} ({TOLERANCE_SAFETY:g} x {self.steps} steps x sqrt(n) x "
+                 f"max |grad I| (rtol |x| + atol): each step's error moves it by at most its "
+                 f"part along grad I, and CVODES keeps that error below the tolerances)"
+                 if tol_bound else
+                 f"more than {DRIFT_LIMIT:g} times its scale {watch.scale[name]:.3g} "
+                 f"(max(|I(x0)|, |grad I(x0)| |x0|))")
+        raise SolverError(
+            f"cvodes integrating {model.name}: the invariant {name!r}, which the field (no "
+            f"controller) "
+            + ("does not increase at any output state (it can only fall along the exact "
+               "flow), rose" if rising else "conserves at every output state, changed")
+            + f" from {values[k, 0]:.10g} to {values[k, j]:.10g} by t = {t[j]:.6g} (x = "
+            f"{_text(x[j])}), a drift of {change:.3g}: {bound}. {self._advice}. A step across "
+            f"such a feature that lands where the invariant has its old value (a wall "
+            f"crossed between two outputs) is not detectable at the outputs",
+            status=CvodesCheck.INVARIANT_DRIFT.code)

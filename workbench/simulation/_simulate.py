@@ -34,6 +34,7 @@ from workbench.simulation._cvodes import (
     MAX_STEPS,
     Corrector,
     Multistep,
+    RunCheck,
     check_max_step,
     check_max_steps,
     check_rtol,
@@ -396,13 +397,17 @@ def simulate(
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
-    check = None
-    if method is not Method.CVODES:  # fixed step: an exploded run is refused
+    check: StepCheck | RunCheck
+    if method is Method.CVODES:  # an exploded run, or one its error estimate missed, is refused
+        check = RunCheck(model, probe_for(model, controller, sign=sign), rtol, atol,
+                         int(stats.get("nsteps", 0)), controller is None, max_step)
+    else:  # fixed step: an exploded run is refused
         check = StepCheck(model, probe_for(model, controller, sign=sign, rk4=method is Method.RK),
                           method.value, "rk" if method is Method.RK else None, False,
                           float(abs(s_grid[1])) / opts["number_of_finite_elements"])
     if not np.all(np.isfinite(xs_out)):
-        raise casadi_non_finite(model, controller, check, method.value, tv, xs_out)
+        raise casadi_non_finite(model, controller, check if isinstance(check, StepCheck) else
+                                None, method.value, tv, xs_out)
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -433,8 +438,7 @@ def simulate(
                           f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T,
-                                                diag["invariant_drift"])
+    checks = check.run(tv, xs_out, np.asarray(rhs_map).T, diag["invariant_drift"])
     traj.diagnostics = {**diag, **checks}
     return traj
 
