@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from workbench.core.errors import ModelError, SolverError, WorkbenchError
@@ -35,6 +36,10 @@ from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
 
 __all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
            "check_max_steps", "check_max_step", "check_rtol", "MAX_STEPS", "RTOL_MAX"]
+
+AGAIN_STEPS = 100
+"""Before a run is refused for an invariant, the output interval where it left its
+allowance is integrated again with ``max_step`` this fraction of the interval."""
 
 RTOL_MAX = 1e-3
 """Largest accepted CVODES ``rtol``. SUNDIALS' guide on tolerances: "we do not recommend
@@ -258,7 +263,10 @@ class RunCheck:
       :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
       ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
       its scale (the fixed-step bound). A run with a controller is not checked for its
-      invariants (the loop may feed them anywhere).
+      invariants (the loop may feed them anywhere). Before a refusal, the output interval
+      is integrated again with the step bounded by ``1 / AGAIN_STEPS`` of it; an
+      invariant that moves along that run too is moved by the field itself (it is not
+      smooth there) and is not refused.
 
     Only the output states are seen: a step across a narrow feature that lands where the
     invariant has its old value (a potential wall passed between two outputs, at equal
@@ -270,27 +278,34 @@ class RunCheck:
         The model.
     probe : Probe
         Its functions (:func:`~workbench.simulation._probe.probe_for`).
-    rtol, atol : float
-        The run's tolerances.
+    options : dict
+        The run's CVODES options (:func:`cvodes_options`).
     steps : int
         CVODES' steps.
     unforced : bool
         No controller in the loop (the invariants are checked).
-    max_step : float or None
-        The run's bound on the step (for the message).
     """
 
     model: Any
     probe: Any
-    rtol: float
-    atol: float
+    options: dict[str, Any]
     steps: int
     unforced: bool
-    max_step: float | None
+
+    @property
+    def rtol(self) -> float:
+        """The run's relative tolerance."""
+        return float(self.options["reltol"])
+
+    @property
+    def atol(self) -> float:
+        """The run's absolute tolerance."""
+        return float(self.options["abstol"])
 
     @property
     def _advice(self) -> str:
-        bound = "unbounded" if self.max_step is None else f"{self.max_step:g}"
+        step = self.options.get("max_step_size")
+        bound = "unbounded" if step is None else f"{step:g}"
         return (f"CVODES' error estimate missed the error of its steps. An adaptive step sees "
                 f"the field only at its stages: a feature of the field narrower than a step (a "
                 f"wall, a pulse) can be stepped over unseen. Pass max_step below that "
@@ -298,7 +313,8 @@ class RunCheck:
                 f"(now {self.atol:g})")
 
     def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
-            drift: dict[str, Any] | None = None) -> dict[str, Any]:
+            drift: dict[str, Any] | None = None, residual: dict[str, float] | None = None
+            ) -> dict[str, Any]:
         """All the checks on a finished run; raise SolverError, or return the diagnostics.
 
         Parameters
@@ -311,6 +327,10 @@ class RunCheck:
             The field at the states, when already computed.
         drift : dict, optional
             The run's ``invariant_drift`` diagnostics, when already computed.
+        residual : dict, optional
+            The run's ``constraint_residual`` diagnostics (the largest per factor), when
+            already computed (a factor whose residual is far within its allowance is then
+            not evaluated again).
 
         Returns
         -------
@@ -326,7 +346,7 @@ class RunCheck:
             (:class:`CvodesCheck`), naming the time and the state.
         """
         self._check_growth(t, x, xdot)
-        self._check_manifold(t, x)
+        self._check_manifold(t, x, residual)
         watch, limits = self._check_invariants(t, x, drift) if self.unforced else (None, {})
         return {"checks": {
             "status": CvodesCheck.PASSED.code,
@@ -355,7 +375,8 @@ class RunCheck:
             f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g}). "
             f"{self._advice}", status=CvodesCheck.EXPLODED.code)
 
-    def _check_manifold(self, t: np.ndarray, x: np.ndarray) -> None:
+    def _check_manifold(self, t: np.ndarray, x: np.ndarray,
+                        residual: dict[str, float] | None = None) -> None:
         """Refuse a constraint residual moved by more than ``DRIFT_LIMIT`` times its scale."""
         man = self.model.manifold
         for name, factor in man.factors:
@@ -363,10 +384,14 @@ class RunCheck:
             if fns is None:
                 continue
             block = x[:, man.slices[name]]
-            h = np.asarray(fns[0](block.T), dtype=float).reshape(-1, len(x))
-            jac = np.asarray(fns[1](block[0]), dtype=float).reshape(len(h), -1)
-            scale = np.maximum(np.maximum(np.abs(h[:, 0]), np.linalg.norm(jac, axis=1)
+            h0 = np.asarray(fns[0](block[0]), dtype=float).ravel()
+            jac = np.asarray(fns[1](block[0]), dtype=float).reshape(len(h0), -1)
+            scale = np.maximum(np.maximum(np.abs(h0), np.linalg.norm(jac, axis=1)
                                           * np.linalg.norm(block[0])), np.finfo(float).tiny)
+            if residual is not None and residual.get(name, np.inf) + np.max(np.abs(h0)) \
+                    <= DRIFT_LIMIT * np.min(scale):  # |h(x) - h(x0)| <= |h(x)| + |h(x0)|
+                continue
+            h = np.asarray(fns[0](block.T), dtype=float).reshape(-1, len(x))
             moved = np.abs(h - h[:, :1]) / scale[:, None]
             bad = np.flatnonzero(~np.all(moved <= DRIFT_LIMIT, axis=0))
             if not bad.size:
@@ -385,9 +410,34 @@ class RunCheck:
         return {n: float(min(TOLERANCE_SAFETY * allow[n], DRIFT_LIMIT * watch.scale[n]))
                 for n in watch.names}
 
+    def _again(self, t0: float, x0: np.ndarray, t1: float) -> tuple[np.ndarray | None, float]:
+        """The state at ``t1`` from ``x0`` at ``t0``, the step bounded, and the bound.
+
+        The bound is ``|t1 - t0| / AGAIN_STEPS`` (or the run's, if smaller); the run's other
+        options are kept. The state is None where CVODES fails.
+        """
+        bound = min(abs(t1 - t0) / AGAIN_STEPS, self.options.get("max_step_size", np.inf))
+        model = self.model
+        xs = model.sym.sym("x", model.manifold.ambient_dim)
+        ps = model.sym.sym("p", model.n_params)
+        again = ca.integrator("cvodes_check_again", "cvodes",
+                              {"x": xs, "p": ps, "ode": self.probe.field(xs, ps)[0]}, 0.0,
+                              abs(t1 - t0), {**self.options, "max_step_size": bound})
+        try:
+            return np.asarray(again(x0=x0, p=model.p)["xf"], dtype=float).ravel(), bound
+        except RuntimeError:
+            return None, bound
+
     def _check_invariants(self, t: np.ndarray, x: np.ndarray, drift: dict[str, Any] | None
                           ) -> tuple[Watch, dict[str, float]]:
-        """Refuse a kept invariant moved beyond its allowance; return the watch and limits."""
+        """Refuse a kept invariant moved beyond its allowance; return the watch and limits.
+
+        Before a refusal the output interval where the invariant left its allowance is
+        integrated again from its start with the step bounded (:meth:`_again`): where the
+        invariant moves along that run too, the field itself moves it there (an invariant
+        that is not smooth, which the rates at the states cannot show), and it is no longer
+        watched.
+        """
         model = self.model
         names = model.invariant_names
         initial = None if drift is None else np.array(
@@ -400,28 +450,49 @@ class RunCheck:
         watch = confirm(self.probe, model, x, watch)  # the rates at every output state
         limits = self._limits(watch, x)
         values = invariant_values(model, x)
-        hit = first_excess(watch, names, values, values[:, 0], limits)
-        if hit is None:
-            return watch, limits
-        name, j = hit
-        k = names.index(name)
-        rising = name in watch.non_increasing
+        while (hit := first_excess(watch, names, values, values[:, 0], limits)) is not None:
+            name, j = hit
+            k = names.index(name)
+            rising = name in watch.non_increasing
+            again, bound = self._again(float(t[j - 1]), x[j - 1], float(t[j]))
+            if again is not None:
+                v_again = float(invariant_values(model, again[None, :])[k, 0])
+                moved = v_again - values[k, j - 1]
+                if not (moved if rising else abs(moved)) <= limits[name]:  # the field moves it
+                    watch = Watch([n for n in watch.conserved if n != name],
+                                  [n for n in watch.non_increasing if n != name],
+                                  watch.scale, watch.at, watch.grad_norm)
+                    limits = {n: v for n, v in limits.items() if n != name}
+                    continue
+                again_text = (f"; integrated again from t = {t[j - 1]:.6g} with max_step = "
+                              f"{bound:.3g}, it is {v_again:.10g} at t = {t[j]:.6g} (x = "
+                              f"{_text(again)})")
+            else:
+                again_text = (f"; integrating again from t = {t[j - 1]:.6g} with max_step = "
+                              f"{bound:.3g} failed")
+            raise self._drift_error(t, x, values, watch, limits, name, j, again_text)
+        return watch, limits
+
+    def _drift_error(self, t: np.ndarray, x: np.ndarray, values: np.ndarray, watch: Watch,
+                     limits: dict[str, float], name: str, j: int, again: str) -> SolverError:
+        """The SolverError for the invariant ``name`` beyond its allowance at output ``j``."""
+        k = self.model.invariant_names.index(name)
         change = values[k, j] - values[k, 0]
-        tol_bound = limits[name] < DRIFT_LIMIT * watch.scale[name]
         bound = (f"{abs(change) / limits[name]:.3g} times what the tolerances allow, "
                  f"{limits[name]:.3g} ({TOLERANCE_SAFETY:g} x {self.steps} steps x sqrt(n) x "
                  f"max |grad I| (rtol |x| + atol): each step's error moves it by at most its "
                  f"part along grad I, and CVODES keeps that error below the tolerances)"
-                 if tol_bound else
+                 if limits[name] < DRIFT_LIMIT * watch.scale[name] else
                  f"more than {DRIFT_LIMIT:g} times its scale {watch.scale[name]:.3g} "
                  f"(max(|I(x0)|, |grad I(x0)| |x0|))")
-        raise SolverError(
-            f"cvodes integrating {model.name}: the invariant {name!r}, which the field (no "
-            f"controller) "
+        return SolverError(
+            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the field "
+            f"(no controller) "
             + ("does not increase at any output state (it can only fall along the exact "
-               "flow), rose" if rising else "conserves at every output state, changed")
+               "flow), rose" if name in watch.non_increasing else
+               "conserves at every output state, changed")
             + f" from {values[k, 0]:.10g} to {values[k, j]:.10g} by t = {t[j]:.6g} (x = "
-            f"{_text(x[j])}), a drift of {change:.3g}: {bound}. {self._advice}. A step across "
-            f"such a feature that lands where the invariant has its old value (a wall "
-            f"crossed between two outputs) is not detectable at the outputs",
-            status=CvodesCheck.INVARIANT_DRIFT.code)
+            f"{_text(x[j])}), a drift of {change:.3g}: {bound}{again}. {self._advice}. A step "
+            f"across such a feature that lands where the invariant has its old value (a wall "
+            f"crossed between two outputs, with equal energy on both sides) is not detectable "
+            f"at the outputs", status=CvodesCheck.INVARIANT_DRIFT.code)

@@ -399,8 +399,8 @@ def simulate(
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
     check: StepCheck | RunCheck
     if method is Method.CVODES:  # an exploded run, or one its error estimate missed, is refused
-        check = RunCheck(model, probe_for(model, controller, sign=sign), rtol, atol,
-                         int(stats.get("nsteps", 0)), controller is None, max_step)
+        check = RunCheck(model, probe_for(model, controller, sign=sign), opts,
+                         int(stats.get("nsteps", 0)), controller is None)
     else:  # fixed step: an exploded run is refused
         check = StepCheck(model, probe_for(model, controller, sign=sign, rk4=method is Method.RK),
                           method.value, "rk" if method is Method.RK else None, False,
@@ -438,7 +438,10 @@ def simulate(
                           f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = check.run(tv, xs_out, np.asarray(rhs_map).T, diag["invariant_drift"])
+    xdot = np.asarray(rhs_map).T
+    checks = (check.run(tv, xs_out, xdot, diag["invariant_drift"], diag["constraint_residual"])
+              if isinstance(check, RunCheck) else
+              check.run(tv, xs_out, xdot, diag["invariant_drift"]))
     traj.diagnostics = {**diag, **checks}
     return traj
 
