@@ -9,7 +9,11 @@ factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``deg
 are explicit keywords. A fixed-step run is checked before it is returned: a step beyond
 the method's stable range, a state that explodes or a conserved invariant that drifts by
 orders of magnitude raises a SolverError naming the step and the stable step estimated
-for it (:mod:`workbench.simulation._stability`).
+for it (:mod:`workbench.simulation._stability`). A CVODES run is checked too
+(:class:`~workbench.simulation._cvodes.RunCheck`): a state that explodes or leaves the
+manifold, or (without a controller) an invariant that moves beyond what the tolerances
+allow, raises a SolverError naming the time and the state; ``max_step`` bounds its
+adaptive step, which can otherwise jump a feature of the field narrower than a step.
 """
 
 from __future__ import annotations
@@ -276,6 +280,10 @@ def simulate(
     Returns
     -------
     Trajectory
+        Its ``diagnostics`` hold, besides the invariant drift and constraint residuals,
+        the checks it passed: ``stability`` for the fixed-step methods, ``checks`` for
+        CVODES (``status``, ``conserved_invariants`` and ``non_increasing_invariants``
+        checked, ``drift_allowance`` per checked invariant).
 
     Raises
     ------
@@ -296,7 +304,16 @@ def simulate(
         linearised estimate and the stable step estimated for it), whose conserved
         invariant drifts by orders of magnitude (``invariant_drift``), or whose field or
         controller returns NaN (``non_finite_field``: which, at which state and time) is
-        never returned as a Trajectory; see :mod:`workbench.simulation._stability`.
+        never returned as a Trajectory; see :mod:`workbench.simulation._stability`. A
+        CVODES run whose state exploded (``exploded``), left its manifold by more than
+        the constraint's scale (``left_manifold``) or, without a controller, moved an
+        invariant the field conserves (or raised one it dissipates) by more than ten
+        times what ``rtol`` and ``atol`` allow over its steps, or more than the invariant's
+        scale (``invariant_drift``), is refused with the time and the state; see
+        :class:`~workbench.simulation._cvodes.RunCheck`. Only the output states are
+        checked: a step across a narrow feature that lands where the invariant has its
+        old value (a wall crossed between two outputs, at equal energy on both sides)
+        is not seen; ``max_step`` below the feature's width is the remedy.
     """
     method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
