@@ -27,9 +27,11 @@ from workbench.simulation._invariant_check import (
     TOLERANCE_SAFETY,
     Watch,
     classify,
+    classify_projected,
     confirm,
     first_excess,
     invariant_values,
+    projected,
     tolerance_allowance,
 )
 from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
@@ -244,6 +246,14 @@ def _text(x: np.ndarray) -> str:
     return np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
 
 
+def _without(watch: Watch, limits: dict[str, float], name: str
+             ) -> tuple[Watch, dict[str, float]]:
+    """``watch`` and ``limits`` without the invariant ``name``."""
+    return (Watch([n for n in watch.conserved if n != name],
+                  [n for n in watch.non_increasing if n != name], watch.scale, watch.at,
+                  watch.grad_norm), {n: v for n, v in limits.items() if n != name})
+
+
 @dataclass(frozen=True)
 class RunCheck:
     """The after-the-fact checks of one CVODES run (what applies of the fixed-step ones).
@@ -432,26 +442,43 @@ class RunCheck:
                           ) -> tuple[Watch, dict[str, float]]:
         """Refuse a kept invariant moved beyond its allowance; return the watch and limits.
 
-        Before a refusal the output interval where the invariant left its allowance is
-        integrated again from its start with the step bounded (:meth:`_again`): where the
-        invariant moves along that run too, the field itself moves it there (an invariant
-        that is not smooth, which the rates at the states cannot show), and it is no longer
-        watched.
+        The invariants are classified at sampled output states, or at their projections
+        to the manifold when that keeps more of them (off the manifold the ambient field
+        need not conserve them). Before a refusal the class is confirmed at every output
+        state up to the excess (the allowance then takes ``|grad I|`` at all of them), and
+        the output interval is integrated again from its start with the step bounded
+        (:meth:`_again`): where the invariant moves along that run too, the field itself
+        moves it there (an invariant that is not smooth, which the rates at the states
+        cannot show), and it is no longer watched.
         """
         model = self.model
         names = model.invariant_names
         initial = None if drift is None else np.array(
             [float(drift[n]["initial"]) for n in names])
         watch = classify(self.probe, model, x, [0], initial)
+        on_manifold = False
+        if len(watch.scale) < len(names) and model.manifold.dim < model.manifold.ambient_dim:
+            found = classify_projected(self.probe, model, x, [0], initial)
+            if len(found.scale) > len(watch.scale):
+                watch, on_manifold = found, True
         limits = self._limits(watch, x)
         known = drift or {}
         if all(n in known and float(known[n]["max_abs"]) <= limits[n] for n in watch.names):
             return watch, limits  # the common case: nothing moved beyond its allowance
-        watch = confirm(self.probe, model, x, watch)  # the rates at every output state
-        limits = self._limits(watch, x)
         values = invariant_values(model, x)
+        confirmed: set[str] = set()
         while (hit := first_excess(watch, names, values, values[:, 0], limits)) is not None:
             name, j = hit
+            if name not in confirmed:  # its class at every output state up to the excess
+                confirmed.add(name)
+                upto = x[: j + 1]
+                kept = confirm(self.probe, model, projected(model, upto) if on_manifold
+                               else upto, watch)
+                if name not in kept.scale:  # fed somewhere: not checked
+                    watch, limits = _without(watch, limits, name)
+                else:
+                    limits[name] = max(limits[name], self._limits(kept, upto)[name])
+                continue
             k = names.index(name)
             rising = name in watch.non_increasing
             again, bound = self._again(float(t[j - 1]), x[j - 1], float(t[j]))
@@ -459,10 +486,7 @@ class RunCheck:
                 v_again = float(invariant_values(model, again[None, :])[k, 0])
                 moved = v_again - values[k, j - 1]
                 if not (moved if rising else abs(moved)) <= limits[name]:  # the field moves it
-                    watch = Watch([n for n in watch.conserved if n != name],
-                                  [n for n in watch.non_increasing if n != name],
-                                  watch.scale, watch.at, watch.grad_norm)
-                    limits = {n: v for n, v in limits.items() if n != name}
+                    watch, limits = _without(watch, limits, name)
                     continue
                 again_text = (f"; integrated again from t = {t[j - 1]:.6g} with max_step = "
                               f"{bound:.3g}, it is {v_again:.10g} at t = {t[j]:.6g} (x = "

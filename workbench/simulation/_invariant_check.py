@@ -37,7 +37,8 @@ from workbench.core._model import Model
 from workbench.simulation._probe import Probe
 
 __all__ = ["DRIFT_LIMIT", "CONSERVED_RTOL", "RATE_SAMPLES", "TOLERANCE_SAFETY", "Watch",
-           "classify", "confirm", "first_excess", "invariant_values", "tolerance_allowance"]
+           "classify", "classify_projected", "confirm", "first_excess", "invariant_values",
+           "projected", "tolerance_allowance"]
 
 DRIFT_LIMIT = 1.0
 """Largest accepted change of a conserved invariant (either way), or rise of a
@@ -278,3 +279,44 @@ def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np
             if best is None or j < best[1]:
                 best = (name, j)
     return best
+
+
+def projected(model: Model, x: np.ndarray) -> np.ndarray:
+    """The states projected to the manifold, factor by factor, for classifying only.
+
+    A run in ambient coordinates drifts off the manifold, where the ambient field need not
+    conserve what it conserves on it (the rate off the manifold grows with the constraint
+    residual): the rates that decide whether the field keeps an invariant are evaluated at
+    the nearest points of the manifold. The run's states are never changed. A state whose
+    projection fails is kept as is.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x : ndarray, shape=(n, ambient_dim)
+        States.
+
+    Returns
+    -------
+    ndarray, shape=(n, ambient_dim)
+    """
+    out = np.array(x, dtype=float, copy=True)
+    for i, xi in enumerate(out):
+        try:
+            out[i] = model.manifold.project(xi)
+        except (ValueError, ArithmeticError):  # too far off for the projection: as is
+            pass
+    return out
+
+
+def classify_projected(probe: Probe, model: Model, x: np.ndarray, idx: list[int],
+                       initial: np.ndarray | None = None) -> Watch:
+    """:func:`classify` at the sampled states projected to the manifold (:func:`projected`).
+
+    Parameters are those of :func:`classify`; the returned ``at`` indexes ``x``.
+    """
+    at = _rate_indices(len(x), idx)
+    watch = classify(probe, model, projected(model, x[at]), [0], initial)
+    return Watch(watch.conserved, watch.non_increasing, watch.scale,
+                 tuple(at[i] for i in watch.at), watch.grad_norm)
