@@ -21,12 +21,13 @@ import numpy as np
 import pytest
 from scipy.integrate import quad, simpson
 
+from models.spherical import spherical_pendulum
 from tests.conftest import assert_close
 from workbench import mechanics
 from workbench.core.errors import ModelError, SolverError
 from workbench.simulation import simulate
 from workbench.simulation._cvodes import RTOL_MAX, RunCheck, cvodes_options
-from workbench.simulation._invariant_check import TOLERANCE_SAFETY
+from workbench.simulation._invariant_check import TOLERANCE_SAFETY, classify
 from workbench.simulation._probe import probe_for
 
 HEIGHT, CENTRE, WIDTH = 5.0, 2.0, 0.1  # V = HEIGHT exp(-((x - CENTRE) / WIDTH)^2)
@@ -208,3 +209,18 @@ def test_an_invariant_the_field_moves_at_a_jump_is_not_refused():
     assert_close(tr.x[:, 0], t, atol=1e-12, what="free flight")
     assert tr.diagnostics["invariant_drift"]["energy"]["max_abs"] == pytest.approx(0.1)
     assert tr.diagnostics["checks"]["conserved_invariants"] == []  # no longer watched
+
+
+def test_a_loose_run_off_its_manifold_keeps_its_energy_watched():
+    """At rtol = 1e-3 the spherical pendulum's states drift off TS^2, where the ambient
+    field does not conserve the energy: classified at the raw states it would not be
+    watched at all; at their projections to the manifold it is."""
+    m = spherical_pendulum()
+    q = np.array([math.sin(1.0), 0.0, -math.cos(1.0)])
+    w = np.cross(q, [0.0, 1.5, 0.0])
+    t = np.linspace(0.0, 50.0, 501)
+    tr = simulate(m, np.r_[q, w], t, rtol=RTOL_MAX, atol=RTOL_MAX)
+    assert tr.diagnostics["constraint_residual"]["q"] > 1e-3  # well off the manifold
+    raw = classify(probe_for(m, None), m, tr.x, [0])
+    assert raw.conserved == []
+    assert tr.diagnostics["checks"]["conserved_invariants"] == ["energy"]

@@ -1,4 +1,4 @@
-"""CVODES' options: the multistep family, the corrector iteration and the step's bounds, explicit.
+"""CVODES: its options explicit (multistep family, corrector, step bounds), its runs checked.
 
 CVODES is adaptive: it sees the field only at the states of its steps, and its error
 estimate compares a predictor with a corrector built from those values. A feature of the
@@ -7,7 +7,9 @@ steps is never seen: where the field is (to round-off) constant on both sides of
 error estimate is zero and the step grows until it jumps the feature; the answer is then
 wrong with no warning from CVODES. ``max_step`` (casadi's ``max_step_size``) bounds the
 step; it is the remedy, with a value below the feature's width. There is no hidden default
-cap: without ``max_step`` the step is unbounded.
+cap: without ``max_step`` the step is unbounded. :class:`RunCheck` checks a finished run at
+its output states (growth, the manifold, the invariants of an unforced run against what
+the tolerances allow) and refuses what CVODES' error estimate let through.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError, WorkbenchError
 from workbench.core.status import StatusEnum
 from workbench.core.validate import choice, count, positive, relative_tolerance, tolerance
@@ -34,10 +37,12 @@ from workbench.simulation._invariant_check import (
     projected,
     tolerance_allowance,
 )
+from workbench.simulation._probe import Probe
 from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
 
 __all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
-           "check_max_steps", "check_max_step", "check_rtol", "MAX_STEPS", "RTOL_MAX"]
+           "check_max_steps", "check_max_step", "check_rtol", "AGAIN_STEPS", "MAX_STEPS",
+           "RTOL_MAX"]
 
 AGAIN_STEPS = 100
 """Before a run is refused for an invariant, the output interval where it left its
@@ -269,7 +274,9 @@ class RunCheck:
       times the constraint's scale ``max(|h(x0)|, |dh(x0)| |x0|)`` (2 for a unit vector's
       ``|q|^2 - 1``): the state is nowhere near the manifold;
     * **invariants**, for unforced runs (no controller): one the field conserves at every
-      sampled state that moved, or one it does not increase that rose, by more than
+      sampled state (or at their projections to the manifold, when that keeps more of
+      them: off it the ambient field need not conserve them) that moved, or one it does
+      not increase that rose, by more than
       :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
       ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
       its scale (the fixed-step bound). A run with a controller is not checked for its
@@ -296,8 +303,8 @@ class RunCheck:
         No controller in the loop (the invariants are checked).
     """
 
-    model: Any
-    probe: Any
+    model: Model
+    probe: Probe
     options: dict[str, Any]
     steps: int
     unforced: bool
