@@ -49,6 +49,7 @@ __all__ = [
     "real",
     "count",
     "tolerance",
+    "relative_tolerance",
     "array",
     "identifier",
     "single_line",
@@ -276,6 +277,39 @@ def tolerance(
     v = _scalar(name, value, "a positive finite tolerance (a float)", error)
     if not (v > 0 and math.isfinite(v)):
         raise error(f"{name} must be a positive finite tolerance; got {_show(value)}")
+    return v
+
+
+def relative_tolerance(
+    name: str, value: Any, *, maximum: float | None = None, why: str = "",
+    error: type[WorkbenchError] = ParameterError,
+) -> float:
+    """A relative tolerance: a :func:`tolerance` below 1 (or at most ``maximum``).
+
+    A relative error of 1 or more accepts any answer of the quantity's size.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the message.
+    value : float
+        The tolerance.
+    maximum : float, optional
+        The largest accepted value (inclusive; below 1); None accepts ``(0, 1)``.
+    why : str
+        Why the bound, appended to the message.
+    error : type of WorkbenchError
+        Raised for a value that is not such a tolerance.
+
+    Returns
+    -------
+    float
+    """
+    v = tolerance(name, value, error=error)
+    if not (v <= maximum if maximum is not None else v < 1):
+        where = f"(0, {maximum:g}]" if maximum is not None else "(0, 1)"
+        raise error(f"{name} must be a relative tolerance in {where}; got {_show(value)}"
+                    + (f": {why}" if why else ""))
     return v
 
 

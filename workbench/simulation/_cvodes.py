@@ -1,16 +1,59 @@
-"""CVODES' options: the multistep family and the corrector iteration, explicit."""
+"""CVODES: its options explicit (multistep family, corrector, step bounds), its runs checked.
+
+CVODES is adaptive: it sees the field only at the states of its steps, and its error
+estimate compares a predictor with a corrector built from those values. A feature of the
+field narrower than a step (a potential wall, a pulse of forcing) that lies between two
+steps is never seen: where the field is (to round-off) constant on both sides of it, the
+error estimate is zero and the step grows until it jumps the feature; the answer is then
+wrong with no warning from CVODES. ``max_step`` (casadi's ``max_step_size``) bounds the
+step; it is the remedy, with a value below the feature's width. There is no hidden default
+cap: without ``max_step`` the step is unbounded. :class:`RunCheck` checks a finished run at
+its output states (growth, the manifold, the invariants of an unforced run against what
+the tolerances allow) and refuses what CVODES' error estimate let through.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
-from workbench.core.errors import ModelError, WorkbenchError
-from workbench.core.validate import choice, count, tolerance
+from workbench.core._model import Model
+from workbench.core.errors import ModelError, SolverError, WorkbenchError
+from workbench.core.status import StatusEnum
+from workbench.core.validate import choice, count, positive, relative_tolerance, tolerance
+from workbench.simulation._invariant_check import (
+    DRIFT_LIMIT,
+    TOLERANCE_SAFETY,
+    Watch,
+    classify,
+    classify_projected,
+    confirm,
+    first_excess,
+    invariant_values,
+    projected,
+    tolerance_allowance,
+)
+from workbench.simulation._probe import Probe
+from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
 
-__all__ = ["Multistep", "Corrector", "cvodes_options", "check_max_steps", "MAX_STEPS"]
+__all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
+           "check_max_steps", "check_max_step", "check_rtol", "AGAIN_STEPS", "MAX_STEPS",
+           "RTOL_MAX"]
+
+AGAIN_STEPS = 100
+"""Before a run is refused for an invariant, the output interval where it left its
+allowance is integrated again with ``max_step`` this fraction of the interval."""
+
+RTOL_MAX = 1e-3
+"""Largest accepted CVODES ``rtol``. SUNDIALS' guide on tolerances: "we do not recommend
+using reltol larger than 1e-3". Measured: the pendulum over 20 s at ``rtol = atol = 1e-3``
+is already 3.2 away from the converged run (its unit vector moves by 2 at most) with an
+energy drift of 13 % of its scale; at 1 the drift is 815 and at 1e3 the unit vector has
+length 4e17. A relative tolerance of 1 or more accepts any answer."""
 
 MAX_STEPS = 10**8
 """Largest accepted CVODES ``max_steps`` (internal steps per output interval): 1e8 steps of
@@ -62,8 +105,8 @@ class Corrector(str, Enum):
 
 def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
                    corrector: Corrector | str | None = None, rtol: float, atol: float,
-                   max_steps: int | None = None, error: type[WorkbenchError] = ModelError
-                   ) -> dict[str, Any]:
+                   max_steps: int | None = None, max_step: float | None = None,
+                   error: type[WorkbenchError] = ModelError) -> dict[str, Any]:
     """CVODES options with the multistep family and corrector explicit.
 
     Parameters
@@ -72,24 +115,30 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
         ``"adams"`` (non-stiff) or ``"bdf"`` (stiff).
     corrector : Corrector or str, optional
         ``"functional"`` or ``"newton"``; default functional with Adams, Newton with BDF.
-    rtol, atol : float
-        Tolerances: positive finite numbers.
+    rtol : float
+        Relative tolerance in ``(0, RTOL_MAX]`` (:func:`check_rtol`).
+    atol : float
+        Absolute tolerance: a positive finite number.
     max_steps : int, optional
         CVODES' limit on internal steps per output interval, an integer in ``[1,
         MAX_STEPS]`` (casadi's default when None).
+    max_step : float, optional
+        Largest internal step (casadi's ``max_step_size``), positive and finite; None:
+        unbounded.
     error : type of Exception
-        Raised for an unknown ``multistep`` or ``corrector``, a bad tolerance or
-        ``max_steps``, naming the argument.
+        Raised for an unknown ``multistep`` or ``corrector``, a bad tolerance,
+        ``max_steps`` or ``max_step``, naming the argument.
 
     Returns
     -------
     dict
         The options for ``casadi.integrator(..., "cvodes", ...)``.
     """
-    rtol = tolerance("rtol", rtol, error=error)
+    rtol = check_rtol(rtol, error=error)
     atol = tolerance("atol", atol, error=error)
     if max_steps is not None:
         max_steps = check_max_steps(max_steps, error=error)
+    max_step = check_max_step(max_step, error=error)
     multistep = choice(Multistep, multistep, "multistep", error=error)
     if corrector is None:
         corrector = Corrector.FUNCTIONAL if multistep is Multistep.ADAMS else Corrector.NEWTON
@@ -99,7 +148,63 @@ def cvodes_options(*, multistep: Multistep | str = Multistep.ADAMS,
                             "nonlinear_solver_iteration": corrector.value}
     if max_steps is not None:
         opts["max_num_steps"] = max_steps
+    if max_step is not None:
+        opts["max_step_size"] = max_step
     return opts
+
+
+def check_rtol(rtol: object, *, error: type[WorkbenchError] = ModelError) -> float:
+    """CVODES' ``rtol`` as a float in ``(0, RTOL_MAX]``.
+
+    Parameters
+    ----------
+    rtol : float
+        The relative tolerance.
+    error : type of Exception
+        Raised for a value that is not such a number, naming the argument and the bound.
+
+    Returns
+    -------
+    float
+    """
+    return relative_tolerance(
+        "rtol", rtol, maximum=RTOL_MAX, error=error,
+        why=f"CVODES' local relative error per step; SUNDIALS advises against more than "
+            f"{RTOL_MAX:g}, where the answer is already off by the size of the state (1 or "
+            f"more accepts any answer)")
+
+
+def check_max_step(max_step: object, *, interval: float | None = None,
+                   max_steps: int | None = None, error: type[WorkbenchError] = ModelError
+                   ) -> float | None:
+    """CVODES' ``max_step`` as a positive finite float, checked before anything runs.
+
+    Parameters
+    ----------
+    max_step : float or None
+        The largest internal step (None: unbounded, returned as is).
+    interval : float, optional
+        The longest output interval: with ``max_steps``, ``interval / max_step`` steps
+        must fit in ``max_steps`` (else the run would fail after spending them).
+    max_steps : int, optional
+        CVODES' limit on internal steps per output interval.
+    error : type of Exception
+        Raised for a bad value, naming the argument.
+
+    Returns
+    -------
+    float or None
+    """
+    if max_step is None:
+        return None
+    v = positive("max_step", max_step, error=error)
+    if interval is not None and max_steps is not None and interval / v > max_steps:
+        raise error(
+            f"max_step = {v:g} needs at least {interval / v:.3g} steps for the longest "
+            f"output interval ({interval:g}), more than max_steps = {max_steps} (the limit "
+            f"per output interval); raise max_steps, output at more times t, or pass a "
+            f"larger max_step")
+    return v
 
 
 def check_max_steps(max_steps: object, *, error: type[WorkbenchError] = ModelError) -> int:
@@ -124,3 +229,305 @@ def check_max_steps(max_steps: object, *, error: type[WorkbenchError] = ModelErr
             f"a small model already take minutes. For a long horizon output at more times t "
             f"(the limit is per output interval), or shorten the horizon")
     return count("max_steps", max_steps, maximum=MAX_STEPS, error=error)
+
+
+class CvodesCheck(StatusEnum):
+    """Outcome of the checks of a finished CVODES run (the ``status`` of its SolverError)."""
+
+    PASSED = ("no state grew beyond the flow's bound or left the manifold, and no kept "
+              "invariant moved beyond what the tolerances allow")
+    EXPLODED = "a state grew by orders of magnitude beyond what the flow allows from x0"
+    LEFT_MANIFOLD = "a state left the manifold by more than the constraint's scale"
+    INVARIANT_DRIFT = ("an invariant the unforced field conserves (or dissipates) moved "
+                       "(or rose) beyond what the tolerances allow")
+
+    @classmethod
+    def successes(cls) -> frozenset[str]:
+        """Only ``PASSED``."""
+        return frozenset({"PASSED"})
+
+
+def _text(x: np.ndarray) -> str:
+    return np.array2string(np.asarray(x), precision=4, max_line_width=10_000)
+
+
+def _without(watch: Watch, limits: dict[str, float], name: str
+             ) -> tuple[Watch, dict[str, float]]:
+    """``watch`` and ``limits`` without the invariant ``name``."""
+    return (Watch([n for n in watch.conserved if n != name],
+                  [n for n in watch.non_increasing if n != name], watch.scale, watch.at,
+                  watch.grad_norm), {n: v for n, v in limits.items() if n != name})
+
+
+@dataclass(frozen=True)
+class RunCheck:
+    """The after-the-fact checks of one CVODES run (what applies of the fixed-step ones).
+
+    CVODES controls an *estimate* of its local error; where the estimate is wrong (a
+    feature of the field between two stages, tolerances too loose for the problem) the
+    run can be wrong with no error from CVODES. :meth:`run` refuses, in order:
+
+    * **growth**: a state larger than ``GROWTH_LIMIT`` (1e4) times what the flow allows
+      from ``x0`` (the fixed-step methods' bound,
+      :meth:`~workbench.simulation._stability.StepCheck._check_growth`);
+    * **the manifold**: a constraint residual that moved by more than ``DRIFT_LIMIT`` (1)
+      times the constraint's scale ``max(|h(x0)|, |dh(x0)| |x0|)`` (2 for a unit vector's
+      ``|q|^2 - 1``): the state is nowhere near the manifold;
+    * **invariants**, for unforced runs (no controller): one the field conserves at every
+      sampled state (or at their projections to the manifold, when that keeps more of
+      them: off it the ambient field need not conserve them) that moved, or one it does
+      not increase that rose, by more than
+      :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
+      ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
+      its scale (the fixed-step bound). A run with a controller is not checked for its
+      invariants (the loop may feed them anywhere). Before a refusal, the output interval
+      is integrated again with the step bounded by ``1 / AGAIN_STEPS`` of it; an
+      invariant that moves along that run too is moved by the field itself (it is not
+      smooth there) and is not refused.
+
+    Only the output states are seen: a step across a narrow feature that lands where the
+    invariant has its old value (a potential wall passed between two outputs, at equal
+    energy on both sides) is not detectable here; ``max_step`` is the remedy.
+
+    Attributes
+    ----------
+    model : Model
+        The model.
+    probe : Probe
+        Its functions (:func:`~workbench.simulation._probe.probe_for`).
+    options : dict
+        The run's CVODES options (:func:`cvodes_options`).
+    steps : int
+        CVODES' steps.
+    unforced : bool
+        No controller in the loop (the invariants are checked).
+    """
+
+    model: Model
+    probe: Probe
+    options: dict[str, Any]
+    steps: int
+    unforced: bool
+
+    @property
+    def rtol(self) -> float:
+        """The run's relative tolerance."""
+        return float(self.options["reltol"])
+
+    @property
+    def atol(self) -> float:
+        """The run's absolute tolerance."""
+        return float(self.options["abstol"])
+
+    @property
+    def _advice(self) -> str:
+        step = self.options.get("max_step_size")
+        bound = "unbounded" if step is None else f"{step:g}"
+        return (f"CVODES' error estimate missed the error of its steps. An adaptive step sees "
+                f"the field only at its stages: a feature of the field narrower than a step (a "
+                f"wall, a pulse) can be stepped over unseen. Pass max_step below that "
+                f"feature's width (now {bound}), or a tighter rtol (now {self.rtol:g}) and atol "
+                f"(now {self.atol:g})")
+
+    def run(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None = None,
+            drift: dict[str, Any] | None = None, residual: dict[str, float] | None = None
+            ) -> dict[str, Any]:
+        """All the checks on a finished run; raise SolverError, or return the diagnostics.
+
+        Parameters
+        ----------
+        t : ndarray, shape=(n_times,)
+            Output times.
+        x : ndarray, shape=(n_times, ambient_dim)
+            States (finite).
+        xdot : ndarray, shape=(n_times, ambient_dim), optional
+            The field at the states, when already computed.
+        drift : dict, optional
+            The run's ``invariant_drift`` diagnostics, when already computed.
+        residual : dict, optional
+            The run's ``constraint_residual`` diagnostics (the largest per factor), when
+            already computed (a factor whose residual is far within its allowance is then
+            not evaluated again).
+
+        Returns
+        -------
+        dict
+            ``{"checks": {...}}``: ``status`` (``"passed"``), ``conserved_invariants`` and
+            ``non_increasing_invariants`` (those checked; empty with a controller) and
+            ``drift_allowance`` (per checked invariant, the drift it was allowed).
+
+        Raises
+        ------
+        SolverError
+            Status ``exploded``, ``left_manifold`` or ``invariant_drift``
+            (:class:`CvodesCheck`), naming the time and the state.
+        """
+        self._check_growth(t, x, xdot)
+        self._check_manifold(t, x, residual)
+        watch, limits = self._check_invariants(t, x, drift) if self.unforced else (None, {})
+        return {"checks": {
+            "status": CvodesCheck.PASSED.code,
+            "conserved_invariants": [] if watch is None else watch.conserved,
+            "non_increasing_invariants": [] if watch is None else watch.non_increasing,
+            "drift_allowance": limits,
+        }}
+
+    def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
+        """Refuse states grown beyond ``GROWTH_LIMIT`` times what the flow allows."""
+        size = np.max(np.abs(x), axis=1)
+        if xdot is not None:  # the allowance's first two terms, without the field's Jacobian
+            base = np.maximum(np.max(np.abs(x[0])), np.abs(t - t[0]) * np.max(np.abs(xdot[0])))
+            if np.all(size <= GROWTH_LIMIT * base):
+                return
+        step = StepCheck(self.model, self.probe, "cvodes", None, False, 0.0)
+        allowed, alpha = step._growth_allowance(t, x, xdot, rate=False)
+        if np.all(size <= GROWTH_LIMIT * allowed):
+            return
+        allowed, alpha = step._growth_allowance(t, x, xdot, rate=True)
+        bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
+        if not bad.size:
+            return
+        k = int(bad[0])
+        raise SolverError(
+            f"cvodes integrating {self.model.name}: the state grew to max |x| = "
+            f"{size[k]:.3g} by t = {t[k]:.6g} (x = {_text(x[k])}), more than "
+            f"{GROWTH_LIMIT:.0e} times what the flow allows from x0, {allowed[k]:.3g} "
+            f"(max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) times the growth "
+            f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g}). "
+            f"{self._advice}", status=CvodesCheck.EXPLODED.code)
+
+    def _check_manifold(self, t: np.ndarray, x: np.ndarray,
+                        residual: dict[str, float] | None = None) -> None:
+        """Refuse a constraint residual moved by more than ``DRIFT_LIMIT`` times its scale."""
+        man = self.model.manifold
+        for name, factor in man.factors:
+            fns = factor.constraint_functions()
+            if fns is None:
+                continue
+            block = x[:, man.slices[name]]
+            h0 = np.asarray(fns[0](block[0]), dtype=float).ravel()
+            jac = np.asarray(fns[1](block[0]), dtype=float).reshape(len(h0), -1)
+            scale = np.maximum(np.maximum(np.abs(h0), np.linalg.norm(jac, axis=1)
+                                          * np.linalg.norm(block[0])), np.finfo(float).tiny)
+            if residual is not None and residual.get(name, np.inf) + np.max(np.abs(h0)) \
+                    <= DRIFT_LIMIT * np.min(scale):  # |h(x) - h(x0)| <= |h(x)| + |h(x0)|
+                continue
+            h = np.asarray(fns[0](block.T), dtype=float).reshape(-1, len(x))
+            moved = np.abs(h - h[:, :1]) / scale[:, None]
+            bad = np.flatnonzero(~np.all(moved <= DRIFT_LIMIT, axis=0))
+            if not bad.size:
+                continue
+            k = int(bad[0])
+            j = int(np.argmax(np.where(np.isfinite(moved[:, k]), moved[:, k], np.inf)))
+            raise SolverError(
+                f"cvodes integrating {self.model.name}: the state left the manifold: the "
+                f"constraint residual of factor {name!r} (component {j}) is {h[j, k]:.3g} at t = "
+                f"{t[k]:.6g} (x = {_text(x[k])}) moved from {h[j, 0]:.3g} at t = {t[0]:g} by "
+                f"more than {DRIFT_LIMIT:g} times its scale {scale[j]:.3g} (max(|h(x0)|, "
+                f"|dh(x0)| |x0|)). {self._advice}", status=CvodesCheck.LEFT_MANIFOLD.code)
+
+    def _limits(self, watch: Watch, x: np.ndarray) -> dict[str, float]:
+        allow = tolerance_allowance(watch, x, rtol=self.rtol, atol=self.atol, steps=self.steps)
+        return {n: float(min(TOLERANCE_SAFETY * allow[n], DRIFT_LIMIT * watch.scale[n]))
+                for n in watch.names}
+
+    def _again(self, t0: float, x0: np.ndarray, t1: float) -> tuple[np.ndarray | None, float]:
+        """The state at ``t1`` from ``x0`` at ``t0``, the step bounded, and the bound.
+
+        The bound is ``|t1 - t0| / AGAIN_STEPS`` (or the run's, if smaller); the run's other
+        options are kept. The state is None where CVODES fails.
+        """
+        bound = min(abs(t1 - t0) / AGAIN_STEPS, self.options.get("max_step_size", np.inf))
+        model = self.model
+        xs = model.sym.sym("x", model.manifold.ambient_dim)
+        ps = model.sym.sym("p", model.n_params)
+        again = ca.integrator("cvodes_check_again", "cvodes",
+                              {"x": xs, "p": ps, "ode": self.probe.field(xs, ps)[0]}, 0.0,
+                              abs(t1 - t0), {**self.options, "max_step_size": bound})
+        try:
+            return np.asarray(again(x0=x0, p=model.p)["xf"], dtype=float).ravel(), bound
+        except RuntimeError:
+            return None, bound
+
+    def _check_invariants(self, t: np.ndarray, x: np.ndarray, drift: dict[str, Any] | None
+                          ) -> tuple[Watch, dict[str, float]]:
+        """Refuse a kept invariant moved beyond its allowance; return the watch and limits.
+
+        The invariants are classified at sampled output states, or at their projections
+        to the manifold when that keeps more of them (off the manifold the ambient field
+        need not conserve them). Before a refusal the class is confirmed at every output
+        state up to the excess (the allowance then takes ``|grad I|`` at all of them), and
+        the output interval is integrated again from its start with the step bounded
+        (:meth:`_again`): where the invariant moves along that run too, the field itself
+        moves it there (an invariant that is not smooth, which the rates at the states
+        cannot show), and it is no longer watched.
+        """
+        model = self.model
+        names = model.invariant_names
+        initial = None if drift is None else np.array(
+            [float(drift[n]["initial"]) for n in names])
+        watch = classify(self.probe, model, x, [0], initial)
+        on_manifold = False
+        if len(watch.scale) < len(names) and model.manifold.dim < model.manifold.ambient_dim:
+            found = classify_projected(self.probe, model, x, [0], initial)
+            if len(found.scale) > len(watch.scale):
+                watch, on_manifold = found, True
+        limits = self._limits(watch, x)
+        known = drift or {}
+        if all(n in known and float(known[n]["max_abs"]) <= limits[n] for n in watch.names):
+            return watch, limits  # the common case: nothing moved beyond its allowance
+        values = invariant_values(model, x)
+        confirmed: set[str] = set()
+        while (hit := first_excess(watch, names, values, values[:, 0], limits)) is not None:
+            name, j = hit
+            if name not in confirmed:  # its class at every output state up to the excess
+                confirmed.add(name)
+                upto = x[: j + 1]
+                kept = confirm(self.probe, model, projected(model, upto) if on_manifold
+                               else upto, watch)
+                if name not in kept.scale:  # fed somewhere: not checked
+                    watch, limits = _without(watch, limits, name)
+                else:
+                    limits[name] = max(limits[name], self._limits(kept, upto)[name])
+                continue
+            k = names.index(name)
+            rising = name in watch.non_increasing
+            again, bound = self._again(float(t[j - 1]), x[j - 1], float(t[j]))
+            if again is not None:
+                v_again = float(invariant_values(model, again[None, :])[k, 0])
+                moved = v_again - values[k, j - 1]
+                if not (moved if rising else abs(moved)) <= limits[name]:  # the field moves it
+                    watch, limits = _without(watch, limits, name)
+                    continue
+                again_text = (f"; integrated again from t = {t[j - 1]:.6g} with max_step = "
+                              f"{bound:.3g}, it is {v_again:.10g} at t = {t[j]:.6g} (x = "
+                              f"{_text(again)})")
+            else:
+                again_text = (f"; integrating again from t = {t[j - 1]:.6g} with max_step = "
+                              f"{bound:.3g} failed")
+            raise self._drift_error(t, x, values, watch, limits, name, j, again_text)
+        return watch, limits
+
+    def _drift_error(self, t: np.ndarray, x: np.ndarray, values: np.ndarray, watch: Watch,
+                     limits: dict[str, float], name: str, j: int, again: str) -> SolverError:
+        """The SolverError for the invariant ``name`` beyond its allowance at output ``j``."""
+        k = self.model.invariant_names.index(name)
+        change = values[k, j] - values[k, 0]
+        bound = (f"{abs(change) / limits[name]:.3g} times what the tolerances allow, "
+                 f"{limits[name]:.3g} ({TOLERANCE_SAFETY:g} x {self.steps} steps x sqrt(n) x "
+                 f"max |grad I| (rtol |x| + atol): each step's error moves it by at most its "
+                 f"part along grad I, and CVODES keeps that error below the tolerances)"
+                 if limits[name] < DRIFT_LIMIT * watch.scale[name] else
+                 f"more than {DRIFT_LIMIT:g} times its scale {watch.scale[name]:.3g} "
+                 f"(max(|I(x0)|, |grad I(x0)| |x0|))")
+        return SolverError(
+            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the field "
+            f"(no controller) "
+            + ("does not increase at any output state (it can only fall along the exact "
+               "flow), rose" if name in watch.non_increasing else
+               "conserves at every output state, changed")
+            + f" from {values[k, 0]:.10g} to {values[k, j]:.10g} by t = {t[j]:.6g} (x = "
+            f"{_text(x[j])}), a drift of {change:.3g}: {bound}{again}. {self._advice}. A step "
+            f"across such a feature that lands where the invariant has its old value (a wall "
+            f"crossed between two outputs, with equal energy on both sides) is not detectable "
+            f"at the outputs", status=CvodesCheck.INVARIANT_DRIFT.code)

@@ -1,4 +1,4 @@
-"""Which invariants a fixed-step run must keep, and the first output where one did not.
+"""Which invariants a run must keep, and the first output where one did not.
 
 The closed-loop field ``f`` (the model with the controller in the loop, in the direction
 of integration) says what the exact flow does to an invariant ``I``: it changes at the
@@ -17,19 +17,28 @@ states (:data:`RATE_SAMPLES`, the checked ones among them) and sorts the invaria
 Any other invariant is fed by the loop (a controller, a load) and its change is not
 checked. The scale of ``I`` is ``max(|I(x0)|, |grad I(x0)| |x0|)``: for an energy that is
 a quadratic form (Euler's relation ``grad I . x = 2 I``) it is at least ``2 |I(x0)|``.
+
+An adaptive run (CVODES) has a tighter allowance, :func:`tolerance_allowance`: what its
+tolerances let the invariant move. Along the exact flow a conserved ``I`` does not change,
+so its change over a run is the sum over the steps of ``grad I . e_k``, ``e_k`` the local
+error of step ``k`` (no amplification by the flow); a non-increasing one can rise by no
+more. CVODES keeps the weighted norm ``sqrt(mean((e_i / (rtol |x_i| + atol))^2))`` of its
+estimate of ``e_k`` below 1, so ``|grad I . e_k| <= sqrt(n) |grad I| (rtol |x|_inf +
+atol)``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from workbench.core._model import Model
 from workbench.simulation._probe import Probe
 
-__all__ = ["DRIFT_LIMIT", "CONSERVED_RTOL", "RATE_SAMPLES", "Watch", "classify",
-           "first_excess", "invariant_values"]
+__all__ = ["DRIFT_LIMIT", "CONSERVED_RTOL", "RATE_SAMPLES", "TOLERANCE_SAFETY", "Watch",
+           "classify", "classify_projected", "confirm", "first_excess", "invariant_values",
+           "projected", "tolerance_allowance"]
 
 DRIFT_LIMIT = 1.0
 """Largest accepted change of a conserved invariant (either way), or rise of a
@@ -55,6 +64,15 @@ CONSERVED_RTOL = 1e-8
 field conserves ``I`` (round-off is ~1e-16 of the terms); ``grad I . f <= CONSERVED_RTOL
 |grad I| |f|``: it does not increase ``I``."""
 
+TOLERANCE_SAFETY = 10.0
+"""The factor on :func:`tolerance_allowance` beyond which a drift is refused. The bound it
+multiplies is already a worst case (every local error at its largest, all aligned with
+``grad I``); the factor covers the error estimate being asymptotic and CVODES'
+interpolation to the output times. Measured drift over the bound on accurate CVODES runs
+(``rtol = atol`` from 1e-3 to 1e-16, Adams; the pendulum, the chaotic 3D pendulum, the
+3-link chain on a cart, the acrobot): at most 0.22, mostly 1e-3 to 1e-2; a run that jumped a
+potential wall narrower than its step: 5e8 at ``rtol = 1e-10``, 54 at 1e-3."""
+
 RATE_SAMPLES = 32
 """Output states at which the rates ``grad I . f`` are evaluated (evenly spaced, the checked
 ones among them; a fixed number, so that one mapped function serves every run): a loop
@@ -74,11 +92,17 @@ class Watch:
         Not increased by it at any sampled state (and not conserved).
     scale : dict
         ``max(|I(x0)|, |grad I(x0)| |x0|)`` of every watched invariant.
+    at : tuple of int
+        The output indices where the rates were evaluated.
+    grad_norm : dict
+        ``|grad I|`` at those states, ndarray shape=(len(at),), of every watched invariant.
     """
 
     conserved: list[str]
     non_increasing: list[str]
     scale: dict[str, float]
+    at: tuple[int, ...] = ()
+    grad_norm: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -135,7 +159,81 @@ def classify(probe: Probe, model: Model, x: np.ndarray, idx: list[int],
     scale = {n: max(abs(float(values[k])), float(gn[k, 0]) * x0_norm, tiny)
              for k, n in enumerate(names) if conserved[k] or falling[k]}
     return Watch([n for n, k in zip(names, conserved) if k],
-                 [n for n, k in zip(names, falling) if k], scale)
+                 [n for n, k in zip(names, falling) if k], scale, tuple(at),
+                 {n: gn[k] for k, n in enumerate(names) if n in scale})
+
+
+def confirm(probe: Probe, model: Model, x: np.ndarray, watch: Watch) -> Watch:
+    """``watch`` restricted to the invariants whose rates keep their class at every state.
+
+    :func:`classify` samples :data:`RATE_SAMPLES` states; before a run is refused for an
+    invariant, its rate is evaluated at all of ``x`` (a loop that feeds it at one of them
+    drops it from the watch).
+
+    Parameters
+    ----------
+    probe : Probe
+        The run's functions.
+    model : Model
+        The model.
+    x : ndarray, shape=(n_times, ambient_dim)
+        The states.
+    watch : Watch
+        The invariants classified at the samples.
+
+    Returns
+    -------
+    Watch
+        With ``at`` every index of ``x`` and ``grad_norm`` there.
+    """
+    if not watch.names or probe.rates is None:
+        return watch
+    rate, gn, fn = (np.asarray(v, dtype=float).reshape(-1, len(x))
+                    for v in probe.mapped("rates", len(x))(x, model.p))
+    room = CONSERVED_RTOL * gn * fn + np.finfo(float).tiny
+    names = model.invariant_names
+    conserved = [n for n in watch.conserved
+                 if np.all(np.abs(rate[names.index(n)]) <= room[names.index(n)])]
+    falling = [n for n in watch.non_increasing
+               if np.all(rate[names.index(n)] <= room[names.index(n)])]
+    kept = {*conserved, *falling}
+    return Watch(conserved, falling, {n: v for n, v in watch.scale.items() if n in kept},
+                 tuple(range(len(x))), {n: gn[names.index(n)] for n in kept})
+
+
+def tolerance_allowance(watch: Watch, x: np.ndarray, *, rtol: float, atol: float,
+                        steps: int) -> dict[str, float]:
+    """What an adaptive run's tolerances let every watched invariant move.
+
+    ``steps * sqrt(n) * max_k |grad I(x_k)| ((rtol + 4 eps) |x_k|_inf + atol)`` over the
+    states ``watch.at`` (``eps`` the machine epsilon: round-off in the state, which CVODES
+    cannot go below), plus ``16 eps`` times the invariant's scale (round-off in evaluating
+    it); see the module's notes.
+
+    Parameters
+    ----------
+    watch : Watch
+        The invariants, with ``|grad I|`` at ``watch.at``.
+    x : ndarray, shape=(n_times, ambient_dim)
+        The output states.
+    rtol, atol : float
+        The run's tolerances.
+    steps : int
+        The run's number of steps.
+
+    Returns
+    -------
+    dict
+        Per watched invariant, the allowance (absolute, in the invariant's units).
+    """
+    eps = np.finfo(float).eps
+    size = np.max(np.abs(x[list(watch.at)]), axis=1) if watch.at else np.zeros(0)
+    weight = (rtol + 4 * eps) * size + atol
+    root_n = np.sqrt(x.shape[1])
+    return {n: (max(steps, 1) * root_n * float(np.max(watch.grad_norm[n] * weight,
+                                                        initial=0.0))
+                + 16 * eps * watch.scale[n])
+            for n in watch.names}
 
 
 def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
@@ -144,8 +242,8 @@ def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
     return np.asarray(fn.map(len(x))(x.T, model.p), dtype=float).reshape(-1, len(x))
 
 
-def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np.ndarray
-                 ) -> tuple[str, int] | None:
+def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np.ndarray,
+                 limits: dict[str, float] | None = None) -> tuple[str, int] | None:
     """The first state where a watched invariant left its allowance, and which one.
 
     Parameters
@@ -158,6 +256,9 @@ def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np
         Their values at consecutive states.
     initial : ndarray, shape=(n_invariants,)
         Their values at the run's start.
+    limits : dict, optional
+        The allowance of every watched invariant (absolute); default :data:`DRIFT_LIMIT`
+        times its scale.
 
     Returns
     -------
@@ -171,9 +272,51 @@ def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np
         dev = values[k] - initial[k]
         if name in watch.conserved:
             dev = np.abs(dev)
-        bad = ~(dev <= DRIFT_LIMIT * watch.scale[name])
+        limit = DRIFT_LIMIT * watch.scale[name] if limits is None else limits[name]
+        bad = ~(dev <= limit)
         if np.any(bad):
             j = int(np.argmax(bad))
             if best is None or j < best[1]:
                 best = (name, j)
     return best
+
+
+def projected(model: Model, x: np.ndarray) -> np.ndarray:
+    """The states projected to the manifold, factor by factor, for classifying only.
+
+    A run in ambient coordinates drifts off the manifold, where the ambient field need not
+    conserve what it conserves on it (the rate off the manifold grows with the constraint
+    residual): the rates that decide whether the field keeps an invariant are evaluated at
+    the nearest points of the manifold. The run's states are never changed. A state whose
+    projection fails is kept as is.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    x : ndarray, shape=(n, ambient_dim)
+        States.
+
+    Returns
+    -------
+    ndarray, shape=(n, ambient_dim)
+    """
+    out = np.array(x, dtype=float, copy=True)
+    for i, xi in enumerate(out):
+        try:
+            out[i] = model.manifold.project(xi)
+        except (ValueError, ArithmeticError):  # too far off for the projection: as is
+            pass
+    return out
+
+
+def classify_projected(probe: Probe, model: Model, x: np.ndarray, idx: list[int],
+                       initial: np.ndarray | None = None) -> Watch:
+    """:func:`classify` at the sampled states projected to the manifold (:func:`projected`).
+
+    Parameters are those of :func:`classify`; the returned ``at`` indexes ``x``.
+    """
+    at = _rate_indices(len(x), idx)
+    watch = classify(probe, model, projected(model, x[at]), [0], initial)
+    return Watch(watch.conserved, watch.non_increasing, watch.scale,
+                 tuple(at[i] for i in watch.at), watch.grad_norm)

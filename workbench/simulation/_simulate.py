@@ -9,7 +9,11 @@ factor. Knobs that trade speed for accuracy (``rtol``, ``atol``, ``step``, ``deg
 are explicit keywords. A fixed-step run is checked before it is returned: a step beyond
 the method's stable range, a state that explodes or a conserved invariant that drifts by
 orders of magnitude raises a SolverError naming the step and the stable step estimated
-for it (:mod:`workbench.simulation._stability`).
+for it (:mod:`workbench.simulation._stability`). A CVODES run is checked too
+(:class:`~workbench.simulation._cvodes.RunCheck`): a state that explodes or leaves the
+manifold, or (without a controller) an invariant that moves beyond what the tolerances
+allow, raises a SolverError naming the time and the state; ``max_step`` bounds its
+adaptive step, which can otherwise jump a feature of the field narrower than a step.
 """
 
 from __future__ import annotations
@@ -34,7 +38,10 @@ from workbench.simulation._cvodes import (
     MAX_STEPS,
     Corrector,
     Multistep,
+    RunCheck,
+    check_max_step,
     check_max_steps,
+    check_rtol,
     cvodes_options,
 )
 from workbench.simulation._failure import (
@@ -188,6 +195,7 @@ def simulate(
     multistep: Multistep | str = Multistep.ADAMS,
     corrector: Corrector | str | None = None,
     max_steps: int = 1_000_000,
+    max_step: float | None = None,
     max_points: int = MAX_POINTS,
     tol: float = DEFAULT_TOL,
     newton_tol: float = NEWTON_TOL,
@@ -214,8 +222,12 @@ def simulate(
         ``"cvodes"``, ``"rk"``, ``"collocation"``, or a geometric method ``"lgvi"``,
         ``"s2_variational"``, ``"rkmk4"``, ``"mechanics_variational"`` (see
         :class:`Method`).
-    rtol, atol : float
-        Relative and absolute tolerances (CVODES only).
+    rtol : float
+        CVODES' relative tolerance (its local error per step, relative to the state), in
+        ``(0, 1e-3]`` (:data:`~workbench.simulation._cvodes.RTOL_MAX`: SUNDIALS advises
+        against more, and a relative tolerance of 1 or more accepts any answer).
+    atol : float
+        CVODES' absolute tolerance, positive and finite.
     step : float, optional
         Largest step for the fixed-step methods (required for them, refused for CVODES);
         each output interval is split into ``ceil(interval / step)`` equal steps.
@@ -232,6 +244,13 @@ def simulate(
         :data:`~workbench.simulation._cvodes.MAX_STEPS` (1e8: minutes for a small model);
         a long horizon between two output times may need more (the failure says so and
         names this knob).
+    max_step : float, optional
+        CVODES' largest internal step, positive and finite; None (default): unbounded. An
+        adaptive step sees the field only at its stages: a feature of the field narrower
+        than a step (a potential wall, a pulse of forcing) can be stepped over, with an
+        error estimate of zero where the field is flat on both sides of it. Pass
+        ``max_step`` below the feature's width. Refused when an output interval would need
+        more than ``max_steps`` steps of it.
     max_points : int
         Largest accepted number of output times (default :data:`MAX_POINTS`, 10^6: the
         states alone take ``8 * ambient_dim`` bytes each, and the diagnostics evaluate
@@ -261,6 +280,10 @@ def simulate(
     Returns
     -------
     Trajectory
+        Its ``diagnostics`` hold, besides the invariant drift and constraint residuals,
+        the checks it passed: ``stability`` for the fixed-step methods, ``checks`` for
+        CVODES (``status``, ``conserved_invariants`` and ``non_increasing_invariants``
+        checked, ``drift_allowance`` per checked invariant).
 
     Raises
     ------
@@ -281,16 +304,26 @@ def simulate(
         linearised estimate and the stable step estimated for it), whose conserved
         invariant drifts by orders of magnitude (``invariant_drift``), or whose field or
         controller returns NaN (``non_finite_field``: which, at which state and time) is
-        never returned as a Trajectory; see :mod:`workbench.simulation._stability`.
+        never returned as a Trajectory; see :mod:`workbench.simulation._stability`. A
+        CVODES run whose state exploded (``exploded``), left its manifold by more than
+        the constraint's scale (``left_manifold``) or, without a controller, moved an
+        invariant the field conserves (or raised one it dissipates) by more than ten
+        times what ``rtol`` and ``atol`` allow over its steps, or more than the invariant's
+        scale (``invariant_drift``), is refused with the time and the state; see
+        :class:`~workbench.simulation._cvodes.RunCheck`. Only the output states are
+        checked: a step across a narrow feature that lands where the invariant has its
+        old value (a wall crossed between two outputs, at equal energy on both sides)
+        is not seen; ``max_step`` below the feature's width is the remedy.
     """
     method = choice(Method, method, "method", error=ModelError)
     if not isinstance(model, Model):
         raise ModelError(f"model must be a workbench Model; got {type(model).__name__}")
-    for name, val in (("rtol", rtol), ("atol", atol), ("tol", tol)):
+    rtol = check_rtol(rtol, error=ModelError)
+    for name, val in (("atol", atol), ("tol", tol)):
         validate.tolerance(name, val, error=ModelError)
     max_steps = check_max_steps(max_steps, error=ModelError)  # bounded before anything runs
     max_points = count("max_points", max_points, minimum=2, error=ModelError)
-    _check_knobs_used(method, step=step, degree=degree, jit=jit)
+    _check_knobs_used(method, step=step, degree=degree, jit=jit, max_step=max_step)
     # unrolled into the step's graph: bounded before anything is built
     newton_tol, newton_max_iter = check_newton_options(newton_tol, newton_max_iter)
     compilation = choice(Compilation, compilation, "compilation", error=ModelError)
@@ -308,10 +341,13 @@ def simulate(
     opts: dict[str, Any] = {}
     options_used: dict[str, Any] = {}
     if method is Method.CVODES:
+        # refused before anything runs when max_steps of it cannot cross an interval
+        max_step = check_max_step(max_step, interval=float(np.max(np.abs(np.diff(tv)))),
+                                  max_steps=max_steps, error=ModelError)
         opts.update(cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol,
-                                   atol=atol, max_steps=max_steps))
+                                   atol=atol, max_steps=max_steps, max_step=max_step))
         options_used.update(rtol=rtol, atol=atol, multistep=opts["linear_multistep_method"],
-                            corrector=opts["nonlinear_solver_iteration"])
+                            corrector=opts["nonlinear_solver_iteration"], max_step=max_step)
     else:
         if step is None:
             raise ModelError(f"step must be a positive number for method {method.value!r}; "
@@ -378,13 +414,17 @@ def simulate(
     wall = time.perf_counter() - t_run
     stats = integrator.stats()
     xs_out = np.column_stack([x0v, np.asarray(res["xf"])]).T
-    check = None
-    if method is not Method.CVODES:  # fixed step: an exploded run is refused
+    check: StepCheck | RunCheck
+    if method is Method.CVODES:  # an exploded run, or one its error estimate missed, is refused
+        check = RunCheck(model, probe_for(model, controller, sign=sign), opts,
+                         int(stats.get("nsteps", 0)), controller is None)
+    else:  # fixed step: an exploded run is refused
         check = StepCheck(model, probe_for(model, controller, sign=sign, rk4=method is Method.RK),
                           method.value, "rk" if method is Method.RK else None, False,
                           float(abs(s_grid[1])) / opts["number_of_finite_elements"])
     if not np.all(np.isfinite(xs_out)):
-        raise casadi_non_finite(model, controller, check, method.value, tv, xs_out)
+        raise casadi_non_finite(model, controller, check if isinstance(check, StepCheck) else
+                                None, method.value, tv, xs_out)
 
     n_out = len(tv) - 1
     cost: dict[str, Any] = {"wall_seconds": wall, "build_seconds": build_seconds}
@@ -415,17 +455,24 @@ def simulate(
                           f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = {} if check is None else check.run(tv, xs_out, np.asarray(rhs_map).T,
-                                                diag["invariant_drift"])
+    xdot = np.asarray(rhs_map).T
+    checks = (check.run(tv, xs_out, xdot, diag["invariant_drift"], diag["constraint_residual"])
+              if isinstance(check, RunCheck) else
+              check.run(tv, xs_out, xdot, diag["invariant_drift"]))
     traj.diagnostics = {**diag, **checks}
     return traj
 
 
-def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any) -> None:
+def _check_knobs_used(method: Method, *, step: Any, degree: Any, jit: Any,
+                      max_step: Any = None) -> None:
     """Refuse knobs that the method would silently ignore."""
     unused = []
     if step is not None and method is Method.CVODES:
-        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol)")
+        unused.append(f"step={step!r} (cvodes chooses its steps: set rtol, atol, and "
+                      f"max_step to bound them)")
+    if max_step is not None and method is not Method.CVODES:
+        unused.append(f"max_step={max_step!r} (cvodes' bound on its adaptive step; the "
+                      f"fixed-step methods take step=)")
     if degree is not None and method is not Method.COLLOCATION:
         unused.append(f"degree={degree!r} (the collocation degree)")
     if jit and method not in GEOMETRIC_METHODS:
