@@ -270,3 +270,37 @@ def test_a_problem_script_refuses_a_descriptor_before_it_runs(path, capsys):
     assert stop.value.code == 2 and ran == []
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--json" in err and "descriptor" in err
+
+
+_BIND = r"""
+set -e
+cd "$1"
+printf 'line 1\nline 2\n' > log.txt
+sleep 30 >> log.txt &
+SP=$!
+mkdir -p descs
+mount --bind /proc/$SP/fd descs
+"$2" -c 'import sys
+from workbench.core import files
+try:
+    files.write_atomic(sys.argv[1], "{}\n")
+    print("WRITTEN")
+except files.OutputError as exc:
+    print("REFUSED", exc)' "$1/descs/1"
+kill $SP
+umount descs
+"""
+
+
+def test_a_descriptor_table_bind_mounted_under_another_name_is_refused(tmp_path):
+    """``mount --bind /proc/PID/fd DIR``: DIR/1 is a descriptor (procfs's device, a number)."""
+    probe = subprocess.run(["unshare", "-m", "--propagation", "private", "true"],
+                           capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip("a private mount namespace (unshare -m) is not permitted here")
+    log = tmp_path / "log.txt"
+    run = subprocess.run(["unshare", "-m", "--propagation", "private", "bash", "-c", _BIND,
+                          "bind", str(tmp_path), sys.executable], capture_output=True,
+                         text=True, timeout=60, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert "REFUSED" in run.stdout and "descriptor" in run.stdout, run.stdout + run.stderr
+    assert log.read_text().startswith("line 1\nline 2\n")

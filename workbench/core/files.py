@@ -109,15 +109,21 @@ _MAX_LINKS = 40
 
 
 def _in_fd_table(step: str) -> bool:
-    """Whether ``step`` (a path whose folder is resolved) is an entry of a descriptor table."""
+    """Whether ``step`` (a path whose folder is resolved) is an entry of a descriptor table.
+
+    Besides the tables' own names, any link named by a number in a folder of procfs counts
+    (a table mounted elsewhere, or bind-mounted under another name, keeps procfs's
+    device; procfs's other numbered entries, the processes, are folders).
+    """
     folder = os.path.dirname(step)
     if folder == "/dev/fd" or _FD_DIR.fullmatch(folder):
         return True
-    if os.path.basename(folder) != "fd":
+    if not os.path.basename(step).isdigit():
         return False
-    try:  # a procfs mounted elsewhere than /proc (its entries share one device)
-        return os.stat(folder).st_dev == os.stat("/proc/self/fd").st_dev
-    except OSError:
+    try:
+        return (os.stat(folder).st_dev == os.stat("/proc/self/fd").st_dev
+                and stat.S_ISLNK(os.lstat(step).st_mode))
+    except OSError:  # no procfs here, or the entry is gone
         return False
 
 
