@@ -30,11 +30,8 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
-import re
 from collections.abc import Sequence
 from enum import Enum
-from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -74,7 +71,6 @@ MAX_DIM = 100_000
 graph over more symbols does not fit in memory in any analysis (a hostile ``n_inputs=10**9``
 took 20 GB before it was refused)."""
 
-_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
 def _show(value: Any, limit: int = 80) -> str:
@@ -513,107 +509,9 @@ def entries_nonnegative(value: np.ndarray) -> str | None:
 # names and text
 
 
-def identifier(
-    name: str, value: Any, *, error: type[WorkbenchError] = ParameterError
-) -> str:
-    """An ASCII identifier (``[A-Za-z_][A-Za-z0-9_]*``): usable by casadi, C and Python.
-
-    Parameters
-    ----------
-    name : str
-        The argument's name, for the message.
-    value : str
-        The identifier.
-    error : type of WorkbenchError
-        Raised for anything else.
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    WorkbenchError
-        Of class ``error``: ``"<name> must be an identifier ...; got <value>"``.
-    """
-    if not isinstance(value, str) or not _IDENTIFIER.match(value):
-        raise error(
-            f"{name} must be an identifier (ASCII letters, digits and '_', not starting "
-            f"with a digit); got {_show(value)}"
-        )
-    return value
-
-
-def single_line(
-    name: str, value: Any, *, error: type[WorkbenchError] = ParameterError
-) -> str:
-    """A str without line breaks or control characters (for generated file headers).
-
-    Parameters
-    ----------
-    name : str
-        The argument's name, for the message.
-    value : str
-        The text.
-    error : type of WorkbenchError
-        Raised for anything else.
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    WorkbenchError
-        Of class ``error``.
-    """
-    if not isinstance(value, str):
-        raise error(f"{name} must be a str; got {type(value).__name__} {_show(value)}")
-    bad = [c for c in value if ord(c) < 32 or ord(c) == 127]
-    if bad:
-        raise error(f"{name} must be one line of text without control characters; got "
-                    f"{_show(value)}")
-    return value
-
-
 # ----------------------------------------------------------------------------------------
-# paths
-
-
-def output_path(
-    name: str, value: Any, *, error: type[WorkbenchError] = ParameterError
-) -> Path:
-    """A non-empty output path (str or os.PathLike) as a :class:`pathlib.Path`.
-
-    Parameters
-    ----------
-    name : str
-        The argument's name, for the message.
-    value : str or os.PathLike
-        The path; ``""`` (which would be the current directory) is refused.
-    error : type of WorkbenchError
-        Raised for anything else.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    WorkbenchError
-        Of class ``error``: ``"<name> must be a non-empty path; got <value>"``.
-    """
-    if not isinstance(value, (str, os.PathLike)):
-        raise error(f"{name} must be a non-empty path (str or os.PathLike); got "
-                    f"{type(value).__name__} {_show(value)}")
-    text = os.fspath(value)
-    if isinstance(text, bytes) or not text.strip() or "\x00" in text:
-        raise error(f"{name} must be a non-empty path; got {_show(value)}")
-    return Path(text)
-
-
-# ----------------------------------------------------------------------------------------
-# the boundary of a public function (implemented in _arguments, part of this layer)
+# the boundary of a public function (implemented in _arguments, part of this layer), and
+# names, one-line texts and output paths (implemented in _validate_text)
 
 from workbench.core._arguments import (  # noqa: E402
     arguments,
@@ -623,3 +521,4 @@ from workbench.core._arguments import (  # noqa: E402
     parameter,
     text,
 )
+from workbench.core._validate_text import identifier, output_path, single_line  # noqa: E402

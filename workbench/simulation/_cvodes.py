@@ -375,10 +375,13 @@ class RunCheck:
     def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
         """Refuse states grown beyond ``GROWTH_LIMIT`` times what the flow allows."""
         size = np.max(np.abs(x), axis=1)
-        if xdot is not None:  # the allowance's first two terms, without the field's Jacobian
-            base = np.maximum(np.max(np.abs(x[0])), np.abs(t - t[0]) * np.max(np.abs(xdot[0])))
-            if np.all(size <= GROWTH_LIMIT * base):
-                return
+        # the allowance's first two terms, without the field's Jacobian (which a scene that
+        # only simulates need not build)
+        f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
+              np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
+        base = np.maximum(np.max(np.abs(x[0])), np.abs(t - t[0]) * np.max(np.abs(f0)))
+        if np.all(size <= GROWTH_LIMIT * base):
+            return
         step = StepCheck(self.model, self.probe, "cvodes", None, False, 0.0)
         allowed, alpha = step._growth_allowance(t, x, xdot, rate=False)
         if np.all(size <= GROWTH_LIMIT * allowed):

@@ -9,7 +9,7 @@ invariants along it, and the step map whose Jacobian is built on first use.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from dataclasses import field as dc_field
 from typing import Any
@@ -66,7 +66,8 @@ class Probe:
     field : casadi.Function
         ``(x, p) -> (xdot, u)``: the closed-loop field in the direction of integration.
     field_jac : casadi.Function
-        ``(x, p) -> A``, its ambient Jacobian.
+        ``(x, p) -> A``, its ambient Jacobian (a property: built on first use from the
+        model's ``f_x``, so a run whose checks pass without it does not build it).
     step : casadi.Function or None
         The step map ``(x, p, h) -> (x_next, ...)`` (None: none to linearise).
     rates : casadi.Function or None
@@ -80,9 +81,10 @@ class Probe:
     """
 
     field: ca.Function
-    field_jac: ca.Function
+    _jac_builder: Callable[[], ca.Function]
     step: ca.Function | None
     rates: ca.Function | None
+    _field_jac: ca.Function | None = None
     _step_jac: ca.Function | None = None
     _maps: dict[tuple[str, int], DenseEvaluator] = dc_field(default_factory=dict)
 
@@ -120,6 +122,13 @@ class Probe:
             if not np.all(np.isfinite(X)):
                 return
             done, cur = done + m, X[-1]
+
+    @property
+    def field_jac(self) -> ca.Function:
+        """``(x, p) -> A``: the closed-loop field's ambient Jacobian, built on first use."""
+        if self._field_jac is None:
+            self._field_jac = self._jac_builder()
+        return self._field_jac
 
     @property
     def step_jac(self) -> ca.Function:
@@ -173,10 +182,12 @@ def probe_for(model: Model, controller: ca.Function | None, *, sign: float = 1.0
     field = ca.Function("signed_loop", [x, p], [xdot, u], ["x", "p"], ["xdot", "u"])
     # the model's own Jacobians (a mechanics MX model supplies them: AD through its
     # linear solves is slower and fails where casadi's LU meets a structural zero)
-    A = model.function("f_x")(x, u, p)
-    if controller is not None and model.n_inputs:
-        A = A + ca.mtimes(model.function("f_u")(x, u, p), ca.jacobian(u, x))
-    field_jac = ca.Function("field_jac", [x, p], [ca.densify(sign * A)], ["x", "p"], ["A"])
+    def field_jac() -> ca.Function:
+        A = model.function("f_x")(x, u, p)
+        if controller is not None and model.n_inputs:
+            A = A + ca.mtimes(model.function("f_u")(x, u, p), ca.jacobian(u, x))
+        return ca.Function("field_jac", [x, p], [ca.densify(sign * A)], ["x", "p"], ["A"])
+
     rates = None
     if model.invariant_names:
         grads = ca.jacobian(model.function("invariants")(x, p), x)  # (n_inv, n_x)
