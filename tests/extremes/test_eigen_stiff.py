@@ -55,3 +55,22 @@ def test_the_balanced_tolerance_is_the_plain_one_for_a_balanced_matrix():
     Q, _ = np.linalg.qr(rng.standard_normal((6, 6)))
     A = Q @ np.diag([-2.0, -1.0, 0.5, 1.0, 3.0, 4.0]) @ Q.T  # symmetric: balancing is a no-op
     assert default_tol(A) == pytest.approx(1e-7 * np.linalg.norm(A, 2), rel=1e-12)
+
+
+def test_time_scales_further_apart_than_the_tolerance_are_said_not_hidden():
+    """A slow saddle (rate 1e-3) beside a fast one (1e5): within the default tolerance."""
+    A = np.zeros((4, 4))
+    A[0, 1], A[1, 0], A[2, 3], A[3, 2] = 1.0, 1e10, 1.0, 1e-6  # +-1e5 and +-1e-3 exactly
+    with pytest.warns(UserWarning, match="resolved beyond rounding"):
+        es = eigenstructure(A)
+    assert es.dims == (1, 1, 2)  # the tolerance's classification, as documented
+    assert np.allclose(np.sort(es.resolved_in_tol.real), [-1e-3, 1e-3], rtol=1e-9)
+    assert eigenstructure(A, tol=1e-6).dims == (2, 2, 0)  # the advice classifies them
+
+
+def test_a_jordan_block_and_a_centre_are_not_flagged(recwarn):
+    jordan = eigenstructure(np.array([[0.0, 1.0], [0.0, 0.0]]))
+    centre = eigenstructure(np.array([[0.0, 1.0], [-4.0, 0.0]]))
+    assert jordan.dims == (0, 0, 2) and centre.dims == (0, 0, 2)
+    assert jordan.resolved_in_tol.size == 0 and centre.resolved_in_tol.size == 0
+    assert not [w for w in recwarn if "resolved beyond rounding" in str(w.message)]

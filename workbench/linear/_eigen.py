@@ -21,7 +21,9 @@ from them).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
+from dataclasses import field as dc_field
 from enum import Enum
 from typing import Any
 
@@ -126,6 +128,13 @@ class Eigenstructure:
         ``max_k |A v_k - lambda_k v_k| / max(1, |A|)`` (accuracy of the eigenpairs).
     eigenvector_condition : float
         Condition number of the eigenvector matrix (large: near-defective).
+    resolved_in_tol : ndarray of complex, shape=(k,)
+        Eigenvalues counted as centre (``|Re| <= tol``) whose real part is nevertheless
+        resolved: above ``1e-3 tol`` and ten times its rounding error bound
+        ``n eps |D^-1 A D|_2 kappa`` (``kappa`` the eigenvalue's condition number). Such a
+        spectrum has time scales further apart than the tolerance's ``1e-7`` (a slow saddle
+        beside a stiff mode); with the default tolerance a ``UserWarning`` says so, and a
+        smaller ``tol`` classifies them by the sign of their real part.
     """
 
     eigenvalues: np.ndarray
@@ -138,6 +147,7 @@ class Eigenstructure:
     basis: Matrix | None
     residual: float
     eigenvector_condition: float
+    resolved_in_tol: np.ndarray = dc_field(default_factory=lambda: np.zeros(0, complex))
 
     @property
     def n_stable(self) -> int:
@@ -213,6 +223,7 @@ class Eigenstructure:
             "tol": self.tol,
             "residual": self.residual,
             "eigenvector_condition": self.eigenvector_condition,
+            "resolved_in_tol": [[float(v.real), float(v.imag)] for v in self.resolved_in_tol],
         }
 
 
@@ -311,9 +322,41 @@ def eigenstructure(
             f"({stable.shape[1]}, {unstable.shape[1]}) vs {counts}: eigenvalues lie within "
             f"rounding of the tolerance {t:.3g}; pass another tol"
         )
+    resolved = _resolved_in_tol(Bal, ev, t)
+    if resolved.size and tol is None:
+        warnings.warn(
+            f"eigenstructure: eigenvalue(s) {np.round(resolved, 6).tolist()} count as centre "
+            f"under the default real-part tolerance {t:.3g} (1e-7 of the balanced |A|), but "
+            "their real parts are resolved beyond rounding: the spectrum's time scales are "
+            f"further apart than 1e7; pass tol= below {np.min(np.abs(resolved.real)):.3g} "
+            "to classify them by sign", UserWarning, stacklevel=3)
     return Eigenstructure(
         eigenvalues=ev, eigenvectors=V, tol=t, stable_basis=stable, unstable_basis=unstable,
         centre_basis=centre, stability=_classify(ev, t), basis=N, residual=resid,
-        eigenvector_condition=cond,
+        eigenvector_condition=cond, resolved_in_tol=resolved,
     )
+
+
+def _resolved_in_tol(B: Matrix, ev: np.ndarray, tol: float) -> np.ndarray:
+    """The eigenvalues within ``tol`` of the imaginary axis whose real part is resolved.
+
+    Resolved: ``|Re| > 1e-3 tol`` and ``> 10 n eps |B|_2 kappa``, ``kappa = |y| |x| /
+    |y^H x|`` from the balanced matrix ``B``'s left and right eigenvectors (first-order
+    perturbation theory; a defective eigenvalue's ``kappa`` is huge, so a Jordan block's
+    split never counts).
+    """
+    inside = (np.abs(ev.real) <= tol) & (np.abs(ev.real) > 1e-3 * tol)
+    if not np.any(inside):
+        return np.zeros(0, complex)
+    lam, left, right = sla.eig(B, left=True, right=True)
+    with np.errstate(divide="ignore"):
+        kappa = (np.linalg.norm(left, axis=0) * np.linalg.norm(right, axis=0)
+                 / np.abs(np.sum(left.conj() * right, axis=0)))
+    bound = 10 * B.shape[0] * np.finfo(float).eps * float(np.linalg.norm(B, 2))
+    out = []
+    for value in ev[inside]:
+        k = int(np.argmin(np.abs(lam - value)))  # the same eigenvalue of the similar B
+        if abs(value.real) > bound * kappa[k]:
+            out.append(value)
+    return np.asarray(out, dtype=complex)
 
