@@ -19,7 +19,11 @@ translation of ``x`` passed the sampled test and the confirming simulations, and
   none of these three is declared by default;
 - ``reduce`` refuses a symmetry not established exactly (the bump; a transverse kick
   that conserves the momentum but breaks the field's invariance), and reduces it on
-  request with a warning and its evidence.
+  request with a warning and its evidence;
+- the moduli alias no floats: modulo ``2^61 - 1`` a spike scaled by ``1 - 2^-61`` was
+  "zero" and reduced; the seeded primes have 2 of order above the double exponent range,
+  ``x - 2^-k x`` and ``2^(+-61) x - x`` are nonzero, and a coefficient summed to one
+  prime is caught by the other.
 """
 
 from __future__ import annotations
@@ -27,9 +31,18 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+import sympy
 
 from workbench import ModelError, mechanics
-from workbench.mechanics._exact import Verdict, identically_zero, unfolded
+from workbench.mechanics._exact import (
+    ORDER_BOUND,
+    PRIMES,
+    Verdict,
+    _residue,
+    identically_zero,
+    primes,
+    unfolded,
+)
 from workbench.mechanics._symmetry import (
     Candidate,
     conservation_evidence,
@@ -38,13 +51,18 @@ from workbench.mechanics._symmetry import (
 )
 
 
-def bump(c: float = 0.5, w: float = 0.05, *, lorentz: bool = False) -> mechanics.System:
-    """The reviewer's mass on R^1 x R^1 with a narrow bump at ``x = c`` (or a Lorentzian)."""
+def bump(c: float = 0.5, w: float = 0.05, *, lorentz: bool = False,
+         scale: float | None = None) -> mechanics.System:
+    """The reviewer's mass on R^1 x R^1 with a narrow bump at ``x = c`` (or a Lorentzian
+    ``L``; with ``scale``, ``L - scale * L``)."""
     s = mechanics.System("bump")
     x, y = s.rn("x", 1, velocity="v"), s.rn("y", 1, velocity="vy")
     s.point_mass(1.0, ca.vertcat(x.x, y.x, 0))
     d = (x.x[0] - c) / w
-    s.potential((5.0 / (1 + d**2) if lorentz else 5.0 * ca.exp(-d**2)) + 0.5 * y.x[0] ** 2)
+    v = 5.0 / (1 + d**2) if lorentz or scale is not None else 5.0 * ca.exp(-d**2)
+    if scale is not None:
+        v = v - scale * v
+    s.potential(v + 0.5 * y.x[0] ** 2)
     return s
 
 
@@ -296,3 +314,73 @@ def test_a_transverse_kick_conserves_the_momentum_but_breaks_the_invariance():
     ok, words = invariance_evidence(lin.mechanics, red_free.act, lin.p)
     assert not ok and "not identically zero" in words
     assert red_free.evidence.startswith("exact: dJ/dt is zero in the derived graph")
+
+
+# ----------------------------------------------------------------------------------------
+# the moduli alias no floats
+
+
+def test_the_primes_are_seeded_primes_modulo_which_2_has_a_large_order():
+    """Checked independently (sympy's primality and multiplicative order); the Mersenne
+    prime the evaluation used before fails: 2 has order 61 there, so 2^-61 = 1."""
+    for seed in (0, 1, 7):
+        qs = primes(seed)
+        assert len(qs) == len(set(qs)) == PRIMES >= 2
+        assert qs == primes(seed)  # deterministic
+        for q in qs:
+            assert sympy.isprime(q) and q % 4 == 3 and q.bit_length() == 61
+            assert sympy.n_order(2, q) > ORDER_BOUND >= 1074 + 1023 + 53
+    assert set(primes(0)).isdisjoint(primes(1))
+    mersenne = (1 << 61) - 1
+    assert sympy.n_order(2, mersenne) == 61 and _residue(2.0**-61, mersenne) == 1
+
+
+def test_the_reviewers_scaled_spike_is_not_a_symmetry():
+    """``V = L - 2^-61 L``, ``L`` a Lorentzian of width 1e-7: modulo ``2^61 - 1`` it was zero
+    (declared ``linear_momentum_x_1`` and reduced as exact); ``dV/dx ~ -3.2e7`` beside the
+    top."""
+    s = bump(0.5, 1e-7, scale=2.0**-61)
+    s.momentum("px", translate={s.factor("x"): [1.0]})
+    model = s.model(check=False)
+    der = model.mechanics
+    dv = ca.Function("dV", [der.x], [ca.gradient(der.ing.potential, der.x)[0]])
+    x0 = np.zeros(der.x.numel())
+    x0[0] = 0.5 + 5e-8
+    assert float(dv(x0)) == pytest.approx(-3.2e7, rel=1e-6)
+    assert bump(0.5, 1e-7, scale=2.0**-61).detect_momenta() == {}
+    for seed in range(4):  # whichever primes and points
+        (exact, words), = conservation_evidence(
+            der, [Candidate("px", "", der.ing.momenta["px"])], model.p, seed=seed)
+        assert not exact and "not identically zero (nonzero at a point" in words
+    s = bump(0.5, 1e-7, scale=2.0**-61)
+    s.momentum("px", translate={s.factor("x"): [1.0]})
+    with pytest.raises(ModelError, match=r"'px' of 'bump' is not established exactly: "
+                                         r"dJ/dt is not identically zero"):
+        mechanics.reduce(s, "px", momentum=0.0)
+
+
+@pytest.mark.parametrize("k", [1, 30, 52, 53, 61, 122, 183, 600, 1074])
+def test_one_minus_a_power_of_two_is_not_zero(k):
+    """``x - 2^-k x`` has the coefficient ``1 - 2^-k != 0`` (exact in the graph: the two
+    terms are not folded); modulo ``2^61 - 1`` every ``k`` divisible by 61 was zero."""
+    assert _verdict(lambda x: x[0] - 2.0**-k * x[0]) is Verdict.NONZERO
+    if k <= 53:  # 1 - 2^-k one float
+        assert _verdict(lambda x: x[0] - (1 - 2.0**-k) * x[0]) is Verdict.NONZERO
+
+
+@pytest.mark.parametrize("e", [61, -61, 122, -122, 1023, -1074])
+def test_scalings_by_powers_of_two_are_not_the_identity(e):
+    assert _verdict(lambda x: 2.0**e * x[0] - x[0]) is Verdict.NONZERO
+    assert _verdict(lambda x: 2.0**e * x[0] - 2.0**e * x[0]) is Verdict.ZERO
+
+
+@pytest.mark.parametrize("which", range(PRIMES))
+def test_a_coefficient_divisible_by_one_prime_is_caught_by_another(which):
+    """``h x + l x`` with ``h + l = q`` (``h`` the 53 leading bits of the prime, ``l`` the
+    rest, both exact floats): zero modulo ``q``, the real coefficient ``q`` is not."""
+    q = primes(0)[which]
+    h = float(q)  # rounded to 53 bits: q - h is small and exact
+    low = float(q - int(h))
+    assert int(h) + int(low) == q and low != 0
+    assert (_residue(h, q) + _residue(low, q)) % q == 0  # one prime alone says "zero"
+    assert _verdict(lambda x: h * x[0] + low * x[0]) is Verdict.NONZERO
