@@ -151,7 +151,7 @@ class Momenta:
           equations' solve (:func:`~workbench.mechanics._symmetry.momentum_rate`), is zero
           in the graph (nothing the group moves enters the Lagrangian or the loads: a
           free cart's translation, a free angle) or vanishes identically on the state
-          manifold, tested by evaluating the graph exactly (modulo a prime) at random
+          manifold, tested by evaluating the graph exactly (modulo two primes) at random
           points of the manifold (:mod:`workbench.mechanics._exact`: the Furuta arm's
           angle, rotations about gravity, translations of coupled masses). Samples can
           miss a narrow bump of the potential between them; this cannot. A candidate

@@ -266,7 +266,7 @@ def conservation_evidence(der: Derivation, candidates: list, p: np.ndarray, *,
         verdicts, why = identically_zero(fn, list(der.ing.factors), np.r_[p, k], seed=seed)
         for j, v in zip(left, verdicts):
             out[j] = (True, "dJ/dt vanishes identically on the state manifold (its "
-                            "graph evaluated exactly, modulo a prime, at random points of "
+                            "graph evaluated exactly, modulo two primes, at random points of "
                             "the manifold)") if v is Verdict.ZERO else (
                 False, "dJ/dt is not identically zero (nonzero at a point of the "
                        "manifold), only small at the sampled states") \
