@@ -27,11 +27,13 @@ from workbench.control.ocp import (
     OCPStatus,
     PathConstraint,
     TargetPoint,
+    TargetSet,
     solve,
 )
 from workbench.control.ocp.solution import MAX_RESIM_SAMPLES
 from workbench.control.ocp.transcription import MAX_SHOOTING_STEPS, Integrator
 from workbench.core.errors import ManifoldError, ParameterError, SolverError
+from workbench.core.manifolds import ProductManifold, Rn
 
 C = Collocation(N=20)
 U_MAX = 5.0
@@ -300,3 +302,104 @@ def test_a_geodesic_axis_of_an_antipodal_sphere_turns_about_it():
     # q(s) = cos(pi s) q0 + sin(pi s) (a x q0): at s = 1/2 the axis crossed with the start
     assert_close(g.state(0.5)[q][:3], np.cross(e1, e3), atol=1e-12, what="midpoint")
     assert_close(g.state(1.0)[q][:3], -e3, atol=1e-12, what="end point")
+
+
+# --- no array of a problem can be made writable again; copies are made again ---------------
+
+
+def _u(x, u):
+    """``c(x, u) = u`` (a module-level function: a constraint holding it can be pickled)."""
+    return u
+
+
+def _arrays(ocp):
+    """Every array a problem holds, directly or through its target and path constraints."""
+    out = {"x0": ocp.x0, "u_lower": ocp.u_lower, "u_upper": ocp.u_upper,
+           "target.value": ocp.target.value, "target.witness": ocp.target.witness}
+    for i, c in enumerate(ocp.path_constraints):
+        out.update({f"path_constraints[{i}].lower": c.lower,
+                    f"path_constraints[{i}].upper": c.upper})
+    return out
+
+
+def _assert_unwritable(name, arr):
+    """Writing, and every way of making the array (or a view, or its bases) writable, fail."""
+    assert isinstance(arr, np.ndarray) and arr.ndim == 1, name
+    with pytest.raises(ValueError, match="read-only"):
+        arr[0] = 0.25
+    chain, a = [arr, arr.view(), arr[::-1], arr.reshape(-1, 1)], arr.base
+    while isinstance(a, np.ndarray):  # the bases down to the owner of the memory
+        chain.append(a)
+        a = a.base
+    assert isinstance(a, bytes), f"{name}: its memory must be immutable bytes"
+    for v in chain:
+        with pytest.raises(ValueError, match="WRITEABLE"):
+            v.setflags(write=True)
+
+
+@pytest.fixture(scope="module")
+def capped(pendulum):
+    """|u| <= 4 as a path constraint with array bounds, T = 3 s (the constraint is slack)."""
+    pc = PathConstraint(_u, lower=np.array([-4.0]), upper=np.array([4.0]), name="|u| <= 4")
+    return make_ocp(pendulum, T=3.0, path_constraints=[pc])
+
+
+def test_no_array_of_a_problem_or_its_parts_can_be_made_writable(capped, pendulum):
+    arrays = _arrays(capped)
+    assert len(arrays) == 7
+    for name, arr in arrays.items():
+        before = arr.copy()
+        _assert_unwritable(name, arr)
+        assert np.array_equal(arr, before), name  # nothing changed
+    pc = capped.path_constraints[0]
+    for name, value in (("upper", 2.5), ("lower", -2.5), ("function", lambda x, u: 2 * u),
+                        ("nodes", "last")):
+        with pytest.raises(dataclasses.FrozenInstanceError, match=name):
+            setattr(pc, name, value)
+    down = TargetSet(lambda x: x[2], ProductManifold([("w", Rn(1))]), [0.0],
+                     pendulum.state(theta=2.0, theta_dot=0.0), "at rest")
+    for name in ("value", "witness"):
+        _assert_unwritable(f"TargetSet.{name}", getattr(down, name))
+        with pytest.raises(dataclasses.FrozenInstanceError, match=name):
+            setattr(down, name, np.zeros(3))
+
+
+def test_a_tighter_path_bound_is_a_replaced_problem_and_binds(capped):
+    first = solve(capped, C, strategy=Direct())
+    assert first.status is OCPStatus.SUCCESS
+    slack = float(np.max(np.abs(first.u)))
+    assert 3.5 < slack < 4.0  # the optimum uses more than 3.5 and less than the cap
+    pc = capped.path_constraints[0]
+    tight = dataclasses.replace(pc, lower=np.array([-3.5]), upper=np.array([3.5]))
+    assert pc.upper[0] == 4.0 and tight.upper[0] == 3.5
+    _assert_unwritable("replaced upper", tight.upper)
+    ocp = dataclasses.replace(capped, path_constraints=[tight])
+    sol = solve(ocp, C, strategy=Direct(), guess=first)  # the slack optimum as the start
+    assert sol.status is OCPStatus.SUCCESS and not sol.cost["transcription_cached"]
+    assert np.max(np.abs(sol.u)) <= 3.5 + sol.error["constraint_limit"]
+    assert np.max(np.abs(sol.u)) > 3.5 - 1e-6  # it binds
+    assert sol.objective > first.objective  # a smaller admissible set: no cheaper minimum
+    with pytest.raises(ParameterError, match="lower must not exceed upper"):
+        dataclasses.replace(pc, lower=np.array([5.0]))  # replace validates again
+
+
+def test_copies_and_pickles_are_made_again_with_frozen_data_and_no_cache(capped):
+    import copy
+    import pickle
+
+    solve(capped, C, strategy=Direct())  # a transcription cached on the original
+    for twin in (copy.copy(capped), copy.deepcopy(capped)):
+        assert twin is not capped and twin.T == capped.T
+        for name, arr in _arrays(twin).items():
+            assert np.array_equal(arr, _arrays(capped)[name]), name
+            _assert_unwritable(f"copy's {name}", arr)
+        with pytest.raises(dataclasses.FrozenInstanceError, match="'T'"):
+            twin.T = 2.0
+        sol = solve(twin, C, strategy=Direct())
+        assert not sol.cost["transcription_cached"]  # its own (empty) cache
+    pc, target = capped.path_constraints[0], capped.target
+    for obj, names in ((pc, ("lower", "upper")), (target, ("point",))):
+        back = pickle.loads(pickle.dumps(obj))
+        for name in names:
+            assert np.array_equal(getattr(back, name), getattr(obj, name))
+            _assert_unwritable(f"unpickled {name}", getattr(back, name))

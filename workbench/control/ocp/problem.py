@@ -28,6 +28,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.control.ocp._immutable import Remade, frozen, frozen_bound
 from workbench.core import validate
 from workbench.core._model import Model
 from workbench.core.errors import ManifoldError, ModelError, ParameterError
@@ -69,13 +70,6 @@ def chart_domain(manifold: ProductManifold, centre: Vector, x: Expr) -> list[Exp
         elif isinstance(f, SO3):
             out.append(ca.trace(SO3.matrix(c).T @ SO3.matrix(xs)) - 1)
     return out
-
-
-def _frozen(value: ArrayLike) -> np.ndarray:
-    """A read-only float copy of ``value`` (a problem's data cannot change under its builds)."""
-    arr = np.array(value, dtype=float)
-    arr.setflags(write=False)
-    return arr
 
 
 def _last_line(exc: BaseException) -> str:
@@ -151,7 +145,7 @@ class Target:
 
 
 @dataclass(frozen=True)
-class TargetPoint(Target):
+class TargetPoint(Remade, Target):
     """A terminal point ``x_f`` on the model's manifold, imposed as ``chart(x_f, x_N) = 0``.
 
     Parameters
@@ -169,7 +163,7 @@ class TargetPoint(Target):
     description: str = "terminal point"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "point", _frozen(
+        object.__setattr__(self, "point", frozen(
             self.manifold.check(self.point, name="terminal state x_f")))
 
     @property
@@ -187,7 +181,7 @@ class TargetPoint(Target):
 
 
 @dataclass(frozen=True)
-class TargetSet(Target):
+class TargetSet(Remade, Target):
     """A terminal set ``{x : phi(x) = y*}``, a submanifold of the state manifold.
 
     Parameters
@@ -211,9 +205,9 @@ class TargetSet(Target):
     description: str = "terminal set"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "value", _frozen(validate.array("value", self.value).ravel()))
+        object.__setattr__(self, "value", frozen(validate.array("value", self.value).ravel()))
         object.__setattr__(self, "witness",
-                           _frozen(validate.array("witness", self.witness).ravel()))
+                           frozen(validate.array("witness", self.witness).ravel()))
         n = self.witness.size  # a state of the model: the map's input has its size
         try:
             m = int(ca.vec(self.map(ca.SX.sym("x", n))).numel())
@@ -230,8 +224,13 @@ class TargetSet(Target):
 
 
 @dataclass(frozen=True)
-class PathConstraint:
-    """``lower <= c(x, u) <= upper`` at the nodes of the transcription.
+class PathConstraint(Remade):
+    """``lower <= c(x, u) <= upper`` at the nodes of the transcription (immutable).
+
+    An assignment to a field raises :class:`dataclasses.FrozenInstanceError`; array bounds
+    are private copies that cannot be written nor made writable again (``ValueError``):
+    a problem's cached transcription holds them. ``dataclasses.replace`` makes a changed
+    constraint, validated again.
 
     Parameters
     ----------
@@ -286,8 +285,8 @@ class PathConstraint:
             raise ParameterError(f"path constraint {name!r}: lower must not exceed upper; got "
                                  f"lower {np.asarray(lo).tolist()} > upper "
                                  f"{np.asarray(hi).tolist()}")
-        object.__setattr__(self, "lower", lo)
-        object.__setattr__(self, "upper", hi)
+        object.__setattr__(self, "lower", frozen_bound(lo))
+        object.__setattr__(self, "upper", frozen_bound(hi))
 
     def check(self, model: Model) -> None:
         """Check ``c(x, u)`` on the model's symbols: a casadi expression whose size fits.
@@ -334,7 +333,7 @@ class PathConstraint:
 
 
 @dataclass(eq=False)
-class OCP:
+class OCP(Remade):
     """An optimal control problem on a model's manifold (immutable once made).
 
     Minimise ``integral_0^T L(x, u) dt + Phi(x(T), T)`` subject to the model's dynamics
@@ -345,10 +344,18 @@ class OCP:
     A problem cannot be changed after it is made: its transcriptions (built from its
     costs, target and constraints) and its horizon are derived once and cached on it, so an
     assignment such as ``ocp.T = 3.0`` raises :class:`dataclasses.FrozenInstanceError` (an
-    ``AttributeError``) and its arrays (``x0``, the bounds, a target's point) are
-    read-only. ``dataclasses.replace(ocp, T=3.0)`` makes the changed problem: validated
-    again, with its own (empty) cache. Two problems are equal only if they are the same
-    object.
+    ``AttributeError``), and so does one to a field of its target or of a
+    :class:`PathConstraint`. Every array it holds (``x0``, the input bounds, a target's
+    point, value and witness, a path constraint's bounds) is a private copy that numpy
+    refuses to write (``ValueError``) and refuses to make writable again
+    (``setflags(write=True)`` raises ``ValueError`` on it, its views and its base).
+    ``dataclasses.replace(ocp, T=3.0)`` makes the changed problem: validated again, with its
+    own (empty) cache; ``copy.copy``, ``copy.deepcopy`` and pickling make it again the same
+    way. Two problems are equal only if they are the same object.
+
+    Out of reach of this guard: the state a cost, a path constraint's function or a target's
+    map captures (a closure over a mutable object is the caller's to leave alone), and the
+    model (its parameter values belong to it; the NLP reads them at each solve).
 
     Parameters
     ----------
@@ -425,7 +432,7 @@ class OCP:
         m = validate.instance(Model, "a workbench Model")("model", self.model, error=ModelError)
         self.name = validate.text("name", self.name)
         self.tol = validate.tolerance("tol", self.tol)
-        self.x0 = _frozen(m.check_state(self.x0, name="x0", tol=self.tol))
+        self.x0 = frozen(m.check_state(self.x0, name="x0", tol=self.tol))
         self.check_states(self.x0, what="x0")
         if not isinstance(self.target, Target):
             raise ModelError(
@@ -438,8 +445,8 @@ class OCP:
                     f"is on {m.manifold.describe()}"
                 )
         self.target.validate(m, tol=self.tol)
-        self.u_lower = _frozen(self._bound(self.u_lower, "u_lower"))
-        self.u_upper = _frozen(self._bound(self.u_upper, "u_upper"))
+        self.u_lower = frozen(self._bound(self.u_lower, "u_lower"))
+        self.u_upper = frozen(self._bound(self.u_upper, "u_upper"))
         if np.any(self.u_lower > self.u_upper):
             raise ParameterError(
                 f"u_lower must not exceed u_upper; got {self.u_lower.tolist()} > "
