@@ -130,6 +130,14 @@ def test_max_step_is_checked_before_anything_runs(wall, kwargs, pattern):
         simulate(wall, wall.state(x=[X0], v=[V0]), np.linspace(0.0, 1.0, 3), **kwargs)
 
 
+def test_max_step_bounds_the_whole_run_before_anything_runs(wall):
+    """1e5 steps per output interval fit max_steps, but 1e9 over the horizon do not."""
+    t = np.linspace(0.0, 1000.0, 10001)
+    with pytest.raises(ModelError, match=r"max_step = 1e-06 needs at least 1e\+09 steps over "
+                                         r"the horizon \(1000\), more than 1e\+08"):
+        simulate(wall, wall.state(x=[X0], v=[V0]), t, max_step=1e-6, max_steps=10**6)
+
+
 def pendulum(*, damping: float = 0.0, forced: bool = False):
     """A point mass on a unit circle under gravity, with Rayleigh damping or a torque."""
     s = mechanics.System("pendulum")

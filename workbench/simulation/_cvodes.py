@@ -39,6 +39,7 @@ from workbench.simulation._invariant_check import (
 )
 from workbench.simulation._probe import Probe
 from workbench.simulation._stability import GROWTH_LIMIT, StepCheck
+from workbench.simulation.integrators.common import MAX_FIXED_STEPS
 
 __all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
            "check_max_steps", "check_max_step", "check_rtol", "AGAIN_STEPS", "MAX_STEPS",
@@ -175,8 +176,8 @@ def check_rtol(rtol: object, *, error: type[WorkbenchError] = ModelError) -> flo
 
 
 def check_max_step(max_step: object, *, interval: float | None = None,
-                   max_steps: int | None = None, error: type[WorkbenchError] = ModelError
-                   ) -> float | None:
+                   max_steps: int | None = None, horizon: float | None = None,
+                   error: type[WorkbenchError] = ModelError) -> float | None:
     """CVODES' ``max_step`` as a positive finite float, checked before anything runs.
 
     Parameters
@@ -188,6 +189,9 @@ def check_max_step(max_step: object, *, interval: float | None = None,
         must fit in ``max_steps`` (else the run would fail after spending them).
     max_steps : int, optional
         CVODES' limit on internal steps per output interval.
+    horizon : float, optional
+        The whole run's length: ``horizon / max_step``, the fewest steps the run takes,
+        must be at most :data:`MAX_TOTAL_STEPS`.
     error : type of Exception
         Raised for a bad value, naming the argument.
 
@@ -198,6 +202,12 @@ def check_max_step(max_step: object, *, interval: float | None = None,
     if max_step is None:
         return None
     v = positive("max_step", max_step, error=error)
+    if horizon is not None and horizon / v > MAX_TOTAL_STEPS:
+        raise error(
+            f"max_step = {v:g} needs at least {horizon / v:.3g} steps over the horizon "
+            f"({horizon:g}), more than {MAX_TOTAL_STEPS:.0e} (a run of that many steps of a "
+            f"small model takes minutes; the fixed-step methods have the same bound); "
+            f"pass a larger max_step or a shorter horizon")
     if interval is not None and max_steps is not None and interval / v > max_steps:
         raise error(
             f"max_step = {v:g} needs at least {interval / v:.3g} steps for the longest "
@@ -229,6 +239,11 @@ def check_max_steps(max_steps: object, *, error: type[WorkbenchError] = ModelErr
             f"a small model already take minutes. For a long horizon output at more times t "
             f"(the limit is per output interval), or shorten the horizon")
     return count("max_steps", max_steps, maximum=MAX_STEPS, error=error)
+
+
+MAX_TOTAL_STEPS = MAX_FIXED_STEPS
+"""The fewest steps a run with ``max_step`` may be held to: ``horizon / max_step`` (the
+fixed-step methods' bound on their steps)."""
 
 
 class CvodesCheck(StatusEnum):

@@ -343,7 +343,7 @@ def simulate(
     if method is Method.CVODES:
         # refused before anything runs when max_steps of it cannot cross an interval
         max_step = check_max_step(max_step, interval=float(np.max(np.abs(np.diff(tv)))),
-                                  max_steps=max_steps, error=ModelError)
+                                  max_steps=max_steps, horizon=horizon, error=ModelError)
         opts.update(cvodes_options(multistep=multistep, corrector=corrector, rtol=rtol,
                                    atol=atol, max_steps=max_steps, max_step=max_step))
         options_used.update(rtol=rtol, atol=atol, multistep=opts["linear_multistep_method"],
