@@ -246,8 +246,8 @@ class CvodesCheck(StatusEnum):
               "invariant moved beyond what the tolerances allow")
     EXPLODED = "a state grew by orders of magnitude beyond what the flow allows from x0"
     LEFT_MANIFOLD = "a state left the manifold by more than the constraint's scale"
-    INVARIANT_DRIFT = ("an invariant the unforced field conserves (or dissipates) moved "
-                       "(or rose) beyond what the tolerances allow")
+    INVARIANT_DRIFT = ("an invariant the closed-loop field conserves (or does not increase) "
+                       "moved (or rose) beyond what the tolerances allow")
 
     @classmethod
     def successes(cls) -> frozenset[str]:
@@ -277,18 +277,23 @@ class RunCheck:
 
     * **growth**: a state larger than ``GROWTH_LIMIT`` (1e4) times what the flow allows
       from ``x0`` (the fixed-step methods' bound,
-      :meth:`~workbench.simulation._stability.StepCheck._check_growth`);
+      :meth:`~workbench.simulation._stability.StepCheck._check_growth`) that a rerun of
+      its output interval with the step bounded does not reproduce (a reproduced one is
+      the flow's, and the bound starts again from it);
     * **the manifold**: a constraint residual that moved by more than ``DRIFT_LIMIT`` (1)
       times the constraint's scale ``max(|h(x0)|, |dh(x0)| |x0|)`` (2 for a unit vector's
       ``|q|^2 - 1``): the state is nowhere near the manifold;
-    * **invariants**, for unforced runs (no controller): one the field conserves at every
-      sampled state (or at their projections to the manifold, when that keeps more of
-      them: off it the ambient field need not conserve them) that moved, or one it does
-      not increase that rose, by more than
+    * **invariants**: one the closed-loop field (the controller, if any, in the loop)
+      conserves at every sampled state (or at their projections to the manifold, when
+      that keeps more of them: off it the ambient field need not conserve them) that
+      moved, or one it does not increase that rose, by more than
       :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
       ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
-      its scale (the fixed-step bound). A run with a controller is not checked for its
-      invariants (the loop may feed them anywhere). Before a refusal, the output interval
+      its scale (the fixed-step bound), plus the round-off at the state
+      (:func:`~workbench.simulation._invariant_check.roundoff_allowance`: ``ROUNDOFF eps``
+      times the size of its terms there). An invariant the loop feeds at one sampled
+      state (a controller working on it, a load) is not checked. Before a refusal, the
+      class is confirmed at every output up to it, and the output interval
       is integrated again with the step bounded by ``1 / AGAIN_STEPS`` of it; an
       invariant that moves along that run too is moved by the field itself (it is not
       smooth there) and is not refused.
@@ -308,7 +313,8 @@ class RunCheck:
     steps : int
         CVODES' steps.
     unforced : bool
-        No controller in the loop (the invariants are checked).
+        No controller in the loop (for the messages; the invariants are classified by the
+        closed-loop field either way).
     """
 
     model: Model
@@ -361,7 +367,7 @@ class RunCheck:
         -------
         dict
             ``{"checks": {...}}``: ``status`` (``"passed"``), ``conserved_invariants`` and
-            ``non_increasing_invariants`` (those checked; empty with a controller) and
+            ``non_increasing_invariants`` (those checked) and
             ``drift_allowance`` (per checked invariant, the drift it was allowed).
 
         Raises
@@ -372,11 +378,11 @@ class RunCheck:
         """
         self._check_growth(t, x, xdot)
         self._check_manifold(t, x, residual)
-        watch, limits = self._check_invariants(t, x, drift) if self.unforced else (None, {})
+        watch, limits = self._check_invariants(t, x, drift)
         return {"checks": {
             "status": CvodesCheck.PASSED.code,
-            "conserved_invariants": [] if watch is None else watch.conserved,
-            "non_increasing_invariants": [] if watch is None else watch.non_increasing,
+            "conserved_invariants": watch.conserved,
+            "non_increasing_invariants": watch.non_increasing,
             "drift_allowance": limits,
         }}
 
@@ -593,8 +599,8 @@ class RunCheck:
         bound += (f", plus {roundoff:.3g} for round-off ({ROUNDOFF:g} eps times max(|I|, "
                   f"|grad I| |x|) at x0 and at the state)")
         return SolverError(
-            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the field "
-            f"(no controller) "
+            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the "
+            f"{'field (no controller)' if self.unforced else 'closed-loop field'} "
             + ("does not increase at any output state (it can only fall along the exact "
                "flow), rose" if name in watch.non_increasing else
                "conserves at every output state, changed")
