@@ -29,6 +29,7 @@ from workbench.simulation import simulate
 from workbench.simulation._cvodes import RTOL_MAX, RunCheck, cvodes_options
 from workbench.simulation._invariant_check import TOLERANCE_SAFETY, classify
 from workbench.simulation._probe import probe_for
+from workbench.simulation._stability import GROWTH_LIMIT
 
 HEIGHT, CENTRE, WIDTH = 5.0, 2.0, 0.1  # V = HEIGHT exp(-((x - CENTRE) / WIDTH)^2)
 X0, V0, HORIZON = -3.0, 2.0, 5.0  # E = V0^2 / 2 = 2 < HEIGHT: it must bounce
@@ -171,6 +172,9 @@ def test_an_exploded_state_is_refused_with_the_time():
     with pytest.raises(SolverError) as info:
         check.run(t, blown)
     assert info.value.status == "exploded" and f"by t = {t[40]:.6g}" in str(info.value)
+    # the bounded rerun of the interval from the last state within the allowance does
+    # not reproduce the blown one
+    assert f"integrating again from t = {t[39]:.6g}" in str(info.value)
 
 
 def test_a_damped_pendulum_passes_and_its_energy_falls_by_the_dissipated_power():
@@ -232,3 +236,92 @@ def test_a_loose_run_off_its_manifold_keeps_its_energy_watched():
     raw = classify(probe_for(m, None), m, tr.x, [0])
     assert raw.conserved == []
     assert tr.diagnostics["checks"]["conserved_invariants"] == ["energy"]
+
+
+def line(potential, *, forced: bool = False):
+    """A unit mass on a line with the potential ``potential(x)`` (and a force input)."""
+    s = mechanics.System("line")
+    x = s.rn("x", 1, velocity="v")
+    s.point_mass(1.0, ca.vertcat(x.x, 0, 0))
+    s.potential(potential(x.x[0]))
+    if forced:
+        s.force(x, s.input(1, "force [N]"))
+    return s.model()
+
+
+def hill_ramp(x):
+    """``(x - 5)_+`` smoothed over 0.1: ``~0`` (5e-4 at x = 0) for x < 5, ``~x - 5`` beyond."""
+    d = x - 5.0
+    return 0.5 * (d + (d * d + 0.01) ** 0.5)
+
+
+def test_a_run_that_rolls_off_a_hill_flat_at_x0_is_accepted_and_matches_its_quadrature():
+    """``V = -(x - 5)_+^2 / 2``: free flight at v = 1 until x = 5, then ``x'' ~ x - 5``, so
+    ``x ~ e^t``: 1.6e6 at t = 20, 8e4 times the growth allowed by the linearisation at x0
+    (alpha ~ 2e-4 there), beyond the refusal's bound GROWTH_LIMIT = 1e4. Every output
+    interval that leaves that allowance is reproduced by a bounded-step rerun, and the
+    state is the flow's: the output times agree with the time to reach each output's x,
+    ``t(x) = int_0^x dy / v(y)``, ``v(y) = sqrt(1 + ramp(y)^2 - ramp(0)^2)``
+    (energy conservation)."""
+    m = line(lambda x: -0.5 * hill_ramp(x) ** 2)
+    t = np.linspace(0.0, 20.0, 101)
+    tr = simulate(m, m.state(x=[0.0], v=[1.0]), t)
+    assert tr.diagnostics["checks"]["status"] == "passed"
+    check = RunCheck(m, probe_for(m, None), cvodes_options(rtol=1e-10, atol=1e-10), 1, True)
+    allowed, _ = check._growth_allowance(t, tr.x, None)
+    assert np.max(np.abs(tr.x[-1])) > GROWTH_LIMIT * allowed[-1]  # refused from x0 alone
+
+    r0 = hill_ramp(0.0)
+
+    def speed(y: float) -> float:
+        return math.sqrt(1.0 + hill_ramp(y) ** 2 - r0**2)
+
+    assert_close(tr.x[:, 1] / [speed(y) for y in tr.x[:, 0]], np.ones_like(t), atol=1e-7,
+                 what="v / v(x) from the conserved energy")
+    edges = np.r_[0.0, 4.0, 6.0, np.geomspace(10.0, 2e6, 12)]  # the integrand ~ 1 / y late
+    pieces = np.cumsum([0.0, *(quad(lambda y: 1.0 / speed(y), a, b, epsabs=1e-13,
+                                    epsrel=1e-13, limit=200)[0]
+                               for a, b in zip(edges[:-1], edges[1:]))])
+    for tk, xk in zip(t[1:], tr.x[1:, 0]):
+        i = int(np.searchsorted(edges, xk)) - 1
+        t_of_x = pieces[i] + quad(lambda y: 1.0 / speed(y), edges[i], xk, epsabs=1e-13,
+                                  epsrel=1e-13, limit=200)[0]
+        assert abs(t_of_x - tk) < 1e-6, (tk, xk, t_of_x)
+
+
+@pytest.mark.parametrize("x0", [1.0, 1e-6])
+def test_the_inverted_oscillator_over_30_s_is_accepted_and_matches_cosh(x0):
+    """``x'' = x`` from rest: ``x = x0 cosh t`` grows to 5e12 x0. Its energy ``(v^2 -
+    x^2) / 2 = -x0^2 / 2`` is the difference of two terms of size ``x^2 / 2``, known only
+    to round-off in them (at t = 30 a unit of ``eps`` in each is 1e9 x0^2): the round-off
+    allowance follows the terms at each state, not their size at x0. ``atol`` is that of
+    a state of size 1 (1e-10) scaled to x0, so that the error is rtol's, not atol's."""
+    m = line(lambda x: -0.5 * x**2)
+    t = np.linspace(0.0, 30.0, 31)
+    tr = simulate(m, m.state(x=[x0], v=[0.0]), t, atol=1e-10 * x0)
+    assert tr.diagnostics["checks"]["conserved_invariants"] == ["energy"]
+    assert_close(tr.x[:, 0] / (x0 * np.cosh(t)), np.ones_like(t), atol=1e-6,
+                 what="x / (x0 cosh t)")
+    assert_close(tr.x[1:, 1] / (x0 * np.sinh(t[1:])), np.ones(len(t) - 1), atol=1e-6,
+                 what="v / (x0 sinh t)")
+
+
+def test_a_run_through_the_wall_is_refused_with_a_controller_that_does_no_work(wall):
+    """The wall's model with a force input: the controller ``u = 0`` conserves the energy
+    and ``u = -c v`` does not increase it (closed-loop rates), so both are watched and the
+    tunnelling run is refused as without a controller; with max_step below the width the
+    zero-controller run bounces and matches the closed form."""
+    m = line(lambda x: HEIGHT * ca.exp(-(((x - CENTRE) / WIDTH) ** 2)), forced=True)
+    x0 = m.state(x=[X0], v=[V0])
+    t = np.linspace(0.0, HORIZON, 51)
+    xs = ca.SX.sym("x", m.manifold.ambient_dim)
+    zero = ca.Function("zero", [xs], [ca.SX.zeros(1)])
+    damp = ca.Function("damp", [xs], [-1e-3 * xs[1]])
+    for controller, kind in ((zero, "conserves"), (damp, "does not increase")):
+        with pytest.raises(SolverError) as info:
+            simulate(m, x0, t, controller=controller)
+        assert info.value.status == "invariant_drift"
+        assert f"which the closed-loop field {kind}" in str(info.value)
+    tr = simulate(m, x0, t, controller=zero, max_step=WIDTH / 10)
+    assert tr.diagnostics["checks"]["conserved_invariants"] == ["energy"]
+    assert_close(tr.x[-1, 0], bounce_closed_form(), atol=1e-6, what="x(5) of the bounce")

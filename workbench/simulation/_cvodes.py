@@ -27,6 +27,7 @@ from workbench.core.status import StatusEnum
 from workbench.core.validate import choice, count, positive, relative_tolerance, tolerance
 from workbench.simulation._invariant_check import (
     DRIFT_LIMIT,
+    ROUNDOFF,
     TOLERANCE_SAFETY,
     Watch,
     classify,
@@ -35,6 +36,7 @@ from workbench.simulation._invariant_check import (
     first_excess,
     invariant_values,
     projected,
+    roundoff_allowance,
     tolerance_allowance,
 )
 from workbench.simulation._probe import Probe
@@ -43,11 +45,17 @@ from workbench.simulation.integrators.common import MAX_FIXED_STEPS
 
 __all__ = ["Multistep", "Corrector", "CvodesCheck", "RunCheck", "cvodes_options",
            "check_max_steps", "check_max_step", "check_rtol", "AGAIN_STEPS", "MAX_STEPS",
-           "RTOL_MAX"]
+           "AGAIN_RTOL", "RTOL_MAX"]
 
 AGAIN_STEPS = 100
 """Before a run is refused for an invariant, the output interval where it left its
 allowance is integrated again with ``max_step`` this fraction of the interval."""
+
+AGAIN_RTOL = 1e-2
+"""A state beyond the growth allowance is the flow's when the output interval integrated
+again with the step bounded (``AGAIN_STEPS``) reproduces it to what the tolerances allow,
+and never worse than this fraction of its size (an exploded state is off by orders of
+magnitude)."""
 
 RTOL_MAX = 1e-3
 """Largest accepted CVODES ``rtol``. SUNDIALS' guide on tolerances: "we do not recommend
@@ -253,8 +261,8 @@ class CvodesCheck(StatusEnum):
               "invariant moved beyond what the tolerances allow")
     EXPLODED = "a state grew by orders of magnitude beyond what the flow allows from x0"
     LEFT_MANIFOLD = "a state left the manifold by more than the constraint's scale"
-    INVARIANT_DRIFT = ("an invariant the unforced field conserves (or dissipates) moved "
-                       "(or rose) beyond what the tolerances allow")
+    INVARIANT_DRIFT = ("an invariant the closed-loop field conserves (or does not increase) "
+                       "moved (or rose) beyond what the tolerances allow")
 
     @classmethod
     def successes(cls) -> frozenset[str]:
@@ -284,18 +292,23 @@ class RunCheck:
 
     * **growth**: a state larger than ``GROWTH_LIMIT`` (1e4) times what the flow allows
       from ``x0`` (the fixed-step methods' bound,
-      :meth:`~workbench.simulation._stability.StepCheck._check_growth`);
+      :meth:`~workbench.simulation._stability.StepCheck._check_growth`) that a rerun of
+      its output interval with the step bounded does not reproduce (a reproduced one is
+      the flow's, and the bound starts again from it);
     * **the manifold**: a constraint residual that moved by more than ``DRIFT_LIMIT`` (1)
       times the constraint's scale ``max(|h(x0)|, |dh(x0)| |x0|)`` (2 for a unit vector's
       ``|q|^2 - 1``): the state is nowhere near the manifold;
-    * **invariants**, for unforced runs (no controller): one the field conserves at every
-      sampled state (or at their projections to the manifold, when that keeps more of
-      them: off it the ambient field need not conserve them) that moved, or one it does
-      not increase that rose, by more than
+    * **invariants**: one the closed-loop field (the controller, if any, in the loop)
+      conserves at every sampled state (or at their projections to the manifold, when
+      that keeps more of them: off it the ambient field need not conserve them) that
+      moved, or one it does not increase that rose, by more than
       :func:`~workbench.simulation._invariant_check.tolerance_allowance` times
       ``TOLERANCE_SAFETY`` (what the tolerances allow), capped at ``DRIFT_LIMIT`` times
-      its scale (the fixed-step bound). A run with a controller is not checked for its
-      invariants (the loop may feed them anywhere). Before a refusal, the output interval
+      its scale (the fixed-step bound), plus the round-off at the state
+      (:func:`~workbench.simulation._invariant_check.roundoff_allowance`: ``ROUNDOFF eps``
+      times the size of its terms there). An invariant the loop feeds at one sampled
+      state (a controller working on it, a load) is not checked. Before a refusal, the
+      class is confirmed at every output up to it, and the output interval
       is integrated again with the step bounded by ``1 / AGAIN_STEPS`` of it; an
       invariant that moves along that run too is moved by the field itself (it is not
       smooth there) and is not refused.
@@ -315,7 +328,8 @@ class RunCheck:
     steps : int
         CVODES' steps.
     unforced : bool
-        No controller in the loop (the invariants are checked).
+        No controller in the loop (for the messages; the invariants are classified by the
+        closed-loop field either way).
     """
 
     model: Model
@@ -368,7 +382,7 @@ class RunCheck:
         -------
         dict
             ``{"checks": {...}}``: ``status`` (``"passed"``), ``conserved_invariants`` and
-            ``non_increasing_invariants`` (those checked; empty with a controller) and
+            ``non_increasing_invariants`` (those checked) and
             ``drift_allowance`` (per checked invariant, the drift it was allowed).
 
         Raises
@@ -379,40 +393,90 @@ class RunCheck:
         """
         self._check_growth(t, x, xdot)
         self._check_manifold(t, x, residual)
-        watch, limits = self._check_invariants(t, x, drift) if self.unforced else (None, {})
+        watch, limits = self._check_invariants(t, x, drift)
         return {"checks": {
             "status": CvodesCheck.PASSED.code,
-            "conserved_invariants": [] if watch is None else watch.conserved,
-            "non_increasing_invariants": [] if watch is None else watch.non_increasing,
+            "conserved_invariants": watch.conserved,
+            "non_increasing_invariants": watch.non_increasing,
             "drift_allowance": limits,
         }}
 
     def _check_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None) -> None:
-        """Refuse states grown beyond ``GROWTH_LIMIT`` times what the flow allows."""
+        """Refuse states grown beyond ``GROWTH_LIMIT`` times what the flow allows.
+
+        The allowance is that of the fixed-step methods from the run's start: its scale,
+        its drift at the initial speed and acceleration, and the growth of the linearised
+        field there. A motion can enter an unstable region later (rolling off a hill
+        that is flat at ``x0``), so before a refusal the output interval that left the
+        allowance is integrated again from its start with the step bounded
+        (:meth:`_again`): where that run reproduces the state (:meth:`_reproduced`), the
+        state is the flow's, and the check goes on from it with its own allowance (the
+        linearisation there). A state the bounded run does not reproduce is refused.
+        """
         size = np.max(np.abs(x), axis=1)
+        start = 0
+        while True:
+            k = self._first_growth(t[start:], x[start:], None if xdot is None else
+                                   xdot[start:], size[start:])
+            if k is None:
+                return
+            k += start
+            again, bound = self._again(float(t[k - 1]), x[k - 1], float(t[k]))
+            if again is not None and self._reproduced(again, x[k]):
+                start = k
+                continue
+            allowed, alpha = self._growth_allowance(t[start:], x[start:], None if xdot is None
+                                                    else xdot[start:])
+            rerun = (f"integrating again from t = {t[k - 1]:.6g} with max_step = {bound:.3g} "
+                     + ("failed" if again is None else
+                        f"gives x = {_text(again)}, not the run's state to "
+                        f"{AGAIN_RTOL:g} of its size"))
+            raise SolverError(
+                f"cvodes integrating {self.model.name}: the state grew to max |x| = "
+                f"{size[k]:.3g} by t = {t[k]:.6g} (x = {_text(x[k])}), more than "
+                f"{GROWTH_LIMIT:.0e} times what the flow allows from the state at t = "
+                f"{t[start]:.6g}, {allowed[k - start]:.3g} (max(|x0|, |t - t0| |f(x0)|, |t - "
+                f"t0|^2 |A f(x0)| / 2) times the growth exp(alpha t) of the linearised field "
+                f"there, alpha = {alpha:.3g}); {rerun}. {self._advice}",
+                status=CvodesCheck.EXPLODED.code)
+
+    def _growth_allowance(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None
+                          ) -> tuple[np.ndarray, float]:
+        """The fixed-step methods' growth allowance from ``x[0]`` (with the growth rate)."""
+        step = StepCheck(self.model, self.probe, "cvodes", None, False, 0.0)
+        return step._growth_allowance(t, x, xdot, rate=True)
+
+    def _first_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
+                      size: np.ndarray) -> int | None:
+        """The first output beyond ``GROWTH_LIMIT`` times the allowance from ``x[0]``."""
         # the allowance's first two terms, without the field's Jacobian (which a scene that
         # only simulates need not build)
         f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
               np.asarray(self.probe.field(x[0], self.model.p)[0], dtype=float).ravel())
         base = np.maximum(np.max(np.abs(x[0])), np.abs(t - t[0]) * np.max(np.abs(f0)))
         if np.all(size <= GROWTH_LIMIT * base):
-            return
+            return None
         step = StepCheck(self.model, self.probe, "cvodes", None, False, 0.0)
-        allowed, alpha = step._growth_allowance(t, x, xdot, rate=False)
+        allowed, _ = step._growth_allowance(t, x, xdot, rate=False)
         if np.all(size <= GROWTH_LIMIT * allowed):
-            return
-        allowed, alpha = step._growth_allowance(t, x, xdot, rate=True)
+            return None
+        allowed, _ = self._growth_allowance(t, x, xdot)
         bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
-        if not bad.size:
-            return
-        k = int(bad[0])
-        raise SolverError(
-            f"cvodes integrating {self.model.name}: the state grew to max |x| = "
-            f"{size[k]:.3g} by t = {t[k]:.6g} (x = {_text(x[k])}), more than "
-            f"{GROWTH_LIMIT:.0e} times what the flow allows from x0, {allowed[k]:.3g} "
-            f"(max(|x0|, |t - t0| |f(x0)|, |t - t0|^2 |A f(x0)| / 2) times the growth "
-            f"exp(alpha t) of the linearised field at t0, alpha = {alpha:.3g}). "
-            f"{self._advice}", status=CvodesCheck.EXPLODED.code)
+        return int(bad[0]) if bad.size else None
+
+    def _reproduced(self, again: np.ndarray, x: np.ndarray) -> bool:
+        """Whether the bounded run's state ``again`` reproduces the run's ``x``.
+
+        ``|again - x| <= min(AGAIN_RTOL, TOLERANCE_SAFETY (steps + AGAIN_STEPS) sqrt(n)
+        rtol) max(|again|, |x|) + TOLERANCE_SAFETY (steps + AGAIN_STEPS) sqrt(n) atol``
+        (max-norms): each of the two runs moves the state by at most its local errors
+        (weighted norm below 1 per step); the cap keeps loose tolerances from accepting a
+        state unlike the flow's (an exploded one is off by orders of magnitude).
+        """
+        size = max(float(np.max(np.abs(again))), float(np.max(np.abs(x))))
+        k = TOLERANCE_SAFETY * (self.steps + AGAIN_STEPS) * np.sqrt(len(x))
+        return bool(np.max(np.abs(again - x))
+                    <= min(AGAIN_RTOL, k * self.rtol) * size + k * self.atol)
 
     def _check_manifold(self, t: np.ndarray, x: np.ndarray,
                         residual: dict[str, float] | None = None) -> None:
@@ -496,8 +560,14 @@ class RunCheck:
             return watch, limits  # the common case: nothing moved beyond its allowance
         values = invariant_values(model, x)
         confirmed: set[str] = set()
-        while (hit := first_excess(watch, names, values, values[:, 0], limits)) is not None:
+        roundoff: np.ndarray | None = None
+        while (hit := first_excess(watch, names, values, values[:, 0], limits, roundoff)
+               ) is not None:
             name, j = hit
+            if roundoff is None:  # round-off at every state, by the size of the terms there
+                roundoff = roundoff_allowance(self.probe, model, projected(model, x)
+                                              if on_manifold else x, values)
+                continue
             if name not in confirmed:  # its class at every output state up to the excess
                 confirmed.add(name)
                 upto = x[: j + 1]
@@ -514,7 +584,8 @@ class RunCheck:
             if again is not None:
                 v_again = float(invariant_values(model, again[None, :])[k, 0])
                 moved = v_again - values[k, j - 1]
-                if not (moved if rising else abs(moved)) <= limits[name]:  # the field moves it
+                if not (moved if rising else abs(moved)) <= limits[name] + roundoff[k, j]:
+                    # the field moves it
                     watch, limits = _without(watch, limits, name)
                     continue
                 again_text = (f"; integrated again from t = {t[j - 1]:.6g} with max_step = "
@@ -523,11 +594,13 @@ class RunCheck:
             else:
                 again_text = (f"; integrating again from t = {t[j - 1]:.6g} with max_step = "
                               f"{bound:.3g} failed")
-            raise self._drift_error(t, x, values, watch, limits, name, j, again_text)
+            raise self._drift_error(t, x, values, watch, limits, name, j,
+                                    again_text, float(roundoff[k, j]))
         return watch, limits
 
     def _drift_error(self, t: np.ndarray, x: np.ndarray, values: np.ndarray, watch: Watch,
-                     limits: dict[str, float], name: str, j: int, again: str) -> SolverError:
+                     limits: dict[str, float], name: str, j: int, again: str,
+                     roundoff: float) -> SolverError:
         """The SolverError for the invariant ``name`` beyond its allowance at output ``j``."""
         k = self.model.invariant_names.index(name)
         change = values[k, j] - values[k, 0]
@@ -538,9 +611,11 @@ class RunCheck:
                  if limits[name] < DRIFT_LIMIT * watch.scale[name] else
                  f"more than {DRIFT_LIMIT:g} times its scale {watch.scale[name]:.3g} "
                  f"(max(|I(x0)|, |grad I(x0)| |x0|))")
+        bound += (f", plus {roundoff:.3g} for round-off ({ROUNDOFF:g} eps times max(|I|, "
+                  f"|grad I| |x|) at x0 and at the state)")
         return SolverError(
-            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the field "
-            f"(no controller) "
+            f"cvodes integrating {self.model.name}: the invariant {name!r}, which the "
+            f"{'field (no controller)' if self.unforced else 'closed-loop field'} "
             + ("does not increase at any output state (it can only fall along the exact "
                "flow), rose" if name in watch.non_increasing else
                "conserves at every output state, changed")

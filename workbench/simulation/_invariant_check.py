@@ -37,8 +37,8 @@ from workbench.core._model import Model
 from workbench.simulation._probe import Probe
 
 __all__ = ["DRIFT_LIMIT", "CONSERVED_RTOL", "RATE_SAMPLES", "TOLERANCE_SAFETY", "Watch",
-           "classify", "classify_projected", "confirm", "first_excess", "invariant_values",
-           "projected", "tolerance_allowance"]
+           "ROUNDOFF", "classify", "classify_projected", "confirm", "first_excess",
+           "invariant_values", "projected", "roundoff_allowance", "tolerance_allowance"]
 
 DRIFT_LIMIT = 1.0
 """Largest accepted change of a conserved invariant (either way), or rise of a
@@ -72,6 +72,10 @@ interpolation to the output times. Measured drift over the bound on accurate CVO
 (``rtol = atol`` from 1e-3 to 1e-16, Adams; the pendulum, the chaotic 3D pendulum, the
 3-link chain on a cart, the acrobot): at most 0.22, mostly 1e-3 to 1e-2; a run that jumped a
 potential wall narrower than its step: 5e8 at ``rtol = 1e-10``, 54 at 1e-3."""
+
+ROUNDOFF = 16.0
+"""Round-off allowance of an invariant's change between two states, in units of ``eps``
+times the sizes of its terms there (:func:`roundoff_allowance`)."""
 
 RATE_SAMPLES = 32
 """Output states at which the rates ``grad I . f`` are evaluated (evenly spaced, the checked
@@ -236,6 +240,41 @@ def tolerance_allowance(watch: Watch, x: np.ndarray, *, rtol: float, atol: float
             for n in watch.names}
 
 
+def roundoff_allowance(probe: Probe, model: Model, x: np.ndarray, values: np.ndarray
+                       ) -> np.ndarray:
+    """What round-off alone lets every invariant move between ``x[0]`` and each state.
+
+    ``ROUNDOFF * eps * (s(x_j) + s(x_0))``, ``s(x) = max(|I(x)|, |grad I(x)| |x|)``: the
+    size of the invariant's terms at the state, and the change of ``I`` under a relative
+    perturbation ``eps`` of the state (which no tolerance goes below). It follows the state:
+    on a run that grows (an inverted oscillator, ``x = x0 cosh t``) the kinetic and potential
+    energies grow as ``x^2`` while their sum stays put, and the sum is then known only to
+    ``eps`` times the terms, however small it is at ``x0``.
+
+    Parameters
+    ----------
+    probe : Probe
+        The run's functions (its ``rates``, for ``|grad I|``).
+    model : Model
+        The model.
+    x : ndarray, shape=(n_times, ambient_dim)
+        The states.
+    values : ndarray, shape=(n_invariants, n_times)
+        The invariants at ``x`` (:func:`invariant_values`).
+
+    Returns
+    -------
+    ndarray, shape=(n_invariants, n_times)
+        Zero without ``rates`` (no invariant is then watched).
+    """
+    if probe.rates is None:
+        return np.zeros_like(values)
+    gn = np.asarray(probe.mapped("rates", len(x))(x, model.p)[1],
+                    dtype=float).reshape(-1, len(x))
+    size = np.maximum(np.abs(values), gn * np.linalg.norm(x, axis=1))
+    return ROUNDOFF * np.finfo(float).eps * (size + size[:, :1])
+
+
 def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
     """Every invariant at every state, shape ``(n_invariants, n_states)``."""
     fn = model.function("invariants")
@@ -243,7 +282,8 @@ def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
 
 
 def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np.ndarray,
-                 limits: dict[str, float] | None = None) -> tuple[str, int] | None:
+                 limits: dict[str, float] | None = None, roundoff: np.ndarray | None = None
+                 ) -> tuple[str, int] | None:
     """The first state where a watched invariant left its allowance, and which one.
 
     Parameters
@@ -259,6 +299,8 @@ def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np
     limits : dict, optional
         The allowance of every watched invariant (absolute); default :data:`DRIFT_LIMIT`
         times its scale.
+    roundoff : ndarray, shape=(n_invariants, n_states), optional
+        Added to the allowance at every state (:func:`roundoff_allowance`).
 
     Returns
     -------
@@ -273,6 +315,8 @@ def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np
         if name in watch.conserved:
             dev = np.abs(dev)
         limit = DRIFT_LIMIT * watch.scale[name] if limits is None else limits[name]
+        if roundoff is not None:
+            limit = limit + roundoff[k]
         bad = ~(dev <= limit)
         if np.any(bad):
             j = int(np.argmax(bad))
