@@ -57,6 +57,7 @@ from workbench.core.manifolds import ProductManifold
 from workbench.core.status import raise_if
 from workbench.core.types import ArrayLike, Vector
 from workbench.core.validate import count as check_count
+from workbench.core.validate import relative_tolerance
 from workbench.core.validate import tolerance as check_tolerance
 from workbench.equilibria._critical_deflation import deflation_stage
 from workbench.equilibria._critical_function import ConfigurationFunction, potential_function
@@ -188,11 +189,8 @@ def _norm(v: Vector) -> float:
 
 def _relative(name: str, value: Any) -> float:
     """A relative tolerance: positive, finite and below 1 (1 or more accepts anything)."""
-    v = check_tolerance(name, value)
-    if not v < 1:
-        raise ParameterError(f"{name} must be a relative tolerance in (0, 1); got {value!r} "
-                             "(a relative tolerance of 1 or more accepts any point)")
-    return v
+    return relative_tolerance(
+        name, value, why="a relative tolerance of 1 or more accepts any point")
 
 
 def critical_points(

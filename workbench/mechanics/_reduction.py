@@ -545,10 +545,9 @@ def reduce(source: Any, symmetry: str, *, kind: ReductionKind | str = ReductionK
                          "System.momentum or find them with System.detect_momenta)")
     n_states = validate.count("n_states", n_states, maximum=MAX_CHECK_STATES, error=ModelError)
     seed = validate.count("seed", seed, minimum=0, error=ModelError)
-    rtol = validate.tolerance("rtol", rtol, error=ModelError)
-    if not rtol < 1:
-        raise ModelError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r} (1 or more "
-                         "would accept a field that is not invariant)")
+    rtol = validate.relative_tolerance(
+        "rtol", rtol, why="1 or more would accept a field that is not invariant",
+        error=ModelError)
     if not isinstance(accept_sampled, bool):
         raise ModelError(f"accept_sampled must be True or False; got {accept_sampled!r}")
     mu_name = None

@@ -268,9 +268,7 @@ class OCPSolution(StatusResult):
             raise ParameterError(
                 f"substeps = {substeps} on {n} intervals gives {n * substeps} samples; at "
                 f"most {MAX_RESIM_SAMPLES} (one CVODES call each): fewer substeps")
-        rtol = validate.tolerance("rtol", rtol)
-        if not rtol < 1:
-            raise ParameterError(f"rtol must be a relative tolerance in (0, 1); got {rtol!r}")
+        rtol = validate.relative_tolerance("rtol", rtol)
         atol = validate.tolerance("atol", atol)
         stepper = Stepper(self.ocp.model, rtol=rtol, atol=atol)
         t0 = time.perf_counter()
