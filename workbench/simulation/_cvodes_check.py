@@ -206,17 +206,16 @@ class RunCheck:
         size = np.max(np.abs(x), axis=1)
         start = 0
         while True:
-            k = self._first_growth(t[start:], x[start:], None if xdot is None else
-                                   xdot[start:], size[start:])
-            if k is None:
+            found = self._first_growth(t[start:], x[start:], None if xdot is None else
+                                       xdot[start:], size[start:])
+            if found is None:
                 return
+            k, allowed_k, alpha = found
             k += start
             again, bound = self._again(float(t[k - 1]), x[k - 1], float(t[k]))
             if again is not None and self._reproduced(again, x[k]):
                 start = k
                 continue
-            allowed, alpha = self._growth_allowance(t[start:], x[start:], None if xdot is None
-                                                    else xdot[start:])
             rerun = (f"integrating again from t = {t[k - 1]:.6g} with max_step = {bound:.3g} "
                      + ("failed" if again is None else
                         f"gives x = {_text(again)}, not the run's state to "
@@ -225,7 +224,7 @@ class RunCheck:
                 f"cvodes integrating {self.model.name}: the state grew to max |x| = "
                 f"{size[k]:.3g} by t = {t[k]:.6g} (x = {_text(x[k])}), more than "
                 f"{GROWTH_LIMIT:.0e} times what the flow allows from the state at t = "
-                f"{t[start]:.6g}, {allowed[k - start]:.3g} (max(|x0|, |t - t0| |f(x0)|, |t - "
+                f"{t[start]:.6g}, {allowed_k:.3g} (max(|x0|, |t - t0| |f(x0)|, |t - "
                 f"t0|^2 |A f(x0)| / 2) times the growth exp(alpha t) of the linearised field "
                 f"there, alpha = {alpha:.3g}); {rerun}. {self._advice}",
                 status=CvodesCheck.EXPLODED.code)
@@ -237,8 +236,12 @@ class RunCheck:
         return step._growth_allowance(t, x, xdot, rate=True)
 
     def _first_growth(self, t: np.ndarray, x: np.ndarray, xdot: np.ndarray | None,
-                      size: np.ndarray) -> int | None:
-        """The first output beyond ``GROWTH_LIMIT`` times the allowance from ``x[0]``."""
+                      size: np.ndarray) -> tuple[int, float, float] | None:
+        """The first output beyond ``GROWTH_LIMIT`` times the allowance from ``x[0]``.
+
+        Returns ``(k, allowance at k, alpha)`` (the growth rate of the field linearised at
+        ``x[0]``), or None.
+        """
         # the allowance's first two terms, without the field's Jacobian (which a scene that
         # only simulates need not build)
         f0 = (np.asarray(xdot[0], dtype=float) if xdot is not None else
@@ -250,9 +253,9 @@ class RunCheck:
         allowed, _ = step._growth_allowance(t, x, xdot, rate=False)
         if np.all(size <= GROWTH_LIMIT * allowed):
             return None
-        allowed, _ = self._growth_allowance(t, x, xdot)
+        allowed, alpha = self._growth_allowance(t, x, xdot)
         bad = np.flatnonzero(~(size <= GROWTH_LIMIT * allowed))
-        return int(bad[0]) if bad.size else None
+        return (int(bad[0]), float(allowed[bad[0]]), alpha) if bad.size else None
 
     def _reproduced(self, again: np.ndarray, x: np.ndarray) -> bool:
         """Whether the bounded run's state ``again`` reproduces the run's ``x``.
