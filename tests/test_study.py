@@ -344,13 +344,19 @@ def test_run_isolated_forks_when_not_fresh():
 
 
 def _child_adds_memory(mb):
-    import numpy as np
+    import mmap
 
     from workbench.study import peak_memory_mb, reset_peak_memory
 
     start = reset_peak_memory()
-    block = np.ones(int(mb * 2**20 / 8))  # touched pages: resident
-    return start, peak_memory_mb(), float(block[-1])
+    # a fresh anonymous mapping, every page written: new resident pages. (An allocator's
+    # block may instead reuse heap pages the forked child shares with its parent, whose
+    # copy on write leaves the resident size unchanged: the test failed once so.)
+    n = int(mb * 2**20)
+    block = mmap.mmap(-1, n)
+    for i in range(0, n, mmap.PAGESIZE):  # one byte a page: no 64 MB buffer to copy from
+        block[i] = 1
+    return start, peak_memory_mb(), float(block[n - 1])
 
 
 def test_peak_memory_after_a_reset_counts_what_the_work_adds():
