@@ -8,7 +8,7 @@ import pytest
 from conftest import assert_close
 
 from models import pendulum3d as p3
-from workbench.core._evaluator import DenseEvaluator, Evaluator
+from workbench.core._evaluator import DenseEvaluator, Evaluator, evaluate_rows
 from workbench.core.errors import ModelError
 
 
@@ -130,3 +130,47 @@ def test_dense_evaluator_returns_columns_1d_including_a_1x1_matrix():
     assert hess.ndim == 1 and col.ndim == 1
     assert_close(hess.reshape(1, 1), [[6.0]], atol=0.0, what="1 x 1 read as a matrix")
     assert_close(col, [2.0, 0.0, 3.0], atol=0.0, what="column")
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 1023, 1024, 1025, 2 * 1024 + 7])
+def test_evaluate_rows_gives_casadis_map_bit_for_bit_across_chunk_boundaries(n):
+    # the padded last chunk and every chunk size (powers of two up to ROWS_CHUNK) give the
+    # numbers of one map over all n rows; two outputs of different sizes
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 2)
+    fn = ca.Function("g", [x, p], [ca.sin(x[0]) * p[0] + x[1] * x[2], ca.vertcat(
+        x * p[1], ca.exp(x[2]))])
+    X = np.random.default_rng(n).standard_normal((n, 3))
+    P = np.array([0.7, -1.3])
+    got = evaluate_rows(fn, X, P)
+    want = [np.asarray(o).reshape(-1, n).T for o in fn.map(n)(X.T, P)]
+    assert [g.shape for g in got] == [(n, 1), (n, 4)]
+    for g, w in zip(got, want):
+        assert np.array_equal(g, w)
+
+
+def test_evaluate_rows_refuses_wrong_shapes_and_missing_inputs():
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 2)
+    fn = ca.Function("g", [x, p], [x * p[0]])
+    with pytest.raises(ModelError, match=r"X must have shape \(n, 3\).*got shape \(5, 2\)"):
+        evaluate_rows(fn, np.zeros((5, 2)), [1.0, 2.0])
+    with pytest.raises(ModelError, match="X must have shape"):
+        evaluate_rows(fn, np.zeros(3), [1.0, 2.0])  # one state is not a row of a series
+    with pytest.raises(ModelError, match="takes 1 fixed inputs after the rows; got 0"):
+        evaluate_rows(fn, np.zeros((5, 3)))
+    with pytest.raises(ModelError, match="must have 2 entries"):
+        evaluate_rows(fn, np.zeros((5, 3)), [1.0, 2.0, 3.0])
+    with pytest.raises(ModelError, match="complex"):
+        evaluate_rows(fn, np.zeros((5, 3)) + 1j, [1.0, 2.0])
+    assert [o.shape for o in evaluate_rows(fn, np.zeros((0, 3)), [1.0, 2.0])] == [(0, 3)]
+
+
+def test_evaluate_rows_returns_structural_zeros_as_dense_entries():
+    # a field with a structurally zero row, and an input that is a structural zero: the
+    # outputs keep their full size (a map's DM has the same numbers, densified)
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p", 1)
+    fn = ca.Function("h", [x, p], [ca.vertcat(x[1] * p, ca.SX(1, 1)), ca.SX(2, 1)])
+    assert fn.nnz_out(0) == 1 and fn.nnz_out(1) == 0
+    X = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, -6.0]])
+    rates, zeros = evaluate_rows(fn, X, [0.5])
+    assert np.array_equal(rates, [[1.0, 0.0], [2.0, 0.0], [-3.0, 0.0]])
+    assert np.array_equal(zeros, np.zeros((3, 2)))

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from workbench.core._evaluator import evaluate_rows
 from workbench.core._model import Model
 from workbench.simulation._probe import Probe
 
@@ -277,8 +278,7 @@ def roundoff_allowance(probe: Probe, model: Model, x: np.ndarray, values: np.nda
 
 def invariant_values(model: Model, x: np.ndarray) -> np.ndarray:
     """Every invariant at every state, shape ``(n_invariants, n_states)``."""
-    fn = model.function("invariants")
-    return np.asarray(fn.map(len(x))(x.T, model.p), dtype=float).reshape(-1, len(x))
+    return evaluate_rows(model.function("invariants"), np.asarray(x, float), model.p)[0].T
 
 
 def first_excess(watch: Watch, names: list[str], values: np.ndarray, initial: np.ndarray,

@@ -27,6 +27,7 @@ import numpy as np
 
 from workbench.codegen.functions import Compilation, CompileOptions
 from workbench.core import validate
+from workbench.core._evaluator import evaluate_rows
 from workbench.core._feedback import feedback_function
 from workbench.core._model import Model
 from workbench.core.errors import ModelError, SolverError
@@ -442,9 +443,8 @@ def simulate(
     else:
         cost.update(steps=n_out * opts["number_of_finite_elements"], rhs_evaluations=None)
 
-    rhs_map, u_map = loop.map(len(tv))(xs_out.T, model.p)
-    u_out = np.asarray(u_map).T.reshape(len(tv), -1)
-    rhs_ok = np.all(np.isfinite(np.asarray(rhs_map)), axis=0)
+    xdot, u_out = evaluate_rows(loop, xs_out, model.p)
+    rhs_ok = np.all(np.isfinite(xdot), axis=1)
     if not (np.all(rhs_ok) and np.all(np.isfinite(u_out))):
         # collocation's Newton step keeps the last state when the field turns NaN, without
         # an error: the trajectory would "stop" there and look like a result
@@ -455,7 +455,6 @@ def simulate(
                           f"t = {tv[bad]:g} on are not a solution", status="non_finite_field")
     traj = Trajectory(tv, xs_out, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    xdot = np.asarray(rhs_map).T
     checks = (check.run(tv, xs_out, xdot, diag["invariant_drift"], diag["constraint_residual"])
               if isinstance(check, RunCheck) else
               check.run(tv, xs_out, xdot, diag["invariant_drift"]))
@@ -521,12 +520,11 @@ def _simulate_geometric(
         raise geometric_failure(model, check, err, x0v, tv) from err
     options_used["step"] = abs(run.step)
     loop = closed_loop_function(model, controller)
-    rhs_out, u_map = loop.map(len(tv))(run.x.T, model.p)
-    u_out = np.asarray(u_map).T.reshape(len(tv), -1)
+    rhs_out, u_out = evaluate_rows(loop, run.x, model.p)
     cost = {"build_seconds": build_seconds, **run.cost}
     traj = Trajectory(tv, run.x, u_out, model, method, options_used, cost)
     diag = _diagnostics(traj, closed_loop=controller is not None)
-    checks = check.run(tv, run.x, np.asarray(rhs_out).T, diag["invariant_drift"],
+    checks = check.run(tv, run.x, rhs_out, diag["invariant_drift"],
                        between=run.between)
     traj.diagnostics = {**diag, **run.diagnostics, **checks}
     return traj

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from workbench.core._evaluator import evaluate_rows
 from workbench.core._model import Model
 from workbench.core.errors import ModelError
 from workbench.core.manifolds import SO3
@@ -86,8 +87,7 @@ class Trajectory:
 
     def invariant_series(self, name: str) -> np.ndarray:
         """Values of one invariant at every output time."""
-        fn = self.model.function(name)
-        return np.asarray(fn.map(len(self.t))(self.x.T, self.model.p)).ravel()
+        return evaluate_rows(self.model.function(name), self.x, self.model.p)[0].ravel()
 
     def __str__(self) -> str:
         """A short account: samples, method, cost, drift and constraint residual."""
@@ -146,8 +146,8 @@ def constraint_residuals(model: Model, x: ArrayLike) -> dict[str, np.ndarray]:
         if fns is None:
             out[name] = np.zeros(len(X))
             continue
-        block = X[:, model.manifold.slices[name]]
-        out[name] = np.max(np.abs(np.asarray(fns[0](block.T))), axis=0).reshape(len(X))
+        h = evaluate_rows(fns[0], X[:, model.manifold.slices[name]])[0]
+        out[name] = np.max(np.abs(h), axis=1, initial=0.0)
     return out
 
 
