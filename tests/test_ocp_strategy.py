@@ -262,3 +262,22 @@ def test_diagnosis_ignores_violations_within_tol(rail):
     v = sol.diagnosis["worst_constraint"]["violation"]
     assert diagnose(sol, tr, args, tol=0.0)["worst_constraint"]["violation"] == v
     assert diagnose(sol, tr, args, tol=2 * v)["worst_constraint"]["kind"] is None
+
+
+def test_target_gaps_agree_with_the_targets_own_distance_and_domain(rail):
+    # the vectorised gap of the pumping runs against the target's numeric distance and its
+    # chart domain evaluated one state at a time (casadi's evalf)
+    from workbench.control.ocp.pumping import target_gap, target_gaps
+
+    rng = np.random.default_rng(5)
+    X = np.array([rail.model.manifold.random_point(rng) for _ in range(40)]
+                 + [rail.x0, rail.target.witness])
+    got = target_gaps(rail, X)
+    for xi, g in zip(X, got):
+        dom = [float(ca.evalf(e)) for e in rail.target.domain(ca.DM(xi))]
+        want = 1.0 - min(dom) if dom and min(dom) < 0 else rail.target.distance(xi)
+        assert g == pytest.approx(want, rel=1e-13, abs=1e-15)
+        assert target_gap(rail, xi) == g
+    assert got[-1] <= 1e-12  # the witness is in the target
+    assert got[-2] > 1.0  # hanging is the inverted target's antipode: outside the domain
+    assert np.any(got < 1.0) and np.any(got > 1.0)  # both branches among the random states

@@ -30,9 +30,10 @@ from workbench.control.ocp.initial import (
 from workbench.control.ocp.local import ProductLocal
 from workbench.control.ocp.problem import OCP
 from workbench.core import validate
+from workbench.core._evaluator import Evaluator, evaluate_rows
 from workbench.core.errors import ManifoldError, SolverError
 
-__all__ = ["energy_pumping", "target_gap"]
+__all__ = ["energy_pumping", "target_gap", "target_gaps"]
 
 PUMP_LAWS = ((20.0, 0.0, 0.0), (20.0, 0.2, 0.0), (20.0, 0.0, 0.5), (20.0, 0.2, 0.5))
 """``(kappa, overshoot, brake)`` of the pumping laws tried, in order (see
@@ -48,14 +49,15 @@ KICK_SAMPLES = 1
 """Samples at the upper input bounds that start the pumping (at rest ``b = 0``)."""
 
 
-def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[ca.Function, ...]:
+def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[Evaluator, ...]:
     """``E_p``, ``b = d(dE_p/dt)/du``, ``E_o = E - E_p`` and ``b_o = d(dE_o/dt)/du``.
 
     ``E_p`` is the model's energy with the velocities of the other factors set to zero: for
     a pendulum on a cart, the pendulum's energy with the cart at rest (Astrom and Furuta's
     pumping law uses exactly this one); for the Furuta pendulum, the link's with the arm at
     rest. ``E_o`` is what the other factors' velocities add. Both rates are affine in the
-    input, ``dE/dt = a(x) + b(x) . u``.
+    input, ``dE/dt = a(x) + b(x) . u``. Each comes as an :class:`Evaluator` (the pumping
+    calls them at every sample).
     """
     model = ocp.model
     man = model.manifold
@@ -76,8 +78,8 @@ def _pumped_energy(ocp: OCP, st: Structure, pumped: list[str]) -> tuple[ca.Funct
     zero = ca.DM.zeros(model.n_inputs)
     b, bo = (ca.substitute(ca.jacobian(ca.dot(ca.gradient(E, x), f(x, u, p)), u), u, zero)
              for E in (Ep, Eo))
-    return (ca.Function("Ep", [x, p], [Ep]), ca.Function("b", [x, p], [b]),
-            ca.Function("Eo", [x, p], [Eo]), ca.Function("bo", [x, p], [bo]))
+    return tuple(Evaluator(ca.Function(name, [x, p], [e])) for name, e in (
+        ("Ep", Ep), ("b", b), ("Eo", Eo), ("bo", bo)))
 
 
 def target_gap(ocp: OCP, x: np.ndarray) -> float:
@@ -86,20 +88,32 @@ def target_gap(ocp: OCP, x: np.ndarray) -> float:
     The chart of an antipodal point vanishes at the antipode too (``q* x q = 0`` at
     ``q = -q*``): where the domain inequalities fail the point is counted as far.
     """
-    xs = ca.DM(x)
-    dom = [float(ca.evalf(e)) for e in ocp.target.domain(xs)]
-    if dom and min(dom) < 0:
-        return 1.0 - min(dom)
-    return ocp.target.distance(x)
+    return float(target_gaps(ocp, np.reshape(np.asarray(x, float), (1, -1)))[0])
 
 
-def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...],
+def target_gaps(ocp: OCP, X: np.ndarray) -> np.ndarray:
+    """:func:`target_gap` at every row of ``X``, shape ``(n,)``.
+
+    One casadi function of the target's chart and its domain, evaluated over all rows at
+    once (a pumping run has thousands of samples).
+    """
+    x = ca.SX.sym("x", ocp.model.manifold.ambient_dim)
+    dom = ocp.target.domain(x)
+    fn = ca.Function("target_gap", [x], [ocp.target.equations(x),
+                                         ca.vertcat(*dom) if dom else ca.SX(0, 1)])
+    eq, d = evaluate_rows(fn, X)
+    far = d.shape[1] > 0 and np.min(d, axis=1, initial=np.inf) < 0
+    return np.where(far, 1.0 - np.min(d, axis=1, initial=0.0),
+                    np.max(np.abs(eq), axis=1, initial=0.0))
+
+
+def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[Evaluator, ...],
           stepper: Any, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Simulate one pumping law with held samples; the states and the controls."""
     kappa, over, brake = law
     Ep, b_of, Eo, bo_of = fns
     model, p = ocp.model, ocp.model.p
-    E_star, E0 = float(Ep(ocp.target.witness, p)), float(Ep(ocp.x0, p))
+    E_star, E0 = float(Ep(ocp.target.witness, p)[0]), float(Ep(ocp.x0, p)[0])
     dE = abs(E_star - E0)
     mid, half = 0.5 * (ocp.u_upper + ocp.u_lower), 0.5 * (ocp.u_upper - ocp.u_lower)
     h = ocp.T_range[1] / samples
@@ -113,9 +127,9 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[ca.Function, ...
         if i < KICK_SAMPLES:
             u = ocp.u_upper.copy()
         else:
-            e = (E_star + over * dE - float(Ep(x, p))) / dE
+            e = (E_star + over * dE - float(Ep(x, p)[0])) / dE
             pump = np.tanh(kappa * e) * np.tanh(b / np.maximum(PUMP_SHARPNESS * bmax, 1e-300))
-            take = np.tanh(kappa * float(Eo(x, p)) / dE) * np.tanh(
+            take = np.tanh(kappa * float(Eo(x, p)[0]) / dE) * np.tanh(
                 bo / np.maximum(PUMP_SHARPNESS * bomax, 1e-300))
             u = mid + half * np.clip(pump - brake * take, -1.0, 1.0)
         try:  # projected after each step (the projection method): the guess's states are
@@ -182,7 +196,7 @@ def energy_pumping(ocp: OCP, *, samples: int = 400,
         return None
     fns = _pumped_energy(ocp, st, pumped)
     p = model.p
-    E_star, E0 = float(fns[0](ocp.target.witness, p)), float(fns[0](ocp.x0, p))
+    E_star, E0 = float(fns[0](ocp.target.witness, p)[0]), float(fns[0](ocp.x0, p)[0])
     if not abs(E_star - E0) > 1e-12 * max(1.0, abs(E_star)):
         return None
     man = model.manifold
@@ -197,7 +211,7 @@ def energy_pumping(ocp: OCP, *, samples: int = 400,
         t = h * np.arange(len(X))
         probe = np.tile(ocp.target.witness, (len(X), 1))
         probe[:, idx] = X[:, idx]
-        gap = np.array([target_gap(ocp, xi) for xi in probe])
+        gap = target_gaps(ocp, probe)
         if ocp.free_time:
             ok = np.flatnonzero(t >= ocp.T_range[0] - 1e-12)
             if not ok.size:
