@@ -20,7 +20,12 @@ without a hand-made guess:
    swing-up the relaxation reaches a minimum below Drake's that the projected NLP keeps
    (4.647 against 5.229), in 28 + 4 iterations, where the projected NLP from the same
    guess stops at Drake's in 50 and, cart free, at 6.69 in 104 (Drake: 5.178). If the
-   relaxation does not converge, the start is solved in the final handling directly.
+   relaxation does not converge, the start is solved in the final handling directly, while
+   no solve of the problem itself has been made (so that a failure carries the problem's
+   own diagnosis); after that, a start whose relaxation ends infeasible or at its
+   iteration limit is left: the relaxation's feasible set holds the problem's, and on the
+   shipped problems no such start was ever solved in the final handling (on the
+   spherical cart's infeasible horizons these solves were a third of the CPU).
 3. **Continuation** when no start converges, from the start that came closest (least
    primal infeasibility): in the input bound (solved with the bounds widened by
    ``bound_factors``, then narrowed back, each solve warm-starting the next), in the
@@ -158,11 +163,12 @@ class Auto:
     max_attempts : int
         At most this many solves in all.
     patience : int
-        After this many structured starts in a row fail to converge (INFEASIBLE, the
-        iteration limit, a failure), the other starts are not tried and the strategy goes on
-        to continuation; after this many in a row converge to INACCURATE trajectories (the
-        transcription too coarse for what it finds), it stops there (the diagnosis says:
-        more intervals). The solution's ``cost["strategy_stopped"]`` says so.
+        After this many structured starts in a row fail (to converge: INFEASIBLE, the
+        iteration limit, a failure; or to INACCURATE trajectories), the other starts are
+        not tried and the strategy goes on to continuation; where all of them converged to
+        INACCURATE trajectories (the transcription too coarse for what it finds), it stops
+        there (the diagnosis says: more intervals). The solution's
+        ``cost["strategy_stopped"]`` says so.
     """
 
     swings: int = 3
@@ -223,11 +229,13 @@ class Auto:
                 break
             outcomes.append(_outcome(run.last))
             tail = outcomes[-self.patience:]
-            if len(tail) == self.patience and len(set(tail)) == 1 and tail[0]:
-                run.stopped = (f"{self.patience} starts in a row {tail[0]}: the other starts "
+            if len(tail) == self.patience and all(tail):
+                why = tail[0] if len(set(tail)) == 1 else \
+                    f"{FAILED_STARTS} or {INACCURATE_STARTS}"
+                run.stopped = (f"{self.patience} starts in a row {why}: the other starts "
                                f"were not tried")
                 break
-        if run.stopped and outcomes[-1] == INACCURATE_STARTS:
+        if run.stopped and set(outcomes[-self.patience:]) == {INACCURATE_STARTS}:
             run.stopped += (", nor continuation (the transcription is too coarse for the "
                             "trajectories it finds: more intervals N)")
         elif run.tried and not run.exhausted():
@@ -315,6 +323,9 @@ class _Run:
                 if done is not None or polished is None or \
                         polished.status.name == "INACCURATE":  # converged, too coarse: a
                     return done  # solve from the start itself would not be finer
+            elif relaxed is None or (self.closest is not None and relaxed.status.name in (
+                    "INFEASIBLE", "MAX_ITERATIONS")):
+                return None  # the relaxation holds the problem's feasible set: left
 
         return self.final(self.solve(f"{self.handling.value} solve", start, self.ocp,
                                      self.method, self.handling, guess, self.settings),
