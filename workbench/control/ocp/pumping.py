@@ -13,6 +13,7 @@ differentiation.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import casadi as ca
@@ -25,6 +26,7 @@ from workbench.control.ocp.initial import (
     StructuredGuess,
     _turns,
     controllable_axes,
+    natural_frequency,
     structure,
 )
 from workbench.control.ocp.local import ProductLocal
@@ -44,6 +46,13 @@ PUMP_SHARPNESS = 0.05
 
 MAX_PUMP_SAMPLES = 5_000
 """At most this many held samples per pumping law (each is a CVODES step; four laws)."""
+
+PUMP_SAMPLES_PER_PERIOD = 20
+"""At least this many held samples per period of the pumped factors' oscillation at x0."""
+
+STOP_PERIODS = 3
+"""A refined run (see :func:`_resolution`) stops when its closest approach to the target
+lies this many periods back."""
 
 KICK_SAMPLES = 1
 """Samples at the upper input bounds that start the pumping (at rest ``b = 0``)."""
@@ -108,8 +117,13 @@ def target_gaps(ocp: OCP, X: np.ndarray) -> np.ndarray:
 
 
 def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[Evaluator, ...],
-          stepper: Any, samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Simulate one pumping law with held samples; the states and the controls."""
+          stepper: Any, samples: int, gaps: Any, window: int | None
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Simulate one pumping law with held samples: states, controls, target gaps, early.
+
+    With ``window``, the run stops (``early``) once its closest approach to the target
+    (after the shortest allowed horizon of a free final time) lies ``window`` samples back.
+    """
     kappa, over, brake = law
     Ep, b_of, Eo, bo_of = fns
     model, p = ocp.model, ocp.model.p
@@ -117,7 +131,7 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[Evaluator, ...],
     dE = abs(E_star - E0)
     mid, half = 0.5 * (ocp.u_upper + ocp.u_lower), 0.5 * (ocp.u_upper - ocp.u_lower)
     h = ocp.T_range[1] / samples
-    X, U = [ocp.x0], []
+    X, U, gap = [ocp.x0], [], np.zeros(0)
     bmax, bomax = np.zeros(model.n_inputs), np.zeros(model.n_inputs)
     x = ocp.x0
     for i in range(samples):
@@ -138,7 +152,38 @@ def _pump(ocp: OCP, law: tuple[float, float, float], fns: tuple[Evaluator, ...],
             break
         U.append(u)
         X.append(x)
-    return np.array(X), np.array(U)
+        if window and len(X) % window == 0:
+            gap = np.concatenate([gap, gaps(np.array(X[len(gap):]))])
+            lo = ocp.T_range[0] if ocp.free_time else 0.0  # a fixed T rests first
+            ok = np.flatnonzero(h * np.arange(len(gap)) >= lo - 1e-12)
+            if ok.size and len(gap) - 1 - ok[np.argmin(gap[ok])] >= window:
+                return np.array(X), np.array(U), gap, True
+    X_ = np.array(X)
+    return X_, np.array(U), np.concatenate([gap, gaps(X_[len(gap):])]), False
+
+
+def _resolution(ocp: OCP, samples: int, pumped: list[str], may_stop: bool
+                ) -> tuple[int, int | None]:
+    """Held samples over the longest horizon, and the early-stop window (None: no stop).
+
+    ``samples`` over ``T_range[1]`` unless that holds fewer than
+    :data:`PUMP_SAMPLES_PER_PERIOD` per period of the pumped factors' oscillation at
+    ``x0`` (:func:`~workbench.control.ocp.initial.natural_frequency`): a law held over a
+    good part of a swing cannot pump it (400 samples over 100 s hold each for 0.25 s,
+    against the spherical cart's 0.58 s period). Then the samples are that many per
+    period (at most :data:`MAX_PUMP_SAMPLES`), and, where the guess may end before the
+    longest horizon (a free final time, or a fixed one reached by resting at ``x0``
+    first), each law's run stops once its closest approach lies :data:`STOP_PERIODS`
+    periods back.
+    """
+    omega = natural_frequency(ocp, pumped)
+    if omega is None or not omega > 0:
+        return samples, None
+    need = math.ceil(ocp.T_range[1] * omega / (2 * np.pi) * PUMP_SAMPLES_PER_PERIOD)
+    if need <= samples:
+        return samples, None
+    return min(need, MAX_PUMP_SAMPLES), (STOP_PERIODS * PUMP_SAMPLES_PER_PERIOD
+                                         if may_stop else None)
 
 
 def energy_pumping(ocp: OCP, *, samples: int = 400,
@@ -171,7 +216,9 @@ def energy_pumping(ocp: OCP, *, samples: int = 400,
     ocp : OCP
         The problem.
     samples : int
-        Held samples over the longest allowed horizon (at most :data:`MAX_PUMP_SAMPLES`).
+        Held samples over the longest allowed horizon (at most :data:`MAX_PUMP_SAMPLES`);
+        more where they would hold fewer than :data:`PUMP_SAMPLES_PER_PERIOD` per period
+        of the oscillation to pump (see :func:`_resolution`).
     axes : dict, optional
         The controllable axes by factor name, as :func:`controllable_axes` gives them
         (default: computed here; the strategy passes the ones it already has).
@@ -202,29 +249,33 @@ def energy_pumping(ocp: OCP, *, samples: int = 400,
     man = model.manifold
     idx = np.concatenate([np.arange(man.slices[n].start, man.slices[n].stop) for n in pumped])
     stepper = Stepper(model, rtol=1e-8, atol=1e-8)
-    h = ocp.T_range[1] / samples
     f0 = np.asarray(model.function("f")(ocp.x0, np.zeros(model.n_inputs), p), float).ravel()
     at_rest = bool(np.max(np.abs(f0)) <= 1e-9 * max(1.0, float(np.max(np.abs(ocp.x0)))))
-    runs = []
-    for law in PUMP_LAWS:
-        X, U = _pump(ocp, law, fns, stepper, samples)
-        t = h * np.arange(len(X))
+    samples, window = _resolution(ocp, samples, pumped, ocp.free_time or at_rest)
+    h = ocp.T_range[1] / samples
+
+    def gaps(X: np.ndarray) -> np.ndarray:  # the pumped factors' gap to the target
         probe = np.tile(ocp.target.witness, (len(X), 1))
         probe[:, idx] = X[:, idx]
-        gap = target_gaps(ocp, probe)
+        return target_gaps(ocp, probe)
+
+    runs = []
+    for law in PUMP_LAWS:
+        X, U, gap, early = _pump(ocp, law, fns, stepper, samples, gaps, window)
+        t = h * np.arange(len(X))
         if ocp.free_time:
             ok = np.flatnonzero(t >= ocp.T_range[0] - 1e-12)
             if not ok.size:
                 continue
             k = int(ok[np.argmin(gap[ok])])
             runs.append((float(gap[k]), law, X[: k + 1], U[:k], float(t[k])))
-        elif len(X) == samples + 1:
+        elif len(X) == samples + 1 or early:
             k = int(np.argmin(gap)) if at_rest else samples
             rest = samples - k  # rest at x0 first, so that the closest approach falls at T
             runs.append((float(gap[k]), law,
                          np.vstack([np.tile(ocp.x0, (rest, 1)), X[: k + 1]]),
                          np.vstack([np.zeros((rest, model.n_inputs)), U[:k]]),
-                         float(t[samples])))
+                         float(h * samples)))
         # else: the fixed horizon was not reached
     if not runs:
         return None
