@@ -165,9 +165,10 @@ class Auto:
     patience : int
         After this many structured starts in a row fail (to converge: INFEASIBLE, the
         iteration limit, a failure; or to INACCURATE trajectories), the other starts are
-        not tried and the strategy goes on to continuation; where all of them converged to
+        not tried and the strategy goes on to continuation; where one of them converged to
         INACCURATE trajectories (the transcription too coarse for what it finds), it stops
-        there (the diagnosis says: more intervals). The solution's
+        there: continuation changes the bounds and the terminal condition, not the
+        transcription's resolution (the diagnosis says: more intervals). The solution's
         ``cost["strategy_stopped"]`` says so.
     """
 
@@ -235,7 +236,7 @@ class Auto:
                 run.stopped = (f"{self.patience} starts in a row {why}: the other starts "
                                f"were not tried")
                 break
-        if run.stopped and set(outcomes[-self.patience:]) == {INACCURATE_STARTS}:
+        if run.stopped and INACCURATE_STARTS in outcomes[-self.patience:]:
             run.stopped += (", nor continuation (the transcription is too coarse for the "
                             "trajectories it finds: more intervals N)")
         elif run.tried and not run.exhausted():
