@@ -281,3 +281,31 @@ def test_target_gaps_agree_with_the_targets_own_distance_and_domain(rail):
     assert got[-1] <= 1e-12  # the witness is in the target
     assert got[-2] > 1.0  # hanging is the inverted target's antipode: outside the domain
     assert np.any(got < 1.0) and np.any(got > 1.0)  # both branches among the random states
+
+
+def test_pumping_holds_at_least_20_samples_per_period_and_stops_after_its_approach():
+    # 400 samples over T <= 100 s would hold each control for 0.25 s, against the spherical
+    # cart's 0.58 s period: the samples are raised to 20 per period, and the free-time run
+    # stops three periods after its closest approach instead of simulating 100 s
+    from problems.swingup_spherical_cart import problem
+    from workbench.control.ocp.initial import natural_frequency
+    from workbench.control.ocp.pumping import STOP_PERIODS, energy_pumping, target_gaps
+
+    ocp = problem(T=(0.5, 100.0))
+    period = 2 * np.pi / natural_frequency(ocp, ["link1"])
+    g = energy_pumping(ocp).guess
+    h = g.T / (len(g.s) - 1)
+    assert h <= period / 20 * (1 + 1e-12)
+    assert ocp.T_range[0] <= g.T <= 10 * period  # the approach, not the longest horizon
+    link = ocp.model.manifold.slices["link1"]
+    probe = np.tile(ocp.target.witness, (len(g.s), 1))
+    probe[:, link] = g.x[:, link]  # the pumped factor's gap, as the pumping measures it
+    gaps = target_gaps(ocp, probe)
+    late = g.s * g.T >= ocp.T_range[0] - 1e-12
+    assert gaps[-1] == gaps[late].min()  # it ends at its closest approach after T_min
+    # the fixed-horizon guess rests first so that the approach falls at T, on a grid of
+    # the same resolution that spans T exactly
+    fixed = energy_pumping(problem(T=100.0)).guess
+    assert fixed.T == 100.0 and 100.0 / (len(fixed.s) - 1) <= period / 20 * (1 + 1e-12)
+    assert np.array_equal(fixed.x[0], fixed.x[len(fixed.s) // 2])  # resting at x0
+    assert STOP_PERIODS >= 2
