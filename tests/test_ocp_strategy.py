@@ -156,7 +156,10 @@ def test_structured_starts_are_built_only_as_they_are_tried(rail, monkeypatch):
     monkeypatch.setattr(initial, "pumping", counting)
     sol = solve(rail, Collocation(N=30))
     tried = {a["guess"].split(":")[0] for a in sol.attempts}
-    assert set(made) <= tried  # no start was built that was not tried
+    # no start was built that was not tried, but the direct path: its input demand
+    # decides whether it comes before the pumping start
+    assert set(made) <= tried | {"direct path"} and "direct path" not in tried
+    assert made.count("direct path") == 1
     made.clear()
     every = structured_guesses(rail)  # the list form builds them all
     assert len(every) > len(tried) and len(made) == len(every) - 1  # (the pumping one
@@ -309,3 +312,21 @@ def test_pumping_holds_at_least_20_samples_per_period_and_stops_after_its_approa
     assert fixed.T == 100.0 and 100.0 / (len(fixed.s) - 1) <= period / 20 * (1 + 1e-12)
     assert np.array_equal(fixed.x[0], fixed.x[len(fixed.s) // 2])  # resting at x0
     assert STOP_PERIODS >= 2
+
+
+def test_the_direct_path_comes_first_where_the_inputs_can_follow_it():
+    # the acrobot's elbow follows the direct path with 0.35 of its bound: that start comes
+    # before the pumping; the spherical cart's direct path asks for 3x its bound: pumping
+    # first, as for a weak motor
+    from problems.swingup_acrobot import problem as acrobot
+    from problems.swingup_spherical_cart import problem as cart
+    from workbench.control.ocp.initial import iter_structured_guesses
+
+    starts = iter_structured_guesses(acrobot())
+    first, second, third = next(starts), next(starts), next(starts)
+    assert [first.name, second.name, third.name] == ["direct path (+)", "direct path (-)",
+                                                     "energy pumping"]
+    assert first.demand <= 1 and second.demand <= 1
+    names = [s.name for s in structured_guesses(cart())]
+    assert names[:2] == ["energy pumping", "direct path"]
+    assert structured_guesses(cart())[1].demand > 1

@@ -6,8 +6,9 @@ without a hand-made guess:
 
 1. **Structured starts** (:mod:`workbench.control.ocp.initial`, made one at a time, as
    they are tried): the energy-pumping feedback's trajectory, the direct path along the
-   great circle the inputs can drive, then paths with 1, 2, ... reversals, both senses of
-   an antipodal angle; or the user's guess alone. With ``coarse_first``, each structured
+   great circle the inputs can drive (first, where its inverse-dynamics inputs lie within
+   the bounds), then paths with 1, 2, ... reversals, both senses of an antipodal angle;
+   or the user's guess alone. With ``coarse_first``, each structured
    start is first relaxed on a coarse transcription (``N // coarse_factor`` intervals):
    one that fails there is left for the next start at a fraction of a fine failure's cost.
 2. **An ambient relaxation, polished on the manifold.** Each start is solved first with

@@ -422,8 +422,12 @@ def iter_structured_guesses(ocp: OCP, *, swings: int = 3) -> Iterator[Structured
     The energy-pumping feedback's trajectory
     (:func:`~workbench.control.ocp.pumping.energy_pumping`, where it applies), the direct
     path, then paths with 1..``swings`` reversals; an antipodal angle gives each path in
-    both senses of its turn. A start the caller does not ask for (an earlier one solved
-    the problem) is never built.
+    both senses of its turn. Where the direct path's inverse-dynamics inputs lie within
+    the bounds (its ``demand`` at most 1: the inputs can follow it), it comes before the
+    pumping (the acrobot's elbow needs 0.35 of its bound: its pumping start converged to
+    a trajectory its transcription does not follow, in 294 iterations, before the direct
+    path succeeded in 86). A start the caller does not ask for (an earlier one solved the
+    problem) is never built, except the direct path, whose demand decides the order.
     """
     swings = validate.count("swings", swings, minimum=0, maximum=MAX_SWINGS)
     axes, where = controllable_axes(ocp)
@@ -431,12 +435,21 @@ def iter_structured_guesses(ocp: OCP, *, swings: int = 3) -> Iterator[Structured
     pumped = any(t.pumped for t in turns)
     senses = (1.0, -1.0) if any(t.kind == "angle" and abs(abs(t.angle) - np.pi) < 1e-9
                                 for t in turns) else (1.0,)
-    if pumped:
-        from workbench.control.ocp.pumping import energy_pumping
+    direct = [pumping(ocp, half_swings=0, wrap=sense, axes=axes, where=where)
+              for sense in senses]
+    if not pumped:
+        yield from direct
+        return
+    from workbench.control.ocp.pumping import energy_pumping
 
-        pump = energy_pumping(ocp, axes=axes)
-        if pump is not None:
-            yield pump
-    for k in range(0, (swings if pumped else 0) + 1):
+    admissible = any(d.demand <= 1.0 for d in direct)  # NaN (no bounds): not admissible
+    if admissible:
+        yield from direct
+    pump = energy_pumping(ocp, axes=axes)
+    if pump is not None:
+        yield pump
+    if not admissible:
+        yield from direct
+    for k in range(1, swings + 1):
         for sense in senses:
             yield pumping(ocp, half_swings=k, wrap=sense, axes=axes, where=where)
