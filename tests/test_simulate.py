@@ -253,12 +253,12 @@ def test_fixed_step_runs_do_not_depend_on_the_chunking_of_their_intervals(planar
                                                                            monkeypatch):
     # the output intervals are integrated in chunks (each starting where the last ended):
     # chunks of 7 with a remainder give the states of one chunk, bit for bit
-    from workbench.simulation import _simulate
+    from workbench.simulation import _intervals
 
     x0 = planar.state(p=[np.sin(1.0), np.cos(1.0)], omega_y=[0.5])
     t = np.linspace(0.0, 3.0, 51)
     whole = simulate(planar, x0, t, method=method, step=0.01)
-    monkeypatch.setattr(_simulate, "INTERVAL_CHUNK", 7)
+    monkeypatch.setattr(_intervals, "INTERVAL_CHUNK", 7)
     chunked = simulate(planar, x0, t, method=method, step=0.01)
     assert np.array_equal(whole.x, chunked.x)
     assert chunked.cost["steps"] == whole.cost["steps"] == 50 * 6  # 0.06 s per output
