@@ -19,6 +19,7 @@ comes back 2-D with its casadi shape, empty ones included.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 
 import casadi as ca
 import numpy as np
@@ -26,7 +27,7 @@ import numpy as np
 from workbench.core.errors import ModelError
 from workbench.core.types import ArrayLike
 
-__all__ = ["Evaluator", "DenseEvaluator", "evaluate_rows"]
+__all__ = ["Evaluator", "DenseEvaluator", "cached_evaluator", "evaluate_rows"]
 
 
 class Evaluator:
@@ -172,23 +173,37 @@ _ROWS = threading.local()  # per thread: an evaluator's bound buffers are not sh
 _ROWS_MAX = 256
 
 
+def cached_evaluator(cache: dict[tuple[int, int], tuple[ca.Function, Evaluator]],
+                     fn: ca.Function, k: int, build: Callable[[], ca.Function],
+                     maximum: int) -> Evaluator:
+    """The evaluator of ``build()``, cached in ``cache`` under ``fn`` and ``k``.
+
+    At most ``maximum`` entries are kept (the oldest is dropped first); each entry holds
+    ``fn`` itself, so its ``id`` cannot be reused by another function while it is cached.
+    """
+    key = (id(fn), k)
+    hit = cache.get(key)
+    if hit is not None and hit[0] is fn:
+        return hit[1]
+    if len(cache) >= maximum:
+        cache.pop(next(iter(cache)))
+    ev = Evaluator(build())
+    cache[key] = (fn, ev)
+    return ev
+
+
 def _rows_evaluator(fn: ca.Function, k: int) -> Evaluator:
     """A cached evaluator of ``fn`` mapped over ``k`` rows, the other inputs shared."""
     cache = getattr(_ROWS, "cache", None)
     if cache is None:
         cache = _ROWS.cache = {}
-    key = (id(fn), k)
-    hit = cache.get(key)
-    if hit is not None and hit[0] is fn:
-        return hit[1]
-    if len(cache) >= _ROWS_MAX:
-        cache.pop(next(iter(cache)))
-    ins = [ca.MX.sym(fn.name_in(i), fn.sparsity_in(i)) for i in range(fn.n_in())]
-    dense = ca.Function(f"{fn.name()}_dense", ins, [ca.densify(o) for o in fn.call(ins)])
-    mapped = dense.map(f"{fn.name()}_rows{k}", "serial", k, list(range(1, fn.n_in())), [])
-    ev = Evaluator(mapped)
-    cache[key] = (fn, ev)
-    return ev
+
+    def build() -> ca.Function:
+        ins = [ca.MX.sym(fn.name_in(i), fn.sparsity_in(i)) for i in range(fn.n_in())]
+        dense = ca.Function(f"{fn.name()}_dense", ins, [ca.densify(o) for o in fn.call(ins)])
+        return dense.map(f"{fn.name()}_rows{k}", "serial", k, list(range(1, fn.n_in())), [])
+
+    return cached_evaluator(cache, fn, k, build, _ROWS_MAX)
 
 
 def evaluate_rows(fn: ca.Function, X: ArrayLike, *fixed: ArrayLike) -> tuple[np.ndarray, ...]:

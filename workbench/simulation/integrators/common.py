@@ -28,6 +28,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from workbench.core._evaluator import cached_evaluator
 from workbench.core._feedback import (
     feedback_function,  # re-exported: the integrators' users import it here
 )
@@ -285,15 +286,7 @@ _CHUNKS_MAX = 64  # entries kept; each holds its step function, so ids are never
 
 def _chunk_evaluator(step: ca.Function, n: int) -> Evaluator:
     """A cached evaluator of ``n`` steps in one call (``mapaccum``)."""
-    key = (id(step), n)
-    hit = _CHUNKS.get(key)
-    if hit is not None and hit[0] is step:
-        return hit[1]
-    if len(_CHUNKS) >= _CHUNKS_MAX:
-        _CHUNKS.pop(next(iter(_CHUNKS)))
-    ev = Evaluator(_chunk_function(step, n))
-    _CHUNKS[key] = (step, ev)
-    return ev
+    return cached_evaluator(_CHUNKS, step, n, lambda: _chunk_function(step, n), _CHUNKS_MAX)
 
 
 def _chunk_function(step: ca.Function, n: int) -> ca.Function:
