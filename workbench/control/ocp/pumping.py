@@ -100,17 +100,22 @@ def target_gap(ocp: OCP, x: np.ndarray) -> float:
     return float(target_gaps(ocp, np.reshape(np.asarray(x, float), (1, -1)))[0])
 
 
-def target_gaps(ocp: OCP, X: np.ndarray) -> np.ndarray:
-    """:func:`target_gap` at every row of ``X``, shape ``(n,)``.
-
-    One casadi function of the target's chart and its domain, evaluated over all rows at
-    once (a pumping run has thousands of samples).
-    """
+def _gap_function(ocp: OCP) -> ca.Function:
+    """``x -> (chart of the target at x, its domain inequalities)``."""
     x = ca.SX.sym("x", ocp.model.manifold.ambient_dim)
     dom = ocp.target.domain(x)
-    fn = ca.Function("target_gap", [x], [ocp.target.equations(x),
-                                         ca.vertcat(*dom) if dom else ca.SX(0, 1)])
-    eq, d = evaluate_rows(fn, X)
+    return ca.Function("target_gap", [x], [ocp.target.equations(x),
+                                           ca.vertcat(*dom) if dom else ca.SX(0, 1)])
+
+
+def target_gaps(ocp: OCP, X: np.ndarray, *, fn: ca.Function | None = None) -> np.ndarray:
+    """:func:`target_gap` at every row of ``X``, shape ``(n,)``.
+
+    One casadi function of the target's chart and its domain (``fn``, built here unless
+    the caller passes the one it built for the same OCP), evaluated over all rows at once
+    (a pumping run has thousands of samples).
+    """
+    eq, d = evaluate_rows(_gap_function(ocp) if fn is None else fn, X)
     far = d.shape[1] > 0 and np.min(d, axis=1, initial=np.inf) < 0
     return np.where(far, 1.0 - np.min(d, axis=1, initial=0.0),
                     np.max(np.abs(eq), axis=1, initial=0.0))
@@ -254,10 +259,12 @@ def energy_pumping(ocp: OCP, *, samples: int = 400,
     samples, window = _resolution(ocp, samples, pumped, ocp.free_time or at_rest)
     h = ocp.T_range[1] / samples
 
+    gap_fn = _gap_function(ocp)
+
     def gaps(X: np.ndarray) -> np.ndarray:  # the pumped factors' gap to the target
         probe = np.tile(ocp.target.witness, (len(X), 1))
         probe[:, idx] = X[:, idx]
-        return target_gaps(ocp, probe)
+        return target_gaps(ocp, probe, fn=gap_fn)
 
     runs = []
     for law in PUMP_LAWS:
