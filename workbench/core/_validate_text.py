@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+from workbench.core._arguments import text
 from workbench.core.errors import ParameterError, WorkbenchError
 from workbench.core.validate import _show
 
@@ -73,8 +74,7 @@ def single_line(
     WorkbenchError
         Of class ``error``.
     """
-    if not isinstance(value, str):
-        raise error(f"{name} must be a str; got {type(value).__name__} {_show(value)}")
+    text(name, value, error=error)
     bad = [c for c in value if ord(c) < 32 or ord(c) == 127]
     if bad:
         raise error(f"{name} must be one line of text without control characters; got "
